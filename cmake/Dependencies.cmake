@@ -1,0 +1,29 @@
+# All dependencies come from Debian 12 packages; see README.md for the apt-get line.
+find_package(Threads REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(TBB REQUIRED)
+
+# xsimd 8.1.0 (Debian) links an `xtl` target that the package does not ship.
+if(NOT TARGET xtl)
+  add_library(xtl INTERFACE IMPORTED)
+endif()
+find_package(xsimd 8 REQUIRED)
+
+# OpenImageIO 2.4 (Debian) lists /usr/include/opencv4, which does not exist without OpenCV.
+find_package(OpenImageIO REQUIRED)
+foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)
+  get_target_property(_dirs OpenImageIO::OpenImageIO ${_prop})
+  if(_dirs)
+    list(FILTER _dirs EXCLUDE REGEX "opencv4")
+    set_target_properties(OpenImageIO::OpenImageIO PROPERTIES ${_prop} "${_dirs}")
+  endif()
+endforeach()
+
+if(LANCER_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+  include(GoogleTest)
+endif()
+if(LANCER_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

@@ -1,0 +1,36 @@
+// Rays per second, measured as lancer bench reports them: every configuration run in turn within
+// each repeat (so that machine noise falls on all alike), then the median of the repeats.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "lancer/scene.hpp"
+
+namespace lancer {
+
+struct BenchRow {
+  std::string engine = "lancer";
+  std::string mode;  // "primary": camera rays, closest hit only; "full": the whole render
+  int width = 1;
+  std::string isa;
+  std::string precision = "exact";
+  int threads = 1;
+  std::uint64_t rays = 0;  // per run
+  double seconds = 0;      // median over the repeats
+  double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
+};
+
+struct BenchOptions {
+  std::vector<int> widths;   // resolved widths (1 = the reference)
+  std::vector<int> threads;  // e.g. {1}
+  std::vector<std::string> modes{"primary", "full"};
+  int repeat = 5;
+};
+
+std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& options);
+
+double median(std::vector<double> v);
+
+}  // namespace lancer

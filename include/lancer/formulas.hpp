@@ -1,0 +1,121 @@
+// Small formulas shared by the reference and the packets, templated on the number type: T is
+// float, double, or an xsimd batch of either. Only formulas live here, never control flow
+// (closest hit, shadows, recursion): those are written separately in each path so that
+// validation compares two independent walks over the same arithmetic.
+//
+// Scalar code finds select/any/floor below; batch code finds xsimd's by argument lookup.
+#pragma once
+
+#include <cmath>
+
+#include "lancer/prepared.hpp"
+#include "lancer/vec3.hpp"
+
+namespace lancer {
+
+inline float select(bool m, float a, float b) { return m ? a : b; }
+inline double select(bool m, double a, double b) { return m ? a : b; }
+inline bool any(bool m) { return m; }
+
+// max(0, x), with +0 for x <= 0 (and for NaN) in every path: _mm_max_ps and std::max disagree on
+// the sign of zero, so neither is used.
+template <class T>
+inline T positive_part(const T& x) {
+  return select(x > T(0), x, T(0));
+}
+
+// x^e for whole e >= 0 by binary powering: the same multiplications in the same order per lane
+// whatever the other lanes' exponents are, so scalar and packets agree to the bit.
+template <class T>
+inline T power_int(T x, T e) {
+  using std::floor;
+  T result(1);
+  T base = x;
+  for (;;) {
+    auto more = e > T(0);
+    if (!any(more)) break;
+    const T half = floor(e * T(0.5));
+    const auto odd = e > half + half;
+    result = select(odd, result * base, result);
+    base = base * base;
+    e = half;
+  }
+  return result;
+}
+
+// Ray/sphere in the form of Ray Tracing Gems ch. 7 (Haines et al.): with f = origin - centre and
+// unit d, b = f.d and disc = r^2 - |f - b d|^2, which keeps its precision when the sphere is
+// small against its distance, where b^2 - c cancels catastrophically.
+template <class T>
+struct SphereDisc {
+  T b, disc;
+};
+
+template <class T>
+inline SphereDisc<T> sphere_disc(const Vec3<T>& f, const Vec3<T>& d, const T& r2) {
+  const T b = dot(f, d);
+  const Vec3<T> perp = f - d * b;
+  return {b, r2 - dot(perp, perp)};
+}
+
+// The two roots, near <= far, given disc >= 0. q = -b - sign(b) sqrt(disc) avoids cancellation;
+// the roots are c/q and q with c = |f|^2 - r^2.
+template <class T>
+struct SphereRoots {
+  T near_t, far_t;
+};
+
+template <class T>
+inline SphereRoots<T> sphere_roots(const Vec3<T>& f, const SphereDisc<T>& sd, const T& r2) {
+  using std::sqrt;
+  const T s = sqrt(sd.disc);
+  const T q = select(sd.b < T(0), s - sd.b, -(sd.b + s));
+  const T c = dot(f, f) - r2;
+  const T t0 = c / q;
+  return {select(t0 < q, t0, q), select(t0 < q, q, t0)};
+}
+
+// The nearest root beyond epsilon: near if it is beyond, else far (which may also be behind).
+template <class T>
+inline T sphere_first_root(const SphereRoots<T>& r, const T& epsilon) {
+  return select(r.near_t > epsilon, r.near_t, r.far_t);
+}
+
+// Blinn-Phong's specular factor max(0, n.h)^shininess, exact for whole shininess.
+template <class T>
+inline T specular_power(const T& cos_nh, const T& shininess) {
+  return power_int(positive_part(cos_nh), shininess);
+}
+
+// Screen coordinates of pixel column i (row j) at sub-sample offset (a + 0.5) / s, as in the
+// contract: x = xmin + (i + (a+0.5)/s) * (xmax - xmin) / nx, y = ymax - (j + ...) * ... / ny.
+template <class T, class S>
+inline T screen_x(const PreparedCamera<S>& c, const T& i, const T& offset) {
+  return T(c.xmin) + ((i + offset) * T(c.width)) / T(c.fnx);
+}
+template <class T, class S>
+inline T screen_y(const PreparedCamera<S>& c, const T& j, const T& offset) {
+  return T(c.ymax) - ((j + offset) * T(c.height)) / T(c.fny);
+}
+
+// x u + y v, component by component.
+template <class T, class S>
+inline Vec3<T> on_screen(const PreparedCamera<S>& c, const T& x, const T& y) {
+  return {x * T(c.u.x) + y * T(c.v.x), x * T(c.u.y) + y * T(c.v.y), x * T(c.u.z) + y * T(c.v.z)};
+}
+
+// Camera ray through screen point (x, y): pinhole from the eye, orthographic along -w.
+template <class T, class S>
+inline void camera_ray(const PreparedCamera<S>& c, const T& x, const T& y, Vec3<T>& origin,
+                       Vec3<T>& dir) {
+  const Vec3<T> s = on_screen(c, x, y);
+  if (c.orthographic) {
+    origin = Vec3<T>::from(c.position) + s;
+    dir = Vec3<T>::from(-c.w);
+  } else {
+    origin = Vec3<T>::from(c.position);
+    dir = normalize(s - Vec3<T>::from(c.w) * T(c.distance));
+  }
+}
+
+}  // namespace lancer

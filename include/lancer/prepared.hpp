@@ -1,0 +1,69 @@
+// A scene converted once to the number type T a render computes in (float or double), laid out
+// structure-of-arrays, plus the features it uses. The reference and the packets read the same
+// prepared values, so they start from the same bits; each walks them with its own control flow.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "lancer/scene.hpp"
+#include "lancer/vec3.hpp"
+
+namespace lancer {
+
+// What a scene needs modelled. Decided once per scene; a path skips the work a scene lacks.
+struct Features {
+  bool spheres = false;     // any sphere
+  bool planes = false;      // any plane
+  bool lights = false;      // any light (else no shadow rays and no diffuse/specular)
+  bool specular = false;    // any material with ks > 0
+  bool reflection = false;  // max_depth > 0 and any material with reflect > 0
+  bool fractional_shininess = false;  // a specular material whose shininess needs std::pow
+};
+
+template <class T>
+struct PreparedCamera {
+  bool orthographic = false;
+  Vec3<T> position, u, v, w;
+  T distance;
+  int nx, ny, samples;  // samples per axis (supersample)
+  T xmin, ymax, width, height, fnx, fny;
+  std::vector<T> sub_offset;  // (a + 0.5) / s for a = 0 .. s-1
+};
+
+template <class T>
+struct PreparedScene {
+  PreparedCamera<T> camera;
+  Features features;
+  T background[3], environment[3];
+  int max_depth;
+  T epsilon;
+
+  // Spheres: object ids 0 .. num_spheres-1.
+  int num_spheres = 0;
+  std::vector<T> sphere_cx, sphere_cy, sphere_cz, sphere_r, sphere_r2;
+  // Planes: object ids num_spheres .. num_objects-1. Normals are unit.
+  int num_planes = 0;
+  std::vector<T> plane_px, plane_py, plane_pz, plane_nx, plane_ny, plane_nz;
+
+  // Material of each object, by object id, structure-of-arrays (one gather per field).
+  std::vector<T> mat_r, mat_g, mat_b, mat_ka, mat_kd, mat_ks, mat_shininess, mat_reflect;
+  // 1 where the shininess is a whole number that power_int() raises to exactly, else 0.
+  std::vector<T> mat_shininess_int;
+
+  int num_lights = 0;
+  std::vector<T> light_x, light_y, light_z, light_intensity, light_ambient;
+
+  int num_objects() const { return num_spheres + num_planes; }
+};
+
+// Shininess at or below this, and whole, is raised by repeated squaring (power_int).
+inline constexpr double kMaxIntegerShininess = 1 << 20;
+
+template <class T>
+PreparedScene<T> prepare(const Scene& scene);
+
+extern template PreparedScene<float> prepare<float>(const Scene&);
+extern template PreparedScene<double> prepare<double>(const Scene&);
+
+}  // namespace lancer

@@ -1,0 +1,58 @@
+// Rendering a scene: choosing the path (reference or a packet width), splitting the image into
+// row tiles over threads, counting rays and timing.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "lancer/image.hpp"
+#include "lancer/scene.hpp"
+#include "lancer/stats.hpp"
+
+namespace lancer {
+
+enum class Precision { exact, dbl };
+const char* to_string(Precision p);
+// Parses "exact" / "double"; throws InputError naming `option`.
+Precision parse_precision(const std::string& text, const std::string& option);
+
+struct RenderOptions {
+  int width = 0;  // 0: the widest this machine runs (auto); 1: the reference
+  Precision precision = Precision::exact;
+  int threads = 0;  // 0: all cores
+  bool progress = false;
+  // Called with rows done and rows in all, from whichever thread finished a tile.
+  std::function<void(int, int)> on_progress;
+};
+
+struct RenderResult {
+  Image image;
+  RayCounts rays;
+  double seconds = 0;
+  int width = 1;
+  int threads = 1;
+  std::string isa;
+  Precision precision = Precision::exact;
+};
+
+// Throws InputError if the options ask for something this machine cannot do (an unsupported
+// width, double precision on packets).
+RenderResult render(const Scene& scene, const RenderOptions& options);
+
+// Camera rays and closest hit only (lancer bench's `primary` mode): per pixel the sum of the
+// hit distances of its samples.
+struct PrimaryResult {
+  std::vector<float> t;
+  RayCounts rays;
+  double seconds = 0;
+  int width = 1;
+  int threads = 1;
+};
+PrimaryResult render_primary(const Scene& scene, const RenderOptions& options);
+
+// The width `requested` resolves to (0 = auto), or InputError naming `option`.
+int resolve_width(int requested, Precision precision, const std::string& option = "--width");
+
+int hardware_threads();
+
+}  // namespace lancer

@@ -1,0 +1,76 @@
+// The scene as read from a file: the model of SCENE-MODEL.md in double precision, validated.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "lancer/vec3.hpp"
+
+namespace lancer {
+
+struct Rgb {
+  double r = 0, g = 0, b = 0;
+};
+
+struct Material {
+  Rgb color{1, 1, 1};
+  double ka = 0, kd = 1, ks = 0, shininess = 100, reflect = 0;
+};
+
+struct Light {
+  Vec3<double> position{0, 0, 0};
+  double intensity = 1, ambient = 0;
+};
+
+enum class CameraType { pinhole, orthographic };
+
+struct CameraSpec {
+  CameraType type = CameraType::pinhole;
+  Vec3<double> position{0, 0, 0};
+  Vec3<double> direction{0, 0, -1};
+  double distance = 1;  // pinhole only
+  int nx = 1, ny = 1;
+  double xmin = -1, xmax = 1, ymin = -1, ymax = 1;
+};
+
+struct Sphere {
+  Vec3<double> center{0, 0, 0};
+  double radius = 1;
+  int material = 0;  // index into Scene::materials
+};
+
+struct Plane {
+  Vec3<double> point{0, 0, 0};
+  Vec3<double> normal{0, 1, 0};  // as written; normalised when the scene is prepared
+  int material = 0;
+};
+
+// Spheres and planes are kept apart. Every path tests spheres first, then planes, each in file
+// order, and keeps the first of equally near hits: that fixes the tie-break the contract leaves
+// open, identically for the reference and the packets.
+struct Scene {
+  std::string name;  // file name, for messages
+  CameraSpec camera;
+  Rgb background;
+  Rgb environment;
+  int max_depth = 0;
+  double epsilon = 1e-4;
+  int supersample = 1;
+  std::vector<Material> materials;  // named and inline, in order of appearance
+  std::vector<Light> lights;
+  std::vector<Sphere> spheres;
+  std::vector<Plane> planes;
+};
+
+// Limits that keep a render from exhausting memory or recursing without end.
+inline constexpr int kMaxDepth = 64;
+inline constexpr long long kMaxSamples = 1LL << 30;  // nx * ny * supersample^2
+inline constexpr int kMaxResolution = 1 << 16;       // per axis
+inline constexpr int kMaxSupersample = 64;
+
+// Throws InputError with a one-line message naming the place: `objects[2].radius: must be > 0`
+// or `scene.json:14: syntax error ...`.
+Scene parse_scene(const std::string& text, const std::string& name);
+Scene load_scene(const std::string& path);
+
+}  // namespace lancer

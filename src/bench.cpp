@@ -1,0 +1,54 @@
+#include "lancer/bench.hpp"
+
+#include <algorithm>
+#include <map>
+#include <tuple>
+
+#include "lancer/packet/api.hpp"
+#include "lancer/render.hpp"
+
+namespace lancer {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& opt) {
+  std::vector<BenchRow> rows;
+  std::vector<std::vector<double>> times;
+  for (const std::string& mode : opt.modes)
+    for (int width : opt.widths)
+      for (int threads : opt.threads) {
+        BenchRow r;
+        r.mode = mode, r.width = width, r.threads = threads;
+        r.isa = packet::isa_name(width);
+        rows.push_back(r);
+        times.emplace_back();
+      }
+  // One untimed warm-up of each configuration, then `repeat` rounds, configurations interleaved.
+  for (int rep = -1; rep < opt.repeat; ++rep) {
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      RenderOptions ro;
+      ro.width = rows[k].width;
+      ro.threads = rows[k].threads;
+      double seconds;
+      std::uint64_t rays;
+      if (rows[k].mode == "primary") {
+        const PrimaryResult p = render_primary(scene, ro);
+        seconds = p.seconds, rays = p.rays.total();
+      } else {
+        const RenderResult f = render(scene, ro);
+        seconds = f.seconds, rays = f.rays.total();
+      }
+      rows[k].rays = rays;
+      if (rep >= 0) times[k].push_back(seconds);
+    }
+  }
+  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].seconds = median(times[k]);
+  return rows;
+}
+
+}  // namespace lancer

@@ -1,0 +1,13 @@
+// The subcommands of the lancer CLI. Each registers itself on the app; its callback throws
+// InputError on bad input, which main() turns into one line on stderr and exit status 2.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace lancer::cli {
+
+void add_render(CLI::App& app);
+void add_validate(CLI::App& app);
+void add_bench(CLI::App& app);
+
+}  // namespace lancer::cli

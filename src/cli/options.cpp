@@ -1,0 +1,117 @@
+#include "options.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <memory>
+#include <mutex>
+#include <sstream>
+
+#include "lancer/error.hpp"
+#include "lancer/packet/api.hpp"
+
+namespace lancer::cli {
+
+namespace {
+int parse_int(const std::string& text, const std::string& option) {
+  std::size_t used = 0;
+  long v = 0;
+  try {
+    v = std::stol(text, &used);
+  } catch (...) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || v < -2147483647L || v > 2147483647L)
+    throw InputError(option + ": '" + text + "' is not a whole number");
+  return static_cast<int>(v);
+}
+
+std::vector<std::string> split_commas(const std::vector<std::string>& items) {
+  std::vector<std::string> out;
+  for (const std::string& item : items) {
+    std::stringstream ss(item);
+    std::string part;
+    while (std::getline(ss, part, ',')) out.push_back(part);
+  }
+  return out;
+}
+}  // namespace
+
+int parse_width(const std::string& text, const std::string& option) {
+  if (text == "auto") return 0;
+  const int w = parse_int(text, option);
+  if (w != 1 && w != 4 && w != 8 && w != 16)
+    throw InputError(option + ": must be auto, 1, 4, 8 or 16, not " + text);
+  return w;
+}
+
+std::vector<int> parse_width_list(const std::vector<std::string>& items,
+                                  const std::string& option) {
+  std::vector<int> out;
+  for (const std::string& part : split_commas(items)) {
+    if (part == "all") {
+      for (int w : packet::supported_widths()) out.push_back(w);
+      continue;
+    }
+    const int w = parse_width(part, option);
+    out.push_back(resolve_width(w, Precision::exact, option));
+  }
+  if (out.empty()) throw InputError(option + ": no width given");
+  return out;
+}
+
+std::vector<int> parse_int_list(const std::vector<std::string>& items, const std::string& option,
+                                int min_value) {
+  std::vector<int> out;
+  for (const std::string& part : split_commas(items)) {
+    const int v = parse_int(part, option);
+    if (v < min_value)
+      throw InputError(option + ": must be >= " + std::to_string(min_value) + ", not " + part);
+    out.push_back(v);
+  }
+  if (out.empty()) throw InputError(option + ": no value given");
+  return out;
+}
+
+void apply_overrides(Scene& scene, const SceneOverrides& o) {
+  if (o.supersample != 0) {
+    if (o.supersample < 1 || o.supersample > kMaxSupersample)
+      throw InputError("--supersample: must be from 1 to " + std::to_string(kMaxSupersample));
+    scene.supersample = o.supersample;
+  }
+  if (!o.resolution.empty()) {
+    const auto x = o.resolution.find_first_of("xX");
+    if (x == std::string::npos) throw InputError("--resolution: must be NXxNY, e.g. 640x480");
+    const int nx = parse_int(o.resolution.substr(0, x), "--resolution");
+    const int ny = parse_int(o.resolution.substr(x + 1), "--resolution");
+    if (nx <= 0 || ny <= 0 || nx > kMaxResolution || ny > kMaxResolution)
+      throw InputError("--resolution: each side must be from 1 to " +
+                       std::to_string(kMaxResolution));
+    scene.camera.nx = nx;
+    scene.camera.ny = ny;
+  }
+  const auto& c = scene.camera;
+  if (static_cast<long long>(c.nx) * c.ny * scene.supersample * scene.supersample > kMaxSamples)
+    throw InputError("--resolution/--supersample: more than " + std::to_string(kMaxSamples) +
+                     " samples");
+}
+
+void attach_progress(RenderOptions& options) {
+  if (!isatty(STDERR_FILENO)) return;
+  auto last = std::make_shared<int>(-1);
+  auto mutex = std::make_shared<std::mutex>();
+  options.on_progress = [last, mutex](int done, int all) {
+    const int percent = all ? done * 100 / all : 100;
+    std::lock_guard<std::mutex> lock(*mutex);
+    if (percent == *last) return;
+    *last = percent;
+    constexpr int kBar = 40;
+    char bar[kBar + 1];
+    for (int k = 0; k < kBar; ++k) bar[k] = k < percent * kBar / 100 ? '#' : '.';
+    bar[kBar] = '\0';
+    std::fprintf(stderr, "\r[%s] %3d%%%s", bar, percent, done == all ? "\n" : "");
+    std::fflush(stderr);
+  };
+}
+
+}  // namespace lancer::cli

@@ -1,0 +1,29 @@
+// Parsing and applying the options the subcommands share.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "lancer/render.hpp"
+#include "lancer/scene.hpp"
+
+namespace lancer::cli {
+
+// "auto" -> 0, else a whole number; throws InputError naming `option`.
+int parse_width(const std::string& text, const std::string& option);
+// "1,4,16" or "all" (every width this machine runs, widest first).
+std::vector<int> parse_width_list(const std::vector<std::string>& items, const std::string& option);
+std::vector<int> parse_int_list(const std::vector<std::string>& items, const std::string& option,
+                                int min_value);
+
+// Overrides from the command line; empty strings and 0 leave the scene's values.
+struct SceneOverrides {
+  int supersample = 0;
+  std::string resolution;  // "NXxNY"
+};
+void apply_overrides(Scene& scene, const SceneOverrides& o);
+
+// A progress bar on stderr when it is a terminal; nothing otherwise.
+void attach_progress(RenderOptions& options);
+
+}  // namespace lancer::cli

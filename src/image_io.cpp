@@ -1,0 +1,162 @@
+// Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); every other
+// format through OpenImageIO. Files appear whole or not at all.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <OpenImageIO/imageio.h>
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+#include "lancer/error.hpp"
+#include "lancer/image.hpp"
+
+namespace lancer {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+// Formats that keep radiance as floats, unclamped; the rest are 8-bit, clamped and rounded.
+bool is_float_format(const std::string& ext) {
+  return ext == ".pfm" || ext == ".exr" || ext == ".hdr" || ext == ".tif" || ext == ".tiff";
+}
+
+// The temporary file being written, so that a signal handler can remove it. One write at a time
+// per process is all lancer does.
+char g_pending[4096];
+std::atomic<bool> g_has_pending{false};
+
+void set_pending(const std::string& path) {
+  std::snprintf(g_pending, sizeof g_pending, "%s", path.c_str());
+  g_has_pending = true;
+}
+void clear_pending() { g_has_pending = false; }
+
+// A fresh temporary file beside `target`, so that the final rename stays on one file system.
+std::string make_temp_beside(const std::string& target) {
+  fs::path t(target);
+  fs::path dir = t.parent_path().empty() ? fs::path(".") : t.parent_path();
+  std::string pattern = (dir / ("." + t.filename().string() + ".lancer-XXXXXX")).string();
+  std::vector<char> buf(pattern.begin(), pattern.end());
+  buf.push_back('\0');
+  int fd = mkstemp(buf.data());
+  if (fd < 0) throw InputError(target + ": cannot create a file in " + dir.string() + ": " +
+                               std::strerror(errno));
+  close(fd);
+  return buf.data();
+}
+
+void write_pfm(const Image& im, const std::string& path) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  if (!f) throw InputError(path + ": cannot open for writing: " + std::strerror(errno));
+  // A negative scale means little-endian; rows go bottom to top.
+  std::fprintf(f.get(), "PF\n%d %d\n-1.0\n", im.nx, im.ny);
+  static_assert(sizeof(float) == 4, "PFM stores 32-bit floats");
+  for (int j = im.ny - 1; j >= 0; --j) {
+    if (std::fwrite(im.pixel(0, j), sizeof(float), std::size_t(im.nx) * 3, f.get()) !=
+        std::size_t(im.nx) * 3)
+      throw InputError(path + ": write failed: " + std::strerror(errno));
+  }
+  if (std::fflush(f.get()) != 0) throw InputError(path + ": write failed: " + std::strerror(errno));
+}
+
+void write_oiio(const Image& im, const std::string& format_path, const std::string& path) {
+  auto out = OIIO::ImageOutput::create(format_path);
+  if (!out) throw InputError(format_path + ": unknown image format");
+  const std::string ext = lower_extension(format_path);
+  if (is_float_format(ext)) {
+    OIIO::ImageSpec spec(im.nx, im.ny, 3, OIIO::TypeDesc::FLOAT);
+    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, im.rgb.data()) ||
+        !out->close())
+      throw InputError(format_path + ": " + out->geterror());
+    return;
+  }
+  // Clamp to [0, 1] and round to the nearest of 256 levels ourselves, so every format agrees.
+  std::vector<unsigned char> bytes(im.rgb.size());
+  for (std::size_t k = 0; k < bytes.size(); ++k) {
+    const float v = im.rgb[k];
+    const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN -> 0
+    bytes[k] = static_cast<unsigned char>(std::lround(c * 255.0f));
+  }
+  OIIO::ImageSpec spec(im.nx, im.ny, 3, OIIO::TypeDesc::UINT8);
+  if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
+      !out->close())
+    throw InputError(format_path + ": " + out->geterror());
+}
+
+}  // namespace
+
+void remove_pending_outputs() noexcept {
+  if (g_has_pending.exchange(false)) unlink(g_pending);  // async-signal-safe
+}
+
+void check_output_path(const std::string& path, const std::string& scene_path) {
+  if (path.empty()) throw InputError("-o: output path is empty");
+  const std::string ext = lower_extension(path);
+  if (ext.empty()) throw InputError(path + ": no extension to choose an image format from");
+  if (ext != ".pfm") {
+    auto probe = OIIO::ImageOutput::create(path);
+    if (!probe) throw InputError(path + ": unknown image format '" + ext + "'");
+  }
+  fs::path p(path);
+  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(path + ": folder " + dir.string() + " does not exist");
+  if (access(dir.c_str(), W_OK) != 0) throw InputError(path + ": folder " + dir.string() + " is not writable");
+  if (fs::is_directory(p, ec)) throw InputError(path + ": is a folder");
+  if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
+    throw InputError(path + ": exists and is not writable");
+  if (!scene_path.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
+    throw InputError(path + ": would overwrite the scene file");
+}
+
+void write_image(const Image& image, const std::string& path) {
+  check_output_path(path);
+  const std::string tmp = make_temp_beside(path);
+  set_pending(tmp);
+  try {
+    if (lower_extension(path) == ".pfm")
+      write_pfm(image, tmp);
+    else
+      write_oiio(image, path, tmp);
+    // mkstemp makes the file 0600; give it the permissions an ordinary new file would get.
+    const mode_t mask = umask(0);
+    umask(mask);
+    chmod(tmp.c_str(), 0666 & ~mask);
+    if (std::rename(tmp.c_str(), path.c_str()) != 0)
+      throw InputError(path + ": cannot rename into place: " + std::strerror(errno));
+    clear_pending();
+  } catch (...) {
+    remove_pending_outputs();
+    throw;
+  }
+}
+
+Image read_image(const std::string& path) {
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw InputError(path + ": cannot read image: " + OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  Image im(spec.width, spec.height);
+  std::vector<float> all(std::size_t(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, -1, OIIO::TypeDesc::FLOAT, all.data()))
+    throw InputError(path + ": " + in->geterror());
+  for (std::size_t p = 0; p < std::size_t(spec.width) * spec.height; ++p)
+    for (int c = 0; c < 3; ++c)
+      im.rgb[p * 3 + c] = all[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+  return im;
+}
+
+}  // namespace lancer

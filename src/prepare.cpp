@@ -1,0 +1,109 @@
+#include <cmath>
+
+#include "lancer/prepared.hpp"
+
+namespace lancer {
+
+namespace {
+
+// The camera basis of the contract, in double, then rounded once to T.
+void camera_basis(const CameraSpec& c, Vec3<double>& u, Vec3<double>& v, Vec3<double>& w) {
+  w = normalize(-c.direction);
+  Vec3<double> h{-w.z, 0.0, w.x};
+  u = (h.x == 0 && h.z == 0) ? Vec3<double>{1, 0, 0} : normalize(h);
+  v = cross(w, u);
+  if (v.y < 0) {
+    u = -u;
+    v = -v;
+  }
+}
+
+}  // namespace
+
+template <class T>
+PreparedScene<T> prepare(const Scene& scene) {
+  PreparedScene<T> p;
+  auto& pc = p.camera;
+  const CameraSpec& c = scene.camera;
+  Vec3<double> u, v, w;
+  camera_basis(c, u, v, w);
+  pc.orthographic = c.type == CameraType::orthographic;
+  pc.position = Vec3<T>::from(c.position);
+  pc.u = Vec3<T>::from(u);
+  pc.v = Vec3<T>::from(v);
+  pc.w = Vec3<T>::from(w);
+  pc.distance = T(c.distance);
+  pc.nx = c.nx;
+  pc.ny = c.ny;
+  pc.samples = scene.supersample;
+  pc.xmin = T(c.xmin);
+  pc.ymax = T(c.ymax);
+  pc.width = T(c.xmax) - T(c.xmin);
+  pc.height = T(c.ymax) - T(c.ymin);
+  pc.fnx = T(c.nx);
+  pc.fny = T(c.ny);
+  for (int a = 0; a < pc.samples; ++a) pc.sub_offset.push_back((T(a) + T(0.5)) / T(pc.samples));
+
+  const Rgb& bg = scene.background;
+  const Rgb& env = scene.environment;
+  p.background[0] = T(bg.r), p.background[1] = T(bg.g), p.background[2] = T(bg.b);
+  p.environment[0] = T(env.r), p.environment[1] = T(env.g), p.environment[2] = T(env.b);
+  p.max_depth = scene.max_depth;
+  p.epsilon = T(scene.epsilon);
+
+  auto add_material = [&](const Material& m) {
+    p.mat_r.push_back(T(m.color.r));
+    p.mat_g.push_back(T(m.color.g));
+    p.mat_b.push_back(T(m.color.b));
+    p.mat_ka.push_back(T(m.ka));
+    p.mat_kd.push_back(T(m.kd));
+    p.mat_ks.push_back(T(m.ks));
+    p.mat_shininess.push_back(T(m.shininess));
+    p.mat_reflect.push_back(T(m.reflect));
+    const bool whole = m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
+    p.mat_shininess_int.push_back(T(whole ? 1 : 0));
+    if (m.ks > 0) {
+      p.features.specular = true;
+      if (!whole) p.features.fractional_shininess = true;
+    }
+    if (m.reflect > 0 && scene.max_depth > 0) p.features.reflection = true;
+  };
+
+  p.num_spheres = static_cast<int>(scene.spheres.size());
+  for (const Sphere& s : scene.spheres) {
+    p.sphere_cx.push_back(T(s.center.x));
+    p.sphere_cy.push_back(T(s.center.y));
+    p.sphere_cz.push_back(T(s.center.z));
+    p.sphere_r.push_back(T(s.radius));
+    p.sphere_r2.push_back(T(s.radius) * T(s.radius));
+    add_material(scene.materials[s.material]);
+  }
+  p.num_planes = static_cast<int>(scene.planes.size());
+  for (const Plane& pl : scene.planes) {
+    const Vec3<double> n = normalize(pl.normal);
+    p.plane_px.push_back(T(pl.point.x));
+    p.plane_py.push_back(T(pl.point.y));
+    p.plane_pz.push_back(T(pl.point.z));
+    p.plane_nx.push_back(T(n.x));
+    p.plane_ny.push_back(T(n.y));
+    p.plane_nz.push_back(T(n.z));
+    add_material(scene.materials[pl.material]);
+  }
+  p.num_lights = static_cast<int>(scene.lights.size());
+  for (const Light& l : scene.lights) {
+    p.light_x.push_back(T(l.position.x));
+    p.light_y.push_back(T(l.position.y));
+    p.light_z.push_back(T(l.position.z));
+    p.light_intensity.push_back(T(l.intensity));
+    p.light_ambient.push_back(T(l.ambient));
+  }
+  p.features.spheres = p.num_spheres > 0;
+  p.features.planes = p.num_planes > 0;
+  p.features.lights = p.num_lights > 0;
+  return p;
+}
+
+template PreparedScene<float> prepare<float>(const Scene&);
+template PreparedScene<double> prepare<double>(const Scene&);
+
+}  // namespace lancer

@@ -1,0 +1,199 @@
+// The scalar reference renderer. Read it beside SCENE-MODEL.md: each step is numbered as there.
+#include "lancer/reference.hpp"
+
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "lancer/formulas.hpp"
+
+namespace lancer::reference {
+
+namespace {
+
+template <class T>
+using Color = std::array<T, 3>;
+
+template <class T>
+class Tracer {
+ public:
+  Tracer(const PreparedScene<T>& scene, RayCounts& counts) : s_(scene), counts_(counts) {}
+
+  // trace(origin, dir, depth) of the contract; dir is unit length.
+  Color<T> trace(const Vec3<T>& origin, const Vec3<T>& dir, int depth) {
+    // 1. The closest hit with t > epsilon.
+    const Hit<T> hit = closest_hit(s_, origin, dir);
+    // 2. No hit: background for camera rays, environment for reflected ones.
+    if (hit.id < 0) {
+      const T* c = depth == 0 ? s_.background : s_.environment;
+      return {c[0], c[1], c[2]};
+    }
+    // 3. The hit point and the normal facing the ray.
+    const Vec3<T> p = along(origin, dir, hit.t);
+    Vec3<T> n = normal_at(hit.id, p);
+    if (dot(n, dir) > T(0)) n = -n;
+    const Vec3<T> view = -dir;
+
+    // 4. Each light: ambient always; diffuse and specular when not blocked.
+    const int m = hit.id;
+    T ambient(0), diffuse(0), specular(0);
+    for (int k = 0; k < s_.num_lights; ++k) {
+      ambient = ambient + s_.mat_ka[m] * s_.light_ambient[k];
+      const Vec3<T> to_light =
+          Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]} - p;
+      const T dist = length(to_light);
+      if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
+      ++counts_.shadow;
+      const Vec3<T> l = to_light / dist;
+      if (blocked(p, l, dist)) continue;
+      const T intensity = s_.light_intensity[k];
+      diffuse = diffuse + (s_.mat_kd[m] * intensity) * positive_part(dot(n, l));
+      if (s_.features.specular) {
+        const Vec3<T> half = l + view;
+        const T half_len = length(half);
+        if (half_len > T(0)) {
+          const Vec3<T> h = half / half_len;
+          specular = specular + (s_.mat_ks[m] * intensity) * power(dot(n, h), m);
+        }
+      }
+    }
+    // 5. local = color * (ambient + diffuse + specular).
+    const T shade = (ambient + diffuse) + specular;
+    Color<T> local{s_.mat_r[m] * shade, s_.mat_g[m] * shade, s_.mat_b[m] * shade};
+
+    // 6. Mirror reflection, recursively.
+    const T reflect_k = s_.mat_reflect[m];
+    if (depth < s_.max_depth && reflect_k > T(0)) {
+      ++counts_.reflected;
+      const Vec3<T> r = normalize(reflect(dir, n));
+      const Color<T> child = trace(p, r, depth + 1);
+      for (int c = 0; c < 3; ++c) local[c] = local[c] + reflect_k * child[c];
+    }
+    // 7.
+    return local;
+  }
+
+ private:
+  Vec3<T> normal_at(int id, const Vec3<T>& p) const {
+    if (id < s_.num_spheres) {
+      const T r = s_.sphere_r[id];
+      return {(p.x - s_.sphere_cx[id]) / r, (p.y - s_.sphere_cy[id]) / r,
+              (p.z - s_.sphere_cz[id]) / r};
+    }
+    const int k = id - s_.num_spheres;
+    return {s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
+  }
+
+  T power(const T& cos_nh, int m) const {
+    const T shininess = s_.mat_shininess[m];
+    if (s_.mat_shininess_int[m] != T(0)) return specular_power(cos_nh, shininess);
+    return std::pow(positive_part(cos_nh), shininess);
+  }
+
+  // Whether any object lies between p and the light: epsilon < t < dist along unit l.
+  bool blocked(const Vec3<T>& p, const Vec3<T>& l, const T& dist) const {
+    const T eps = s_.epsilon;
+    for (int i = 0; i < s_.num_spheres; ++i) {
+      const T r2 = s_.sphere_r2[i];
+      const Vec3<T> f = p - Vec3<T>{s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i]};
+      const SphereDisc<T> sd = sphere_disc(f, l, r2);
+      if (sd.disc < T(0)) continue;
+      const T t = sphere_first_root(sphere_roots(f, sd, r2), eps);
+      if (t > eps && t < dist) return true;
+    }
+    for (int k = 0; k < s_.num_planes; ++k) {
+      const Vec3<T> normal{s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
+      const T denom = dot(l, normal);
+      if (denom == T(0)) continue;
+      const T t = dot(Vec3<T>{s_.plane_px[k], s_.plane_py[k], s_.plane_pz[k]} - p, normal) / denom;
+      if (t > eps && t < dist) return true;
+    }
+    return false;
+  }
+
+  const PreparedScene<T>& s_;
+  RayCounts& counts_;
+};
+
+}  // namespace
+
+template <class T>
+Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir) {
+  const T eps = s.epsilon;
+  // A hit must be nearer than infinity: a plane hit whose t overflows is no hit.
+  Hit<T> best{-1, std::numeric_limits<T>::infinity()};
+  for (int i = 0; i < s.num_spheres; ++i) {
+    const T r2 = s.sphere_r2[i];
+    const Vec3<T> f = origin - Vec3<T>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
+    const SphereDisc<T> sd = sphere_disc(f, dir, r2);
+    if (sd.disc < T(0)) continue;
+    const T t = sphere_first_root(sphere_roots(f, sd, r2), eps);
+    if (t > eps && t < best.t) best = {i, t};
+  }
+  for (int k = 0; k < s.num_planes; ++k) {
+    const Vec3<T> normal{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+    const T denom = dot(dir, normal);
+    if (denom == T(0)) continue;
+    const T t = dot(Vec3<T>{s.plane_px[k], s.plane_py[k], s.plane_pz[k]} - origin, normal) / denom;
+    if (t > eps && t < best.t) best = {s.num_spheres + k, t};
+  }
+  return best;
+}
+
+template <class T>
+void render_rows(const PreparedScene<T>& s, Image& image, int row_begin, int row_end,
+                 RayCounts& counts) {
+  const PreparedCamera<T>& cam = s.camera;
+  const T samples = T(cam.samples * cam.samples);
+  Tracer<T> tracer(s, counts);
+  for (int j = row_begin; j < row_end; ++j) {
+    for (int i = 0; i < cam.nx; ++i) {
+      Color<T> sum{T(0), T(0), T(0)};
+      for (int b = 0; b < cam.samples; ++b) {
+        for (int a = 0; a < cam.samples; ++a) {
+          const T x = screen_x(cam, T(i), cam.sub_offset[a]);
+          const T y = screen_y(cam, T(j), cam.sub_offset[b]);
+          Vec3<T> origin, dir;
+          camera_ray(cam, x, y, origin, dir);
+          ++counts.camera;
+          const Color<T> c = tracer.trace(origin, dir, 0);
+          for (int k = 0; k < 3; ++k) sum[k] = sum[k] + c[k];
+        }
+      }
+      float* out = image.pixel(i, j);
+      for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(sum[k] / samples);
+    }
+  }
+}
+
+template <class T>
+void primary_rows(const PreparedScene<T>& s, float* t_out, int row_begin, int row_end,
+                  RayCounts& counts) {
+  const PreparedCamera<T>& cam = s.camera;
+  for (int j = row_begin; j < row_end; ++j) {
+    for (int i = 0; i < cam.nx; ++i) {
+      T sum(0);
+      for (int b = 0; b < cam.samples; ++b) {
+        for (int a = 0; a < cam.samples; ++a) {
+          Vec3<T> origin, dir;
+          camera_ray(cam, screen_x(cam, T(i), cam.sub_offset[a]),
+                     screen_y(cam, T(j), cam.sub_offset[b]), origin, dir);
+          ++counts.camera;
+          sum = sum + closest_hit(s, origin, dir).t;
+        }
+      }
+      t_out[std::size_t(j) * cam.nx + i] = static_cast<float>(sum);
+    }
+  }
+}
+
+template void render_rows<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&);
+template void render_rows<double>(const PreparedScene<double>&, Image&, int, int, RayCounts&);
+template void primary_rows<float>(const PreparedScene<float>&, float*, int, int, RayCounts&);
+template void primary_rows<double>(const PreparedScene<double>&, float*, int, int, RayCounts&);
+template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
+                                       const Vec3<float>&);
+template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
+                                         const Vec3<double>&);
+
+}  // namespace lancer::reference

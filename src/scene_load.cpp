@@ -1,0 +1,316 @@
+// Scene files: JSON in exactly the format of SCENE-MODEL.md, validated strictly. Every error is
+// one line naming the place, as `objects[2].radius: must be > 0`.
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "lancer/error.hpp"
+#include "lancer/scene.hpp"
+
+namespace lancer {
+namespace {
+
+using json = nlohmann::json;
+
+// Documents nested deeper than this are rejected before they can exhaust the stack.
+constexpr int kMaxJsonDepth = 32;
+constexpr std::size_t kMaxSceneBytes = std::size_t(1) << 30;
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) {
+  throw InputError(where + ": " + what);
+}
+
+std::string key_path(const std::string& parent, const std::string& key) {
+  return parent.empty() ? key : parent + "." + key;
+}
+
+std::string index_path(const std::string& parent, std::size_t i) {
+  return parent + "[" + std::to_string(i) + "]";
+}
+
+// One JSON object being read: remembers which keys were consumed so that any other key is an
+// error, and names every value by its path.
+class ObjectReader {
+ public:
+  ObjectReader(const json& j, std::string path) : j_(j), path_(std::move(path)) {
+    if (!j_.is_object()) fail(where(), "must be an object");
+  }
+
+  bool has(const std::string& key) const { return j_.contains(key); }
+  const std::string& where() const {
+    static const std::string top = "(top level)";
+    return path_.empty() ? top : path_;
+  }
+  std::string at(const std::string& key) const { return key_path(path_, key); }
+
+  const json& get(const std::string& key) {
+    seen_.insert(key);
+    auto it = j_.find(key);
+    if (it == j_.end()) fail(at(key), "missing required field");
+    return *it;
+  }
+
+  double number(const std::string& key) { return as_number(get(key), at(key)); }
+  double number_or(const std::string& key, double fallback) {
+    return has(key) ? number(key) : fallback;
+  }
+  double non_negative_or(const std::string& key, double fallback) {
+    double v = number_or(key, fallback);
+    if (v < 0) fail(at(key), "must be >= 0");
+    return v;
+  }
+  int integer_or(const std::string& key, int fallback) {
+    return has(key) ? as_integer(get(key), at(key)) : fallback;
+  }
+  Vec3<double> vec3(const std::string& key) { return as_vec3(get(key), at(key)); }
+  Rgb rgb_or(const std::string& key, Rgb fallback) {
+    return has(key) ? as_rgb(get(key), at(key)) : fallback;
+  }
+  std::string string(const std::string& key) {
+    const json& v = get(key);
+    if (!v.is_string()) fail(at(key), "must be a string");
+    return v.get<std::string>();
+  }
+
+  // Called last: any key that no reader asked for is unknown.
+  void finish() const {
+    for (auto it = j_.begin(); it != j_.end(); ++it)
+      if (!seen_.count(it.key())) fail(at(it.key()), "unknown key");
+  }
+
+  static double as_number(const json& v, const std::string& where) {
+    if (!v.is_number()) fail(where, "must be a number");
+    double d = v.get<double>();
+    if (!std::isfinite(d)) fail(where, "must be finite");
+    return d;
+  }
+  static int as_integer(const json& v, const std::string& where) {
+    double d = as_number(v, where);
+    if (d != std::floor(d) || std::fabs(d) > 2147483647.0) fail(where, "must be an integer");
+    return static_cast<int>(d);
+  }
+  static Vec3<double> as_vec3(const json& v, const std::string& where) {
+    if (!v.is_array() || v.size() != 3) fail(where, "must be an array of 3 numbers");
+    return {as_number(v[0], index_path(where, 0)), as_number(v[1], index_path(where, 1)),
+            as_number(v[2], index_path(where, 2))};
+  }
+  static Rgb as_rgb(const json& v, const std::string& where) {
+    if (v.is_number()) {
+      double g = as_number(v, where);
+      if (g < 0) fail(where, "must be >= 0");
+      return {g, g, g};
+    }
+    if (!v.is_array() || v.size() != 3) fail(where, "must be a number or an array of 3 numbers");
+    Rgb c{as_number(v[0], index_path(where, 0)), as_number(v[1], index_path(where, 1)),
+          as_number(v[2], index_path(where, 2))};
+    if (c.r < 0 || c.g < 0 || c.b < 0) fail(where, "components must be >= 0");
+    return c;
+  }
+
+ private:
+  const json& j_;
+  std::string path_;
+  std::set<std::string> seen_;
+};
+
+bool is_zero(const Vec3<double>& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
+
+CameraSpec read_camera(const json& j) {
+  ObjectReader r(j, "camera");
+  CameraSpec c;
+  std::string type = r.string("type");
+  if (type == "pinhole")
+    c.type = CameraType::pinhole;
+  else if (type == "orthographic")
+    c.type = CameraType::orthographic;
+  else
+    fail(r.at("type"), "must be \"pinhole\" or \"orthographic\"");
+  c.position = r.vec3("position");
+  c.direction = r.vec3("direction");
+  if (is_zero(c.direction)) fail(r.at("direction"), "must not be zero");
+  if (c.type == CameraType::pinhole) {
+    c.distance = r.number("distance");
+    if (!(c.distance > 0)) fail(r.at("distance"), "must be > 0");
+  } else if (r.has("distance")) {
+    r.number("distance");  // accepted and unused: an orthographic camera has no eye distance
+  }
+  const json& res = r.get("resolution");
+  if (!res.is_array() || res.size() != 2) fail(r.at("resolution"), "must be [nx, ny]");
+  c.nx = ObjectReader::as_integer(res[0], index_path(r.at("resolution"), 0));
+  c.ny = ObjectReader::as_integer(res[1], index_path(r.at("resolution"), 1));
+  if (c.nx <= 0) fail(index_path(r.at("resolution"), 0), "must be a positive integer");
+  if (c.ny <= 0) fail(index_path(r.at("resolution"), 1), "must be a positive integer");
+  if (c.nx > kMaxResolution || c.ny > kMaxResolution)
+    fail(r.at("resolution"), "must be at most " + std::to_string(kMaxResolution) + " per axis");
+  const json& b = r.get("bounds");
+  if (!b.is_array() || b.size() != 4) fail(r.at("bounds"), "must be [xmin, xmax, ymin, ymax]");
+  double v[4];
+  for (int i = 0; i < 4; ++i) v[i] = ObjectReader::as_number(b[i], index_path(r.at("bounds"), i));
+  c.xmin = v[0], c.xmax = v[1], c.ymin = v[2], c.ymax = v[3];
+  if (!(c.xmax > c.xmin)) fail(r.at("bounds"), "xmax must be > xmin");
+  if (!(c.ymax > c.ymin)) fail(r.at("bounds"), "ymax must be > ymin");
+  r.finish();
+  return c;
+}
+
+Material read_material(const json& j, const std::string& path) {
+  ObjectReader r(j, path);
+  Material m;
+  m.color = r.rgb_or("color", m.color);
+  m.ka = r.non_negative_or("ka", m.ka);
+  m.kd = r.non_negative_or("kd", m.kd);
+  m.ks = r.non_negative_or("ks", m.ks);
+  m.shininess = r.non_negative_or("shininess", m.shininess);
+  m.reflect = r.non_negative_or("reflect", m.reflect);
+  r.finish();
+  return m;
+}
+
+Light read_light(const json& j, const std::string& path) {
+  ObjectReader r(j, path);
+  Light l;
+  l.position = r.vec3("position");
+  l.intensity = r.non_negative_or("intensity", l.intensity);
+  l.ambient = r.non_negative_or("ambient", l.ambient);
+  r.finish();
+  return l;
+}
+
+// A syntax error's byte offset turned into the line number people look for.
+std::size_t line_of(const std::string& text, std::size_t byte) {
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < byte && i < text.size(); ++i) line += text[i] == '\n';
+  return line;
+}
+
+json parse_json(const std::string& text, const std::string& name) {
+  if (text.size() > kMaxSceneBytes) fail(name, "file larger than 1 GiB");
+  json::parser_callback_t limit_depth = [&](int depth, json::parse_event_t, json&) {
+    if (depth > kMaxJsonDepth)
+      fail(name, "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    return true;
+  };
+  try {
+    return json::parse(text, limit_depth, /*allow_exceptions=*/true, /*ignore_comments=*/false);
+  } catch (const json::parse_error& e) {
+    // e.what() reads "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
+    std::string what = e.what();
+    auto colon = what.find(": ");
+    std::string detail = colon == std::string::npos ? what : what.substr(colon + 2);
+    fail(name + ":" + std::to_string(line_of(text, e.byte == 0 ? 0 : e.byte - 1)),
+         "syntax error: " + detail);
+  }
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& name) {
+  json doc = parse_json(text, name);
+  Scene s;
+  s.name = name;
+  try {
+    ObjectReader top(doc, "");
+    s.camera = read_camera(top.get("camera"));
+    s.background = top.rgb_or("background", Rgb{});
+    s.environment = top.rgb_or("environment", s.background);
+    s.max_depth = top.integer_or("max_depth", 0);
+    if (s.max_depth < 0) fail("max_depth", "must be >= 0");
+    if (s.max_depth > kMaxDepth) fail("max_depth", "must be at most " + std::to_string(kMaxDepth));
+    s.epsilon = top.number_or("epsilon", 1e-4);
+    if (s.epsilon < 0) fail("epsilon", "must be >= 0");
+    s.supersample = top.integer_or("supersample", 1);
+    if (s.supersample < 1) fail("supersample", "must be >= 1");
+    if (s.supersample > kMaxSupersample)
+      fail("supersample", "must be at most " + std::to_string(kMaxSupersample));
+
+    std::map<std::string, int> named;
+    if (top.has("materials")) {
+      const json& mats = top.get("materials");
+      if (!mats.is_object()) fail("materials", "must be an object of named materials");
+      for (auto it = mats.begin(); it != mats.end(); ++it) {
+        named[it.key()] = static_cast<int>(s.materials.size());
+        s.materials.push_back(read_material(it.value(), key_path("materials", it.key())));
+      }
+    }
+
+    if (top.has("lights")) {
+      const json& lights = top.get("lights");
+      if (!lights.is_array()) fail("lights", "must be an array");
+      for (std::size_t i = 0; i < lights.size(); ++i)
+        s.lights.push_back(read_light(lights[i], index_path("lights", i)));
+    }
+
+    const json& objects = top.get("objects");
+    if (!objects.is_array()) fail("objects", "must be an array");
+    int default_material = -1;
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+      const std::string path = index_path("objects", i);
+      ObjectReader o(objects[i], path);
+      int material;
+      if (o.has("material")) {
+        const json& m = o.get("material");
+        if (m.is_string()) {
+          auto it = named.find(m.get<std::string>());
+          if (it == named.end())
+            fail(o.at("material"), "material \"" + m.get<std::string>() + "\" is not defined");
+          material = it->second;
+        } else if (m.is_object()) {
+          material = static_cast<int>(s.materials.size());
+          s.materials.push_back(read_material(m, o.at("material")));
+        } else {
+          fail(o.at("material"), "must be a material name or a material object");
+        }
+      } else {
+        if (default_material < 0) {
+          default_material = static_cast<int>(s.materials.size());
+          s.materials.push_back(Material{});
+        }
+        material = default_material;
+      }
+      const std::string type = o.string("type");
+      if (type == "sphere") {
+        Sphere sp;
+        sp.center = o.vec3("center");
+        sp.radius = o.number("radius");
+        if (!(sp.radius > 0)) fail(o.at("radius"), "must be > 0");
+        sp.material = material;
+        s.spheres.push_back(sp);
+      } else if (type == "plane") {
+        Plane p;
+        p.point = o.vec3("point");
+        p.normal = o.vec3("normal");
+        if (is_zero(p.normal)) fail(o.at("normal"), "must not be zero");
+        p.material = material;
+        s.planes.push_back(p);
+      } else {
+        fail(o.at("type"), "must be \"sphere\" or \"plane\"");
+      }
+      o.finish();
+    }
+    top.finish();
+  } catch (const InputError& e) {
+    throw InputError(name + ": " + e.what());
+  } catch (const json::exception& e) {
+    // Should not happen: every access above checks the type first. Still one line, no trace.
+    fail(name, std::string("invalid scene: ") + e.what());
+  }
+  const auto& c = s.camera;
+  if (static_cast<long long>(c.nx) * c.ny * s.supersample * s.supersample > kMaxSamples)
+    fail(name + ": camera.resolution", "resolution x supersample^2 exceeds " +
+                                  std::to_string(kMaxSamples) + " samples");
+  return s;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read scene file");
+  return parse_scene(text.str(), path);
+}
+
+}  // namespace lancer

@@ -1,0 +1,708 @@
+// lancer_oracle: a plain, double-precision reference renderer for /work/shared/SCENE-MODEL.md.
+//
+// It is written from the contract alone, independently of the engine in src/, so that comparing
+// the two catches bugs in either. It favours the obvious formula over the fast one: recursion,
+// one ray at a time, the textbook sphere quadratic, std::pow for the specular power.
+//
+//   lancer_oracle SCENE.json OUT.pfm [--supersample S] [--resolution NXxNY]
+//   lancer_oracle SCENE.json [OUT.pfm] --flux     (prints row 0 as "x,flux" CSV, writes no file)
+//   lancer_oracle --self-check                    (closed-form checks of the oracle itself)
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <initializer_list>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using nlohmann::json;
+
+// ---------------------------------------------------------------------------------------------
+// Vectors and colours
+
+struct Vec {
+  double x = 0, y = 0, z = 0;
+};
+
+Vec operator+(Vec a, Vec b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+Vec operator-(Vec a, Vec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Vec operator-(Vec a) { return {-a.x, -a.y, -a.z}; }
+Vec operator*(double s, Vec a) { return {s * a.x, s * a.y, s * a.z}; }
+double dot(Vec a, Vec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+Vec cross(Vec a, Vec b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double length(Vec a) { return std::sqrt(dot(a, a)); }
+Vec normalize(Vec a) {
+  double len = length(a);
+  return {a.x / len, a.y / len, a.z / len};
+}
+bool is_zero(Vec a) { return a.x == 0 && a.y == 0 && a.z == 0; }
+
+struct Rgb {
+  double r = 0, g = 0, b = 0;
+};
+
+Rgb operator+(Rgb a, Rgb b) { return {a.r + b.r, a.g + b.g, a.b + b.b}; }
+Rgb operator*(double s, Rgb a) { return {s * a.r, s * a.g, s * a.b}; }
+
+// ---------------------------------------------------------------------------------------------
+// Scene
+
+struct Material {
+  Rgb color{1, 1, 1};
+  double ka = 0, kd = 1, ks = 0, shininess = 100, reflect = 0;
+};
+
+struct Light {
+  Vec position;
+  double intensity = 1, ambient = 0;
+};
+
+enum class Shape { kSphere, kPlane };
+
+struct Object {
+  Shape shape = Shape::kSphere;
+  Vec center;         // sphere centre, or a point of the plane
+  Vec normal;         // plane only: unit normal
+  double radius = 0;  // sphere only
+  Material material;
+};
+
+struct Camera {
+  bool pinhole = true;
+  Vec position, direction;
+  double distance = 0;
+  int nx = 0, ny = 0;
+  double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
+};
+
+struct Scene {
+  Camera camera;
+  Rgb background, environment;
+  int max_depth = 0;
+  double epsilon = 1e-4;
+  int supersample = 1;
+  std::vector<Light> lights;
+  std::vector<Object> objects;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Parsing. Validation is minimal but every rejection names its place, like the engine's.
+
+struct BadInput : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void bad(const std::string& where, const std::string& what) {
+  throw BadInput(where + ": " + what);
+}
+
+std::string at(const std::string& where, const std::string& key) {
+  return where.empty() ? key : where + "." + key;
+}
+std::string at(const std::string& where, size_t index) {
+  return where + "[" + std::to_string(index) + "]";
+}
+
+void only_keys(const json& j, const std::string& where, std::initializer_list<const char*> keys) {
+  if (!j.is_object()) bad(where.empty() ? "scene" : where, "must be an object");
+  for (const auto& item : j.items()) {
+    bool known =
+        std::any_of(keys.begin(), keys.end(), [&](const char* k) { return item.key() == k; });
+    if (!known) bad(at(where, item.key()), "unknown key");
+  }
+}
+
+const json* field(const json& obj, const char* key) {
+  auto it = obj.find(key);
+  return it == obj.end() ? nullptr : &*it;
+}
+
+const json& required(const json& obj, const std::string& where, const char* key) {
+  const json* j = field(obj, key);
+  if (!j) bad(at(where, key), "missing");
+  return *j;
+}
+
+double number(const json& j, const std::string& where) {
+  if (!j.is_number()) bad(where, "must be a number");
+  double v = j.get<double>();
+  if (!std::isfinite(v)) bad(where, "must be finite");
+  return v;
+}
+
+double non_negative(const json& j, const std::string& where) {
+  double v = number(j, where);
+  if (v < 0) bad(where, "must be >= 0");
+  return v;
+}
+
+long long integer(const json& j, const std::string& where) {
+  if (!j.is_number_integer()) bad(where, "must be an integer");
+  return j.get<long long>();
+}
+
+Vec vec3(const json& j, const std::string& where) {
+  if (!j.is_array() || j.size() != 3) bad(where, "must be [x, y, z]");
+  return {number(j[0], at(where, 0)), number(j[1], at(where, 1)), number(j[2], at(where, 2))};
+}
+
+Rgb color(const json& j, const std::string& where) {
+  if (j.is_number()) {
+    double grey = number(j, where);
+    return {grey, grey, grey};
+  }
+  if (!j.is_array() || j.size() != 3) bad(where, "must be a number or [r, g, b]");
+  return {number(j[0], at(where, 0)), number(j[1], at(where, 1)), number(j[2], at(where, 2))};
+}
+
+Material parse_material(const json& j, const std::string& where) {
+  only_keys(j, where, {"color", "ka", "kd", "ks", "shininess", "reflect"});
+  Material m;
+  if (const json* c = field(j, "color")) m.color = color(*c, at(where, "color"));
+  auto coefficient = [&](const char* key, double& out) {
+    if (const json* c = field(j, key)) out = non_negative(*c, at(where, key));
+  };
+  coefficient("ka", m.ka);
+  coefficient("kd", m.kd);
+  coefficient("ks", m.ks);
+  coefficient("shininess", m.shininess);
+  coefficient("reflect", m.reflect);
+  return m;
+}
+
+using MaterialTable = std::map<std::string, Material>;
+
+// An object's material is a name from "materials", an inline object, or absent (all defaults).
+Material object_material(const json& obj, const std::string& where, const MaterialTable& named) {
+  const json* m = field(obj, "material");
+  if (!m) return Material{};
+  if (m->is_string()) {
+    auto it = named.find(m->get<std::string>());
+    if (it == named.end())
+      bad(at(where, "material"), "undefined material '" + m->get<std::string>() + "'");
+    return it->second;
+  }
+  return parse_material(*m, at(where, "material"));
+}
+
+Object parse_object(const json& j, const std::string& where, const MaterialTable& named) {
+  if (!j.is_object()) bad(where, "must be an object");
+  const json& type = required(j, where, "type");
+  Object o;
+  if (type == "sphere") {
+    only_keys(j, where, {"type", "center", "radius", "material"});
+    o.shape = Shape::kSphere;
+    o.center = vec3(required(j, where, "center"), at(where, "center"));
+    o.radius = number(required(j, where, "radius"), at(where, "radius"));
+    if (o.radius <= 0) bad(at(where, "radius"), "must be > 0");
+  } else if (type == "plane") {
+    only_keys(j, where, {"type", "point", "normal", "material"});
+    o.shape = Shape::kPlane;
+    o.center = vec3(required(j, where, "point"), at(where, "point"));
+    Vec n = vec3(required(j, where, "normal"), at(where, "normal"));
+    if (is_zero(n)) bad(at(where, "normal"), "must not be zero");
+    o.normal = normalize(n);
+  } else {
+    bad(at(where, "type"), "must be \"sphere\" or \"plane\"");
+  }
+  o.material = object_material(j, where, named);
+  return o;
+}
+
+Light parse_light(const json& j, const std::string& where) {
+  only_keys(j, where, {"position", "intensity", "ambient"});
+  Light l;
+  l.position = vec3(required(j, where, "position"), at(where, "position"));
+  if (const json* i = field(j, "intensity")) l.intensity = number(*i, at(where, "intensity"));
+  if (const json* a = field(j, "ambient")) l.ambient = number(*a, at(where, "ambient"));
+  return l;
+}
+
+Camera parse_camera(const json& j, const std::string& where) {
+  only_keys(j, where, {"type", "position", "direction", "distance", "resolution", "bounds"});
+  Camera c;
+  const json& type = required(j, where, "type");
+  if (type != "pinhole" && type != "orthographic") {
+    bad(at(where, "type"), "must be \"pinhole\" or \"orthographic\"");
+  }
+  c.pinhole = type == "pinhole";
+  c.position = vec3(required(j, where, "position"), at(where, "position"));
+  c.direction = vec3(required(j, where, "direction"), at(where, "direction"));
+  if (is_zero(c.direction)) bad(at(where, "direction"), "must not be zero");
+  if (c.pinhole) {
+    c.distance = number(required(j, where, "distance"), at(where, "distance"));
+    if (c.distance <= 0) bad(at(where, "distance"), "must be > 0");
+  }
+  const json& res = required(j, where, "resolution");
+  if (!res.is_array() || res.size() != 2) bad(at(where, "resolution"), "must be [nx, ny]");
+  long long nx = integer(res[0], at(at(where, "resolution"), 0));
+  long long ny = integer(res[1], at(at(where, "resolution"), 1));
+  if (nx <= 0 || ny <= 0 || nx > 1 << 16 || ny > 1 << 16) {
+    bad(at(where, "resolution"), "must be positive (and at most 65536)");
+  }
+  c.nx = static_cast<int>(nx);
+  c.ny = static_cast<int>(ny);
+  const json& b = required(j, where, "bounds");
+  if (!b.is_array() || b.size() != 4) bad(at(where, "bounds"), "must be [xmin, xmax, ymin, ymax]");
+  c.xmin = number(b[0], at(at(where, "bounds"), 0));
+  c.xmax = number(b[1], at(at(where, "bounds"), 1));
+  c.ymin = number(b[2], at(at(where, "bounds"), 2));
+  c.ymax = number(b[3], at(at(where, "bounds"), 3));
+  if (!(c.xmin < c.xmax) || !(c.ymin < c.ymax)) bad(at(where, "bounds"), "empty or inverted");
+  return c;
+}
+
+Scene parse_scene(const json& j) {
+  only_keys(j, "",
+            {"camera", "background", "environment", "max_depth", "epsilon", "supersample",
+             "materials", "lights", "objects"});
+  Scene s;
+  s.camera = parse_camera(required(j, "", "camera"), "camera");
+  if (const json* b = field(j, "background")) s.background = color(*b, "background");
+  s.environment = s.background;
+  if (const json* e = field(j, "environment")) s.environment = color(*e, "environment");
+  if (const json* d = field(j, "max_depth")) {
+    long long depth = integer(*d, "max_depth");
+    if (depth < 0 || depth > 1000) bad("max_depth", "must be in 0..1000");
+    s.max_depth = static_cast<int>(depth);
+  }
+  if (const json* e = field(j, "epsilon")) s.epsilon = number(*e, "epsilon");
+  if (const json* ss = field(j, "supersample")) {
+    long long n = integer(*ss, "supersample");
+    if (n < 1 || n > 64) bad("supersample", "must be in 1..64");
+    s.supersample = static_cast<int>(n);
+  }
+  MaterialTable named;
+  if (const json* ms = field(j, "materials")) {
+    if (!ms->is_object()) bad("materials", "must be an object");
+    for (const auto& item : ms->items()) {
+      named[item.key()] = parse_material(item.value(), at("materials", item.key()));
+    }
+  }
+  // Lights and objects may be absent: an empty scene is still a scene.
+  if (const json* ls = field(j, "lights")) {
+    if (!ls->is_array()) bad("lights", "must be an array");
+    for (size_t i = 0; i < ls->size(); ++i)
+      s.lights.push_back(parse_light((*ls)[i], at("lights", i)));
+  }
+  if (const json* os = field(j, "objects")) {
+    if (!os->is_array()) bad("objects", "must be an array");
+    for (size_t i = 0; i < os->size(); ++i) {
+      s.objects.push_back(parse_object((*os)[i], at("objects", i), named));
+    }
+  }
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tracing, step by step as in the contract's "Tracing" section.
+
+// Smallest t > epsilon where the ray meets the object, if any.
+std::optional<double> intersect(const Object& o, Vec origin, Vec dir, double epsilon) {
+  if (o.shape == Shape::kSphere) {
+    // Textbook quadratic with a = 1 (dir is unit length): t^2 + b t + c = 0.
+    Vec f = origin - o.center;
+    double b = 2 * dot(f, dir);
+    double c = dot(f, f) - o.radius * o.radius;
+    double disc = b * b - 4 * c;
+    if (disc < 0) return std::nullopt;
+    double root = std::sqrt(disc);
+    double t0 = (-b - root) / 2;
+    double t1 = (-b + root) / 2;
+    if (t0 > epsilon) return t0;
+    if (t1 > epsilon) return t1;
+    return std::nullopt;
+  }
+  double denom = dot(dir, o.normal);
+  if (denom == 0) return std::nullopt;
+  double t = dot(o.center - origin, o.normal) / denom;
+  if (t > epsilon) return t;
+  return std::nullopt;
+}
+
+struct Hit {
+  double t;
+  const Object* object;
+};
+
+// Closest hit; on an exact tie the object listed first wins.
+std::optional<Hit> closest_hit(const Scene& s, Vec origin, Vec dir) {
+  std::optional<Hit> best;
+  for (const Object& o : s.objects) {
+    std::optional<double> t = intersect(o, origin, dir, s.epsilon);
+    if (t && (!best || *t < best->t)) best = Hit{*t, &o};
+  }
+  return best;
+}
+
+bool blocked(const Scene& s, Vec p, Vec to_light, double light_distance) {
+  for (const Object& o : s.objects) {
+    std::optional<double> t = intersect(o, p, to_light, s.epsilon);
+    if (t && *t < light_distance) return true;
+  }
+  return false;
+}
+
+Rgb trace(const Scene& s, Vec origin, Vec dir, int depth) {
+  std::optional<Hit> hit = closest_hit(s, origin, dir);
+  if (!hit) return depth == 0 ? s.background : s.environment;
+
+  const Object& o = *hit->object;
+  const Material& m = o.material;
+  Vec p = origin + hit->t * dir;
+  Vec n = o.normal;
+  if (o.shape == Shape::kSphere) {  // (P - C) / r, divided as written rather than normalised
+    Vec d = p - o.center;
+    n = {d.x / o.radius, d.y / o.radius, d.z / o.radius};
+  }
+  if (dot(n, dir) > 0) n = -n;
+  Vec view = -dir;
+
+  double ambient = 0, diffuse = 0, specular = 0;
+  for (const Light& light : s.lights) {
+    ambient += m.ka * light.ambient;
+    Vec to_light = light.position - p;
+    double light_distance = length(to_light);
+    Vec l = normalize(to_light);
+    if (blocked(s, p, l, light_distance)) continue;
+    diffuse += m.kd * light.intensity * std::max(0.0, dot(n, l));
+    Vec half = l + view;
+    if (!is_zero(half)) {
+      Vec h = normalize(half);
+      specular += m.ks * light.intensity * std::pow(std::max(0.0, dot(n, h)), m.shininess);
+    }
+  }
+  double shade = ambient + diffuse + specular;
+  Rgb local{m.color.r * shade, m.color.g * shade, m.color.b * shade};
+
+  if (depth < s.max_depth && m.reflect > 0) {
+    Vec r = dir - 2 * dot(dir, n) * n;
+    local = local + m.reflect * trace(s, p, normalize(r), depth + 1);
+  }
+  return local;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Camera and image
+
+struct Basis {
+  Vec u, v, w;
+};
+
+Basis camera_basis(Vec direction) {
+  Basis b;
+  b.w = normalize(-direction);
+  Vec u{-b.w.z, 0, b.w.x};
+  b.u = is_zero(u) ? Vec{1, 0, 0} : normalize(u);  // looking straight up or down
+  b.v = cross(b.w, b.u);
+  if (b.v.y < 0) {
+    b.u = -b.u;
+    b.v = -b.v;
+  }
+  return b;
+}
+
+// Radiance of pixel (i, j): mean of its s*s sub-samples.
+Rgb render_pixel(const Scene& s, const Basis& basis, int i, int j) {
+  const Camera& c = s.camera;
+  const int n = s.supersample;
+  Rgb sum;
+  for (int b = 0; b < n; ++b) {
+    for (int a = 0; a < n; ++a) {
+      double x = c.xmin + (i + (a + 0.5) / n) * (c.xmax - c.xmin) / c.nx;
+      double y = c.ymax - (j + (b + 0.5) / n) * (c.ymax - c.ymin) / c.ny;
+      Vec origin = c.position;
+      Vec dir = -basis.w;
+      if (c.pinhole) {
+        dir = normalize(x * basis.u + y * basis.v - c.distance * basis.w);
+      } else {
+        origin = c.position + x * basis.u + y * basis.v;
+      }
+      sum = sum + trace(s, origin, dir, 0);
+    }
+  }
+  double count = n * n;
+  return {sum.r / count, sum.g / count, sum.b / count};
+}
+
+// Row-major image, row 0 at the top. Renders rows [0, rows).
+std::vector<Rgb> render(const Scene& s, int rows) {
+  Basis basis = camera_basis(s.camera.direction);
+  std::vector<Rgb> image;
+  image.reserve(static_cast<size_t>(s.camera.nx) * rows);
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < s.camera.nx; ++i) image.push_back(render_pixel(s, basis, i, j));
+  }
+  return image;
+}
+
+void put_float_le(std::ostream& out, double value) {
+  float f = static_cast<float>(value);
+  uint32_t bits;
+  std::memcpy(&bits, &f, sizeof bits);
+  char bytes[4] = {static_cast<char>(bits & 0xff), static_cast<char>((bits >> 8) & 0xff),
+                   static_cast<char>((bits >> 16) & 0xff), static_cast<char>((bits >> 24) & 0xff)};
+  out.write(bytes, 4);
+}
+
+// PFM stores its bottom row first; "-1.0" declares little-endian floats.
+bool write_pfm(const std::string& path, const std::vector<Rgb>& image, int nx, int ny) {
+  std::ofstream out(path, std::ios::binary);
+  out << "PF\n" << nx << " " << ny << "\n-1.0\n";
+  for (int j = ny - 1; j >= 0; --j) {
+    for (int i = 0; i < nx; ++i) {
+      const Rgb& p = image[static_cast<size_t>(j) * nx + i];
+      put_float_le(out, p.r);
+      put_float_le(out, p.g);
+      put_float_le(out, p.b);
+    }
+  }
+  return static_cast<bool>(out);
+}
+
+void print_flux(const Scene& s) {
+  std::vector<Rgb> row = render(s, 1);
+  const Camera& c = s.camera;
+  std::printf("x,flux\n");
+  for (int i = 0; i < c.nx; ++i) {
+    double x = c.xmin + (i + 0.5) * (c.xmax - c.xmin) / c.nx;
+    const Rgb& p = row[i];
+    std::printf("%.17g,%.17g\n", x, (p.r + p.g + p.b) / 3);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Self-check: tiny scenes whose pixels have closed-form values.
+
+Rgb pixel(const std::string& scene_json, int i, int j) {
+  Scene s = parse_scene(json::parse(scene_json));
+  return render(s, s.camera.ny)[static_cast<size_t>(j) * s.camera.nx + i];
+}
+
+bool expect(const char* name, Rgb got, Rgb want) {
+  auto close = [](double a, double b) {
+    return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b));
+  };
+  bool ok = close(got.r, want.r) && close(got.g, want.g) && close(got.b, want.b);
+  std::printf("%s %s: got (%.17g, %.17g, %.17g) want (%.17g, %.17g, %.17g)\n", ok ? "ok  " : "FAIL",
+              name, got.r, got.g, got.b, want.r, want.g, want.b);
+  return ok;
+}
+
+Rgb grey(double v) { return {v, v, v}; }
+
+int self_check() {
+  // A unit sphere at the origin seen head-on from z = 5 by a 3x3 pinhole camera: the centre
+  // ray is exactly -z and hits (0, 0, 1) where n = (0, 0, 1).
+  const std::string head_on_camera =
+      R"("camera": {"type": "pinhole", "position": [0, 0, 5], "direction": [0, 0, -1],
+                    "distance": 1, "resolution": [3, 3], "bounds": [-0.3, 0.3, -0.3, 0.3]})";
+  const std::string sphere =
+      R"("objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1,
+                      "material": {"color": [1, 0.5, 0.25], "kd": 0.6, "ks": 0.3, "shininess": 7}}])";
+  bool ok = true;
+
+  // Light on the axis: cos = 1, h = n, so kd*I + ks*I.
+  ok &= expect("head-on light",
+               pixel("{" + head_on_camera + "," + sphere +
+                         R"(, "lights": [{"position": [0, 0, 10], "intensity": 0.7}]})",
+                     1, 1),
+               {0.9 * 0.7, 0.5 * 0.9 * 0.7, 0.25 * 0.9 * 0.7});
+
+  // Light at (0, 3, 5): L - P = (0, 3, 4), cos = 0.8; l + view = (0, 0.6, 1.8),
+  // n.h = 1.8 / sqrt(3.6).
+  {
+    double shade = 0.6 * 0.7 * 0.8 + 0.3 * 0.7 * std::pow(1.8 / std::sqrt(3.6), 7);
+    ok &= expect("3-4-5 light",
+                 pixel("{" + head_on_camera + "," + sphere +
+                           R"(, "lights": [{"position": [0, 3, 5], "intensity": 0.7}]})",
+                       1, 1),
+                 {shade, 0.5 * shade, 0.25 * shade});
+  }
+
+  // A scene with no objects shows its background.
+  ok &= expect("primary miss",
+               pixel("{" + head_on_camera + R"(, "background": [0.1, 0.2, 0.3]})", 0, 0),
+               {0.1, 0.2, 0.3});
+
+  // Shadow: ground plane y = 0 below a sphere that sits between it and the light; only the
+  // (never shadowed) ambient term remains: ka * Ia = 0.5 * 0.4.
+  ok &= expect("shadow",
+               pixel(R"({"camera": {"type": "orthographic", "position": [0, 5, 0],
+                                    "direction": [0, -1, 0], "resolution": [1, 1],
+                                    "bounds": [-0.1, 0.1, -0.1, 0.1]},
+                        "lights": [{"position": [0, 10, 0], "ambient": 0.4}],
+                        "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 2, 0],
+                                     "material": {"ka": 0.5}},
+                                    {"type": "sphere", "center": [0, 7, 0], "radius": 0.5}]})",
+                     0, 0),
+               grey(0.2));
+
+  // Mirror: kd = 0, a plane facing the orthographic camera; the reflected ray misses and
+  // returns environment (0.2), not background (0.9): 0.5 * 0.2.
+  ok &= expect("mirror to environment",
+               pixel(R"({"camera": {"type": "orthographic", "position": [0, 0, 5],
+                                    "direction": [0, 0, -1], "resolution": [1, 1],
+                                    "bounds": [-1, 1, -1, 1]},
+                        "background": 0.9, "environment": 0.2, "max_depth": 1,
+                        "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1],
+                                     "material": {"kd": 0, "reflect": 0.5}}]})",
+                     0, 0),
+               grey(0.1));
+
+  // Camera basis, looking straight down: u = (1, 0, 0), v = w x u = (0, 0, -1). A sphere at
+  // z = -2 is "up" on screen, so it shows in the top row of a 1x2 image, not the bottom.
+  {
+    const std::string down =
+        R"({"camera": {"type": "orthographic", "position": [0, 5, 0], "direction": [0, -1, 0],
+                       "resolution": [1, 2], "bounds": [-1, 1, -4, 4]},
+            "objects": [{"type": "sphere", "center": [0, 0, -2], "radius": 1,
+                         "material": {"ka": 1, "kd": 0}}],
+            "lights": [{"position": [0, 9, 0], "ambient": 1}]})";
+    ok &= expect("straight down: top row", pixel(down, 0, 0), grey(1));
+    ok &= expect("straight down: bottom row", pixel(down, 0, 1), grey(0));
+  }
+
+  // Looking along +z gives v = (0, -1, 0), so u and v flip: screen right is world -x.
+  {
+    const std::string back =
+        R"({"camera": {"type": "orthographic", "position": [0, 0, -5], "direction": [0, 0, 3],
+                       "resolution": [2, 1], "bounds": [-4, 4, -1, 1]},
+            "objects": [{"type": "sphere", "center": [-2, 0, 0], "radius": 1,
+                         "material": {"ka": 1, "kd": 0}}],
+            "lights": [{"position": [0, 9, 0], "ambient": 1}]})";
+    ok &= expect("looking +z: right column", pixel(back, 1, 0), grey(1));
+    ok &= expect("looking +z: left column", pixel(back, 0, 0), grey(0));
+  }
+
+  // Supersample 2 on one orthographic pixel: sub-samples at x, y = +-0.5, sub-row b = 0 at the
+  // top. A small sphere at (0.5, 0.5) catches only the top-right one: 1/4 of ka * Ia.
+  ok &= expect("supersample: one of four",
+               pixel(R"({"camera": {"type": "orthographic", "position": [0, 0, 5],
+                                    "direction": [0, 0, -1], "resolution": [1, 1],
+                                    "bounds": [-1, 1, -1, 1]},
+                        "supersample": 2,
+                        "lights": [{"position": [0, 0, 9], "ambient": 1}],
+                        "objects": [{"type": "sphere", "center": [0.5, 0.5, 0], "radius": 0.3,
+                                     "material": {"ka": 0.8, "kd": 0}}]})",
+                     0, 0),
+               grey(0.2));
+
+  std::printf(ok ? "self-check passed\n" : "self-check FAILED\n");
+  return ok ? 0 : 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Command line
+
+struct Options {
+  std::string scene_path, out_path;
+  std::optional<int> supersample;
+  std::optional<std::pair<int, int>> resolution;
+  bool flux = false;
+};
+
+[[noreturn]] void usage(const std::string& problem) {
+  std::fprintf(stderr,
+               "lancer_oracle: %s (usage: lancer_oracle SCENE.json OUT.pfm [--supersample S] "
+               "[--resolution NXxNY] [--flux])\n",
+               problem.c_str());
+  std::exit(2);
+}
+
+int positive_int(const std::string& text, const std::string& what) {
+  size_t used = 0;
+  int v = 0;
+  try {
+    v = std::stoi(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || v <= 0) usage("bad " + what + " '" + text + "'");
+  return v;
+}
+
+Options parse_args(int argc, char** argv) {
+  Options o;
+  std::vector<std::string> positional;
+  for (int k = 1; k < argc; ++k) {
+    std::string arg = argv[k];
+    if (arg == "--flux") {
+      o.flux = true;
+    } else if (arg == "--supersample" || arg == "--resolution") {
+      if (k + 1 >= argc) usage(arg + " needs a value");
+      std::string value = argv[++k];
+      if (arg == "--supersample") {
+        o.supersample = positive_int(value, "supersample");
+      } else {
+        size_t x = value.find('x');
+        if (x == std::string::npos) usage("bad resolution '" + value + "'");
+        o.resolution = std::make_pair(positive_int(value.substr(0, x), "resolution"),
+                                      positive_int(value.substr(x + 1), "resolution"));
+      }
+    } else if (arg.size() > 1 && arg[0] == '-') {
+      usage("unknown option " + arg);
+    } else {
+      positional.push_back(arg);
+    }
+  }
+  // With --flux the output goes to stdout, so OUT.pfm may be left out (and is not written).
+  size_t wanted = o.flux ? positional.size() : 2;
+  if (positional.size() != wanted || wanted < 1 || wanted > 2) usage("wrong arguments");
+  o.scene_path = positional[0];
+  if (positional.size() == 2) o.out_path = positional[1];
+  return o;
+}
+
+int run(int argc, char** argv) {
+  if (argc == 2 && std::string(argv[1]) == "--self-check") return self_check();
+  Options opt = parse_args(argc, argv);
+
+  Scene scene;
+  try {
+    std::ifstream in(opt.scene_path);
+    if (!in) {
+      std::fprintf(stderr, "%s: cannot open\n", opt.scene_path.c_str());
+      return 2;
+    }
+    scene = parse_scene(json::parse(in));
+  } catch (const BadInput& e) {
+    std::fprintf(stderr, "%s: %s\n", opt.scene_path.c_str(), e.what());
+    return 2;
+  } catch (const json::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", opt.scene_path.c_str(), e.what());
+    return 2;
+  }
+  if (opt.supersample) scene.supersample = *opt.supersample;
+  if (opt.resolution) {
+    scene.camera.nx = opt.resolution->first;
+    scene.camera.ny = opt.resolution->second;
+  }
+
+  if (opt.flux) {
+    print_flux(scene);
+    return 0;
+  }
+  std::vector<Rgb> image = render(scene, scene.camera.ny);
+  if (!write_pfm(opt.out_path, image, scene.camera.nx, scene.camera.ny)) {
+    std::fprintf(stderr, "%s: cannot write\n", opt.out_path.c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return run(argc, argv); }
