@@ -34,17 +34,19 @@ std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& opt) {
       RenderOptions ro;
       ro.width = rows[k].width;
       ro.threads = rows[k].threads;
-      double seconds;
-      std::uint64_t rays;
-      if (rows[k].mode == "primary") {
-        const PrimaryResult p = render_primary(scene, ro);
-        seconds = p.seconds, rays = p.rays.total();
-      } else {
-        const RenderResult f = render(scene, ro);
-        seconds = f.seconds, rays = f.rays.total();
-      }
-      rows[k].rays = rays;
-      if (rep >= 0) times[k].push_back(seconds);
+      double seconds = 0;
+      int renders = 0;
+      do {
+        if (rows[k].mode == "primary") {
+          const PrimaryResult p = render_primary(scene, ro);
+          seconds += p.seconds, rows[k].rays = p.rays.total();
+        } else {
+          const RenderResult f = render(scene, ro);
+          seconds += f.seconds, rows[k].rays = f.rays.total();
+        }
+        ++renders;
+      } while (rep >= 0 && seconds < opt.min_seconds);
+      if (rep >= 0) times[k].push_back(seconds / renders);
     }
   }
   for (std::size_t k = 0; k < rows.size(); ++k) rows[k].seconds = median(times[k]);

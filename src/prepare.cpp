@@ -1,5 +1,6 @@
 #include <cmath>
 
+#include "lancer/formulas.hpp"
 #include "lancer/prepared.hpp"
 
 namespace lancer {
@@ -43,6 +44,12 @@ PreparedScene<T> prepare(const Scene& scene) {
   pc.fnx = T(c.nx);
   pc.fny = T(c.ny);
   for (int a = 0; a < pc.samples; ++a) pc.sub_offset.push_back((T(a) + T(0.5)) / T(pc.samples));
+  for (int a = 0; a < pc.samples; ++a)
+    for (int i = 0; i < pc.nx; ++i) pc.screen_x.push_back(lancer::screen_x(pc, T(i), pc.sub_offset[a]));
+  // Packets load whole batches from the last column on: pad so they stay inside the vector.
+  pc.screen_x.resize(pc.screen_x.size() + kMaxLanes, T(0));
+  for (int b = 0; b < pc.samples; ++b)
+    for (int j = 0; j < pc.ny; ++j) pc.screen_y.push_back(lancer::screen_y(pc, T(j), pc.sub_offset[b]));
 
   const Rgb& bg = scene.background;
   const Rgb& env = scene.environment;
@@ -76,6 +83,13 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.sphere_cz.push_back(T(s.center.z));
     p.sphere_r.push_back(T(s.radius));
     p.sphere_r2.push_back(T(s.radius) * T(s.radius));
+    if (!pc.orthographic) {
+      const Vec3<T> f = pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
+      p.eye.fx.push_back(f.x);
+      p.eye.fy.push_back(f.y);
+      p.eye.fz.push_back(f.z);
+      p.eye.c.push_back(sphere_c(f, p.sphere_r2.back()));
+    }
     add_material(scene.materials[s.material]);
   }
   p.num_planes = static_cast<int>(scene.planes.size());

@@ -97,8 +97,8 @@ class Tracer {
       const T r2 = s_.sphere_r2[i];
       const Vec3<T> f = p - Vec3<T>{s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i]};
       const SphereDisc<T> sd = sphere_disc(f, l, r2);
-      if (sd.disc < T(0)) continue;
-      const T t = sphere_first_root(sphere_roots(f, sd, r2), eps);
+      if (!(sd.disc >= T(0))) continue;
+      const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       if (t > eps && t < dist) return true;
     }
     for (int k = 0; k < s_.num_planes; ++k) {
@@ -126,8 +126,8 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
     const T r2 = s.sphere_r2[i];
     const Vec3<T> f = origin - Vec3<T>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
     const SphereDisc<T> sd = sphere_disc(f, dir, r2);
-    if (sd.disc < T(0)) continue;
-    const T t = sphere_first_root(sphere_roots(f, sd, r2), eps);
+    if (!(sd.disc >= T(0))) continue;
+    const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
     if (t > eps && t < best.t) best = {i, t};
   }
   for (int k = 0; k < s.num_planes; ++k) {

@@ -18,7 +18,7 @@ struct BenchRow {
   std::string precision = "exact";
   int threads = 1;
   std::uint64_t rays = 0;  // per run
-  double seconds = 0;      // median over the repeats
+  double seconds = 0;      // per render, median over the repeats
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
 };
 
@@ -27,6 +27,9 @@ struct BenchOptions {
   std::vector<int> threads;  // e.g. {1}
   std::vector<std::string> modes{"primary", "full"};
   int repeat = 5;
+  // Each timed run renders the scene as often as it takes to last this long, so that a small
+  // scene is timed over milliseconds, not microseconds; its time per render is what counts.
+  double min_seconds = 0.05;
 };
 
 std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& options);

@@ -58,19 +58,24 @@ inline SphereDisc<T> sphere_disc(const Vec3<T>& f, const Vec3<T>& d, const T& r2
   return {b, r2 - dot(perp, perp)};
 }
 
+// c = |f|^2 - r^2: the product of the two roots.
+template <class T>
+inline T sphere_c(const Vec3<T>& f, const T& r2) {
+  return dot(f, f) - r2;
+}
+
 // The two roots, near <= far, given disc >= 0. q = -b - sign(b) sqrt(disc) avoids cancellation;
-// the roots are c/q and q with c = |f|^2 - r^2.
+// the roots are c/q and q.
 template <class T>
 struct SphereRoots {
   T near_t, far_t;
 };
 
 template <class T>
-inline SphereRoots<T> sphere_roots(const Vec3<T>& f, const SphereDisc<T>& sd, const T& r2) {
+inline SphereRoots<T> sphere_roots(const SphereDisc<T>& sd, const T& c) {
   using std::sqrt;
   const T s = sqrt(sd.disc);
   const T q = select(sd.b < T(0), s - sd.b, -(sd.b + s));
-  const T c = dot(f, f) - r2;
   const T t0 = c / q;
   return {select(t0 < q, t0, q), select(t0 < q, q, t0)};
 }

@@ -29,6 +29,16 @@ struct PreparedCamera {
   int nx, ny, samples;  // samples per axis (supersample)
   T xmin, ymax, width, height, fnx, fny;
   std::vector<T> sub_offset;  // (a + 0.5) / s for a = 0 .. s-1
+  // screen_x() of column i at sub-sample a, at [a * nx + i]; screen_y() of row j at sub-sample b,
+  // at [b * ny + j]. The same formula as computing them per ray, done once.
+  std::vector<T> screen_x, screen_y;
+};
+
+// For camera rays that all leave one point (pinhole): per sphere, f = eye - centre and
+// c = |f|^2 - r^2, the same values every camera ray would compute.
+template <class T>
+struct EyeSphere {
+  std::vector<T> fx, fy, fz, c;
 };
 
 template <class T>
@@ -51,11 +61,16 @@ struct PreparedScene {
   // 1 where the shininess is a whole number that power_int() raises to exactly, else 0.
   std::vector<T> mat_shininess_int;
 
+  EyeSphere<T> eye;  // filled for pinhole cameras
+
   int num_lights = 0;
   std::vector<T> light_x, light_y, light_z, light_intensity, light_ambient;
 
   int num_objects() const { return num_spheres + num_planes; }
 };
+
+// The widest packet, in lanes: tables that packets read whole batches from are padded by this.
+inline constexpr int kMaxLanes = 16;
 
 // Shininess at or below this, and whole, is raised by repeated squaring (power_int).
 inline constexpr double kMaxIntegerShininess = 1 << 20;

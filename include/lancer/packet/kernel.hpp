@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 #include <vector>
 #include <xsimd/xsimd.hpp>
 
@@ -27,6 +28,7 @@ struct Kernel {
   using V = Vec3<B>;
   static constexpr int W = static_cast<int>(B::size);
   using Scene = PreparedScene<T>;
+  static_assert(W <= kMaxLanes, "camera tables are padded for kMaxLanes lanes");
 
   static B iota() noexcept {
     alignas(64) T v[W];
@@ -34,13 +36,21 @@ struct Kernel {
     return B::load_aligned(v);
   }
 
-  // Active lanes of a mask. (xsimd 8.1's hadd for avx512f needs AVX-512DQ, so no reduction.)
+  // The mask as one bit per lane. xsimd 8.1 has no mask(), so per ISA: AVX-512 masks already
+  // are bits; SSE and AVX masks are vectors whose sign bits movemask collects.
+  static unsigned bits(const M& m) noexcept {
+    const auto r = static_cast<typename M::register_type>(m);
+    if constexpr (std::is_same_v<Arch, xsimd::avx512f>)
+      return static_cast<unsigned>(r);
+    else if constexpr (W == 8)
+      return static_cast<unsigned>(_mm256_movemask_ps(r));
+    else
+      return static_cast<unsigned>(_mm_movemask_ps(r));
+  }
+
+  // Active lanes of a mask.
   static std::uint64_t count(const M& m) noexcept {
-    alignas(64) T v[W];
-    xsimd::select(m, B(1), B(0)).store_aligned(v);
-    std::uint64_t n = 0;
-    for (int k = 0; k < W; ++k) n += v[k] != T(0);
-    return n;
+    return static_cast<std::uint64_t>(__builtin_popcount(bits(m)));
   }
 
   // Object ids are carried as floats (exact below 2^24) so that they blend with the same masks
@@ -51,17 +61,21 @@ struct Kernel {
 
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
   // hit is found; returns the lanes whose t is now finite (hit by something).
+  // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
+  template <bool kFromEye = false>
   static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t,
                        B& best_id) noexcept {
     const B eps(s.epsilon);
     if (s.features.spheres) {
       for (int i = 0; i < s.num_spheres; ++i) {
-        const V f = o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
         const B r2(s.sphere_r2[i]);
+        const V f = kFromEye ? V{B(s.eye.fx[i]), B(s.eye.fy[i]), B(s.eye.fz[i])}
+                             : o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
         const SphereDisc<B> sd = sphere_disc(f, d, r2);
         M m = valid & (sd.disc >= B(0));
         if (!xsimd::any(m)) continue;
-        const B t = sphere_first_root(sphere_roots(f, sd, r2), eps);
+        const B c = kFromEye ? B(s.eye.c[i]) : sphere_c(f, r2);
+        const B t = sphere_first_root(sphere_roots(sd, c), eps);
         m = m & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
         best_id = xsimd::select(m, B(T(i)), best_id);
@@ -91,7 +105,7 @@ struct Kernel {
       const SphereDisc<B> sd = sphere_disc(f, l, r2);
       M m = pending & (sd.disc >= B(0));
       if (!xsimd::any(m)) continue;
-      const B t = sphere_first_root(sphere_roots(f, sd, r2), eps);
+      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       m = m & (t > eps) & (t < dist);
       pending = pending & ~m;
       if (!xsimd::any(pending)) return valid;
@@ -137,7 +151,9 @@ struct Kernel {
                  RayCounts& counts) noexcept {
     B best_t(std::numeric_limits<T>::infinity());
     B best_id(T(-1));
-    const M hit = closest_hit(s, active, o, d, best_t, best_id);
+    const M hit = depth == 0 && !s.camera.orthographic
+                      ? closest_hit<true>(s, active, o, d, best_t, best_id)
+                      : closest_hit(s, active, o, d, best_t, best_id);
     const T* miss_color = depth == 0 ? s.background : s.environment;
     out.r = B(miss_color[0]), out.g = B(miss_color[1]), out.b = B(miss_color[2]);
     out.reflected = M(false);
@@ -237,11 +253,12 @@ struct Kernel {
     }
   }
 
-  static void camera_packet(const Scene& s, const B& fi, const B& fj, int a, int b, V& o,
-                            V& d) noexcept {
+  // Camera rays of columns i0 .. i0+W-1 of row j at sub-sample (a, b); screen coordinates come
+  // from the camera's tables, computed once by the same formula.
+  static void camera_packet(const Scene& s, int i0, int j, int a, int b, V& o, V& d) noexcept {
     const PreparedCamera<T>& cam = s.camera;
-    const B x = screen_x(cam, fi, B(cam.sub_offset[a]));
-    const B y = screen_y(cam, fj, B(cam.sub_offset[b]));
+    const B x = B::load_unaligned(&cam.screen_x[std::size_t(a) * cam.nx + i0]);
+    const B y(cam.screen_y[std::size_t(b) * cam.ny + j]);
     camera_ray(cam, x, y, o, d);
   }
 
@@ -254,15 +271,14 @@ struct Kernel {
     alignas(64) T out[3][W];
     for (int j = row_begin; j < row_end; ++j) {
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
-        const M valid = lane < B(T(cam.nx - i0));
-        const B fi = B(T(i0)) + lane;
-        const B fj = B(T(j));
+        const int lanes = std::min(W, cam.nx - i0);
+        const M valid = lane < B(T(lanes));
         B sr(0), sg(0), sb(0);
         for (int b = 0; b < cam.samples; ++b) {
           for (int a = 0; a < cam.samples; ++a) {
             V o, d;
-            camera_packet(s, fi, fj, a, b, o, d);
-            counts.camera += count(valid);
+            camera_packet(s, i0, j, a, b, o, d);
+            counts.camera += lanes;
             B r, g, bl;
             radiance(s, valid, o, d, levels, r, g, bl, counts);
             sr = sr + r, sg = sg + g, sb = sb + bl;
@@ -271,7 +287,6 @@ struct Kernel {
         (sr / samples).store_aligned(out[0]);
         (sg / samples).store_aligned(out[1]);
         (sb / samples).store_aligned(out[2]);
-        const int lanes = std::min(W, cam.nx - i0);
         for (int k = 0; k < lanes; ++k) {
           float* px = image.pixel(i0 + k, j);
           px[0] = out[0][k], px[1] = out[1][k], px[2] = out[2][k];
@@ -287,22 +302,29 @@ struct Kernel {
     alignas(64) T out[W];
     for (int j = row_begin; j < row_end; ++j) {
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
-        const M valid = lane < B(T(cam.nx - i0));
-        const B fi = B(T(i0)) + lane;
+        const int lanes = std::min(W, cam.nx - i0);
+        const M valid = lane < B(T(lanes));
         B sum(0);
         for (int b = 0; b < cam.samples; ++b) {
           for (int a = 0; a < cam.samples; ++a) {
             V o, d;
-            camera_packet(s, fi, B(T(j)), a, b, o, d);
-            counts.camera += count(valid);
+            camera_packet(s, i0, j, a, b, o, d);
+            counts.camera += lanes;
             B t(std::numeric_limits<T>::infinity()), id(T(-1));
-            closest_hit(s, valid, o, d, t, id);
+            if (cam.orthographic)
+              closest_hit(s, valid, o, d, t, id);
+            else
+              closest_hit<true>(s, valid, o, d, t, id);
             sum = sum + t;
           }
         }
-        sum.store_aligned(out);
-        const int lanes = std::min(W, cam.nx - i0);
-        for (int k = 0; k < lanes; ++k) t_out[std::size_t(j) * cam.nx + i0 + k] = out[k];
+        float* row = t_out + std::size_t(j) * cam.nx + i0;
+        if (lanes == W) {
+          sum.store_unaligned(row);
+        } else {
+          sum.store_aligned(out);
+          for (int k = 0; k < lanes; ++k) row[k] = out[k];
+        }
       }
     }
   }
@@ -318,9 +340,8 @@ struct Kernel {
     const M hit = closest_hit(s, v, o, d, bt, bid);
     bt.store_unaligned(t);
     bid.store_unaligned(id);
-    alignas(64) T hv[W];
-    xsimd::select(hit, B(1), B(0)).store_aligned(hv);
-    for (int k = 0; k < W; ++k) hit_out[k] = hv[k] != T(0);
+    const unsigned hb = bits(hit);
+    for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
 };
 
