@@ -20,6 +20,21 @@ foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES
   endif()
 endforeach()
 
+# Embree 3 (Debian: libembree-dev), the peer of `lancer bench --peer embree`. Optional: without
+# it the peer is compiled out and --peer embree says so (exit 2).
+option(LANCER_WITH_EMBREE "Build the Embree peer (lancer bench --peer embree)" ON)
+set(LANCER_HAVE_EMBREE OFF)
+if(LANCER_WITH_EMBREE)
+  find_package(embree 3 QUIET)
+  if(embree_FOUND AND TARGET embree)
+    set(LANCER_HAVE_EMBREE ON)
+    message(STATUS "Embree ${EMBREE_VERSION}: the embree peer is built")
+  else()
+    message(STATUS "Embree 3 not found: the embree peer is compiled out "
+                   "(apt-get install libembree-dev, or -DLANCER_WITH_EMBREE=OFF to silence)")
+  endif()
+endif()
+
 if(LANCER_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)

@@ -17,12 +17,20 @@ using Color = std::array<T, 3>;
 template <class T>
 class Tracer {
  public:
-  Tracer(const PreparedScene<T>& scene, RayCounts& counts) : s_(scene), counts_(counts) {}
+  Tracer(const PreparedScene<T>& scene, RayCounts& counts, PathLog* log = nullptr)
+      : s_(scene), counts_(counts), log_(log) {}
+
+  // The camera ray traced next, for the log.
+  void set_pixel(int pixel, int sample) {
+    pixel_ = pixel;
+    sample_ = sample;
+  }
 
   // trace(origin, dir, depth) of the contract; dir is unit length.
   Color<T> trace(const Vec3<T>& origin, const Vec3<T>& dir, int depth) {
     // 1. The closest hit with t > epsilon.
     const Hit<T> hit = closest_hit(s_, origin, dir);
+    if (log_) log_ray(origin, dir, depth, hit);
     // 2. No hit: background for camera rays, environment for reflected ones.
     if (hit.id < 0) {
       const T* c = depth == 0 ? s_.background : s_.environment;
@@ -45,7 +53,9 @@ class Tracer {
       if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
       ++counts_.shadow;
       const Vec3<T> l = to_light / dist;
-      if (blocked(p, l, dist)) continue;
+      const bool shadowed = blocked(offset_origin<T, T>(p, n, dot(l, n), origin, hit.t), l, dist);
+      if (log_) log_light(p, k, depth, shadowed);
+      if (shadowed) continue;
       const T intensity = s_.light_intensity[k];
       diffuse = diffuse + (s_.mat_kd[m] * intensity) * positive_part(dot(n, l));
       if (s_.features.specular) {
@@ -66,7 +76,8 @@ class Tracer {
     if (depth < s_.max_depth && reflect_k > T(0)) {
       ++counts_.reflected;
       const Vec3<T> r = normalize(reflect(dir, n));
-      const Color<T> child = trace(p, r, depth + 1);
+      const Color<T> child =
+          trace(offset_origin<T, T>(p, n, dot(r, n), origin, hit.t), r, depth + 1);
       for (int c = 0; c < 3; ++c) local[c] = local[c] + reflect_k * child[c];
     }
     // 7.
@@ -111,9 +122,69 @@ class Tracer {
     return false;
   }
 
+  // The path log's records: off the normal render's way, out of line.
+  static Vec3<double> to_double(const Vec3<T>& a) {
+    return {double(a.x), double(a.y), double(a.z)};
+  }
+  void log_ray(const Vec3<T>& origin, const Vec3<T>& dir, int depth, const Hit<T>& hit) {
+    PathLog::Segment seg;
+    seg.kind = depth == 0 ? PathLog::Segment::camera : PathLog::Segment::reflected;
+    seg.from = to_double(origin);
+    seg.hit = hit.id >= 0;
+    seg.to = seg.hit ? to_double(along(origin, dir, hit.t))
+                     : along(seg.from, to_double(dir), log_->miss_length);
+    seg.depth = depth;
+    seg.pixel = pixel_;
+    seg.sample = sample_;
+    seg.id = hit.id;
+    log_->segments.push_back(seg);
+  }
+  void log_light(const Vec3<T>& p, int k, int depth, bool shadowed) {
+    PathLog::Segment seg;
+    seg.kind = PathLog::Segment::light;
+    seg.from = to_double(p);
+    seg.to = {double(s_.light_x[k]), double(s_.light_y[k]), double(s_.light_z[k])};
+    seg.hit = shadowed;
+    seg.depth = depth;
+    seg.pixel = pixel_;
+    seg.sample = sample_;
+    seg.id = k;
+    log_->segments.push_back(seg);
+  }
+
   const PreparedScene<T>& s_;
   RayCounts& counts_;
+  PathLog* log_ = nullptr;  // null but in render_rows_recorded
+  int pixel_ = 0, sample_ = 0;
 };
+
+// render_rows and render_rows_recorded: the same loop, with a log or without.
+template <class T>
+void render_rows_impl(const PreparedScene<T>& s, Image& image, int row_begin, int row_end,
+                      RayCounts& counts, PathLog* log) {
+  const PreparedCamera<T>& cam = s.camera;
+  const T samples = T(cam.samples * cam.samples);
+  Tracer<T> tracer(s, counts, log);
+  for (int j = row_begin; j < row_end; ++j) {
+    for (int i = 0; i < cam.nx; ++i) {
+      Color<T> sum{T(0), T(0), T(0)};
+      for (int b = 0; b < cam.samples; ++b) {
+        for (int a = 0; a < cam.samples; ++a) {
+          const T x = screen_x(cam, T(i), cam.sub_offset[a]);
+          const T y = screen_y(cam, T(j), cam.sub_offset[b]);
+          Vec3<T> origin, dir;
+          camera_ray(cam, x, y, origin, dir);
+          ++counts.camera;
+          if (log) tracer.set_pixel(j * cam.nx + i, b * cam.samples + a);
+          const Color<T> c = tracer.trace(origin, dir, 0);
+          for (int k = 0; k < 3; ++k) sum[k] = sum[k] + c[k];
+        }
+      }
+      float* out = image.pixel(i, j);
+      for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(sum[k] / samples);
+    }
+  }
+}
 
 }  // namespace
 
@@ -143,27 +214,13 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
 template <class T>
 void render_rows(const PreparedScene<T>& s, Image& image, int row_begin, int row_end,
                  RayCounts& counts) {
-  const PreparedCamera<T>& cam = s.camera;
-  const T samples = T(cam.samples * cam.samples);
-  Tracer<T> tracer(s, counts);
-  for (int j = row_begin; j < row_end; ++j) {
-    for (int i = 0; i < cam.nx; ++i) {
-      Color<T> sum{T(0), T(0), T(0)};
-      for (int b = 0; b < cam.samples; ++b) {
-        for (int a = 0; a < cam.samples; ++a) {
-          const T x = screen_x(cam, T(i), cam.sub_offset[a]);
-          const T y = screen_y(cam, T(j), cam.sub_offset[b]);
-          Vec3<T> origin, dir;
-          camera_ray(cam, x, y, origin, dir);
-          ++counts.camera;
-          const Color<T> c = tracer.trace(origin, dir, 0);
-          for (int k = 0; k < 3; ++k) sum[k] = sum[k] + c[k];
-        }
-      }
-      float* out = image.pixel(i, j);
-      for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(sum[k] / samples);
-    }
-  }
+  render_rows_impl<T>(s, image, row_begin, row_end, counts, nullptr);
+}
+
+template <class T>
+void render_rows_recorded(const PreparedScene<T>& s, Image& image, int row_begin, int row_end,
+                          RayCounts& counts, PathLog& log) {
+  render_rows_impl<T>(s, image, row_begin, row_end, counts, &log);
 }
 
 template <class T>
@@ -189,6 +246,10 @@ void primary_rows(const PreparedScene<T>& s, float* t_out, int row_begin, int ro
 
 template void render_rows<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&);
 template void render_rows<double>(const PreparedScene<double>&, Image&, int, int, RayCounts&);
+template void render_rows_recorded<float>(const PreparedScene<float>&, Image&, int, int,
+                                          RayCounts&, PathLog&);
+template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
+                                           RayCounts&, PathLog&);
 template void primary_rows<float>(const PreparedScene<float>&, float*, int, int, RayCounts&);
 template void primary_rows<double>(const PreparedScene<double>&, float*, int, int, RayCounts&);
 template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,

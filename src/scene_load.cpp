@@ -1,6 +1,7 @@
 // Scene files: JSON in exactly the format of SCENE-MODEL.md, validated strictly. Every error is
 // one line naming the place, as `objects[2].radius: must be > 0`.
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -23,8 +24,36 @@ constexpr std::size_t kMaxSceneBytes = std::size_t(1) << 30;
   throw InputError(where + ": " + what);
 }
 
+// A key or name taken from the file, made fit for a one-line message: control characters escaped
+// (a key may hold "\n"), and very long ones cut (on a UTF-8 character boundary).
+std::string printable(const std::string& s) {
+  constexpr std::size_t kMaxShown = 64;
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const unsigned char ch = static_cast<unsigned char>(s[i]);
+    if (i >= kMaxShown && (ch & 0xC0) != 0x80) {
+      out += "...";
+      break;
+    }
+    if (ch == '\n') {
+      out += "\\n";
+    } else if (ch == '\r') {
+      out += "\\r";
+    } else if (ch == '\t') {
+      out += "\\t";
+    } else if (ch < 0x20 || ch == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", ch);
+      out += buf;
+    } else {
+      out += static_cast<char>(ch);
+    }
+  }
+  return out;
+}
+
 std::string key_path(const std::string& parent, const std::string& key) {
-  return parent.empty() ? key : parent + "." + key;
+  return parent.empty() ? printable(key) : parent + "." + printable(key);
 }
 
 std::string index_path(const std::string& parent, std::size_t i) {
@@ -202,6 +231,12 @@ json parse_json(const std::string& text, const std::string& name) {
     std::string detail = colon == std::string::npos ? what : what.substr(colon + 2);
     fail(name + ":" + std::to_string(line_of(text, e.byte == 0 ? 0 : e.byte - 1)),
          "syntax error: " + detail);
+  } catch (const json::out_of_range& e) {
+    // A literal such as 1e999: the parser reports no position, so quote the number instead.
+    std::string what = e.what();
+    auto bracket = what.find("] ");
+    fail(name, (bracket == std::string::npos ? what : what.substr(bracket + 2)) +
+                   " (numbers must be finite)");
   }
 }
 
@@ -255,7 +290,8 @@ Scene parse_scene(const std::string& text, const std::string& name) {
         if (m.is_string()) {
           auto it = named.find(m.get<std::string>());
           if (it == named.end())
-            fail(o.at("material"), "material \"" + m.get<std::string>() + "\" is not defined");
+            fail(o.at("material"),
+                 "material \"" + printable(m.get<std::string>()) + "\" is not defined");
           material = it->second;
         } else if (m.is_object()) {
           material = static_cast<int>(s.materials.size());

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,15 +12,20 @@
 namespace lancer {
 
 struct BenchRow {
-  std::string engine = "lancer";
-  std::string mode;  // "primary": camera rays, closest hit only; "full": the whole render
-  int width = 1;
-  std::string isa;
+  std::string engine = "lancer";  // or a peer: "embree"
+  // "primary": camera rays, closest hit only; "full": the whole render. For the embree peer,
+  // "full" is every ray lancer's render traces (camera, shadow, mirror) without the shading.
+  std::string mode;
+  int width = 1;  // lanes; for embree the packet call rtcIntersect1/4/8/16
+  std::string isa;  // "embree" for the peer (Embree picks its own ISA inside)
   std::string precision = "exact";
   int threads = 1;
   std::uint64_t rays = 0;  // per run
   double seconds = 0;      // per render, median over the repeats
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
+  // With --peak, lancer's primary rows: intersection GFLOP/s (include/lancer/peak.hpp), what the
+  // SIMD lanes execute, and the first against the single-thread peak x threads.
+  std::optional<double> gflops, lane_gflops, peak_fraction;
 };
 
 struct BenchOptions {
@@ -30,6 +36,9 @@ struct BenchOptions {
   // Each timed run renders the scene as often as it takes to last this long, so that a small
   // scene is timed over milliseconds, not microseconds; its time per render is what counts.
   double min_seconds = 0.05;
+  // Peers run beside lancer, interleaved within each repeat: "embree" (include/lancer/peer.hpp).
+  // They get the same modes, threads and those widths they offer (peer::embree_widths).
+  std::vector<std::string> peers;
 };
 
 std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& options);

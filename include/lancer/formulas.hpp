@@ -86,6 +86,42 @@ inline T sphere_first_root(const SphereRoots<T>& r, const T& epsilon) {
   return select(r.near_t > epsilon, r.near_t, r.far_t);
 }
 
+template <class T>
+inline T abs_of(const T& x) {
+  return select(x < T(0), -x, x);
+}
+template <class T>
+inline T max_of(const T& a, const T& b) {
+  return select(a > b, a, b);
+}
+
+// How far a secondary ray's origin moves off the surface, per unit of the magnitude below:
+// 64 units in the last place of the number type (2^-18 for float, 2^-47 for double).
+template <class T>
+struct OffsetScale;
+template <>
+struct OffsetScale<float> {
+  static constexpr float value = 1.0f / 262144.0f;
+};
+template <>
+struct OffsetScale<double> {
+  static constexpr double value = 1.0 / 140737488355328.0;
+};
+
+// The hit point p = o + t d carries a rounding error of a few ulps of |o|inf + t. A secondary ray
+// started exactly at p may re-hit its own surface beyond epsilon (a plane lit at a grazing
+// angle: t = tiny error / tiny cosine). After Wachter and Binder (Ray Tracing Gems ch. 6), its
+// origin moves along the normal, to the side the ray leaves by, by 64 ulps of that magnitude:
+// far above the error, far below any feature of the scene. `s` is OffsetScale of the scalar type.
+template <class T, class S>
+inline Vec3<T> offset_origin(const Vec3<T>& p, const Vec3<T>& n, const T& cos_dir_n,
+                             const Vec3<T>& ray_origin, const T& t) {
+  const T magnitude =
+      max_of(max_of(abs_of(ray_origin.x), abs_of(ray_origin.y)), abs_of(ray_origin.z)) + t;
+  const T delta = magnitude * T(OffsetScale<S>::value);
+  return p + n * select(cos_dir_n < T(0), -delta, delta);
+}
+
 // Blinn-Phong's specular factor max(0, n.h)^shininess, exact for whole shininess.
 template <class T>
 inline T specular_power(const T& cos_nh, const T& shininess) {

@@ -2,9 +2,12 @@
 // Every faster path is held to it bit for bit in exact mode.
 #pragma once
 
+#include <vector>
+
 #include "lancer/image.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/stats.hpp"
+#include "lancer/vec3.hpp"
 
 namespace lancer::reference {
 
@@ -12,6 +15,33 @@ namespace lancer::reference {
 template <class T>
 void render_rows(const PreparedScene<T>& scene, Image& image, int row_begin, int row_end,
                  RayCounts& counts);
+
+// The rays a render traced, as segments, for drawing them (lancer flux --diagram). Only
+// render_rows_recorded fills one; render_rows pays a null-pointer test per ray for the hook.
+struct PathLog {
+  struct Segment {
+    enum Kind { camera, reflected, light };
+    Kind kind;
+    Vec3<double> from, to;
+    // camera, reflected: the ray hit an object (`to` is the hit point) or, when false, nothing
+    // (`to` is from + dir * miss_length). light: the ray to the light was blocked by an object
+    // (the light was not counted); `to` is the light's position either way.
+    bool hit;
+    int depth;   // the recursion depth of the ray (light rays: of the ray whose hit they light)
+    int pixel;   // j * nx + i of the camera ray the path started from
+    int sample;  // b * s + a: its sub-sample
+    int id;      // camera, reflected: the object hit (-1 on a miss); light: the light's index
+  };
+  // How far a ray that hits nothing is drawn: callers set it beyond the edge of their drawing.
+  double miss_length = 1e3;
+  std::vector<Segment> segments;
+};
+
+// render_rows, appending to `log` every camera and reflected ray traced and every light ray
+// cast, in tracing order. Same image and counts as render_rows.
+template <class T>
+void render_rows_recorded(const PreparedScene<T>& scene, Image& image, int row_begin,
+                          int row_end, RayCounts& counts, PathLog& log);
 
 // Primary rays only: the distance to the closest hit of each camera ray (infinity on a miss),
 // for sample 0 of each pixel of rows [row_begin, row_end), into t_out[j * nx + i].
@@ -31,6 +61,10 @@ Hit<T> closest_hit(const PreparedScene<T>& scene, const Vec3<T>& origin, const V
 extern template void render_rows<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&);
 extern template void render_rows<double>(const PreparedScene<double>&, Image&, int, int,
                                          RayCounts&);
+extern template void render_rows_recorded<float>(const PreparedScene<float>&, Image&, int, int,
+                                                 RayCounts&, PathLog&);
+extern template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
+                                                  RayCounts&, PathLog&);
 extern template void primary_rows<float>(const PreparedScene<float>&, float*, int, int,
                                          RayCounts&);
 extern template void primary_rows<double>(const PreparedScene<double>&, float*, int, int,

@@ -1,11 +1,15 @@
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "commands.hpp"
 #include "lancer/bench.hpp"
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/peak.hpp"
+#include "lancer/peer.hpp"
 #include "options.hpp"
 
 namespace lancer::cli {
@@ -18,14 +22,81 @@ struct BenchArgs {
   std::vector<std::string> modes{"primary", "full"};
   int repeat = 5;
   bool json = false;
+  std::vector<std::string> peers;
+  bool peak = false;
   SceneOverrides overrides;
 };
 
-void print_table(const std::string& scene, const std::vector<BenchRow>& rows, int repeat) {
+// "a,b" "c" -> a, b, c.
+std::vector<std::string> split_list(const std::vector<std::string>& items) {
+  std::vector<std::string> out;
+  for (const std::string& item : items) {
+    std::stringstream ss(item);
+    std::string part;
+    while (std::getline(ss, part, ',')) out.push_back(part);
+  }
+  return out;
+}
+
+// One ISA's single-thread peak (include/lancer/peak.hpp), median over the repeats.
+struct PeakRow {
+  int width = 1;
+  std::string isa;
+  double gflops = 0;         // FMA at widths 8 and 16, mul+add at 1 and 4
+  double muladd_gflops = 0;  // mul+add at every width: lancer's own ceiling
+};
+
+std::vector<PeakRow> measure_peaks(int repeat) {
+  constexpr double kSeconds = 0.1;
+  std::vector<PeakRow> rows;
+  for (int w : packet::supported_widths()) rows.push_back({w, packet::isa_name(w), 0, 0});
+  std::sort(rows.begin(), rows.end(), [](const PeakRow& a, const PeakRow& b) {
+    return a.width < b.width;
+  });
+  std::vector<std::vector<double>> fma(rows.size()), muladd(rows.size());
+  for (int rep = 0; rep < repeat; ++rep)
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      fma[k].push_back(peak_gflops(rows[k].width, kSeconds));
+      muladd[k].push_back(rows[k].width >= 8 ? peak_muladd_gflops(rows[k].width, kSeconds)
+                                             : fma[k].back());
+    }
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    rows[k].gflops = median(fma[k]);
+    rows[k].muladd_gflops = median(muladd[k]);
+  }
+  return rows;
+}
+
+// Fills gflops, lane_gflops and peak_fraction of lancer's primary rows.
+void add_flops(const Scene& scene, const std::vector<PeakRow>& peaks,
+               std::vector<BenchRow>& rows) {
+  for (BenchRow& r : rows) {
+    if (r.engine != "lancer" || r.mode != "primary") continue;
+    const PrimaryFlops f = primary_flops(scene, r.width);
+    const double rays_per_s = r.mrays_per_s() * 1e6;
+    r.gflops = rays_per_s * f.per_ray * 1e-9;
+    r.lane_gflops = rays_per_s * f.per_lane * 1e-9;
+    for (const PeakRow& p : peaks)
+      if (p.width == r.width && p.gflops > 0) r.peak_fraction = *r.gflops / (p.gflops * r.threads);
+  }
+}
+
+void print_peaks(const std::vector<PeakRow>& peaks) {
+  std::printf("peak, single thread, float: independent chains of x = x * a + b\n");
+  std::printf("  %5s %-8s %-16s %10s %16s\n", "width", "isa", "op", "GFLOP/s", "mul+add GFLOP/s");
+  for (const PeakRow& p : peaks)
+    std::printf("  %5d %-8s %-16s %10.1f %16.1f\n", p.width, p.isa.c_str(),
+                p.width >= 8 ? "fma (2 flops)" : "mul+add (2 flops)", p.gflops, p.muladd_gflops);
+}
+
+void print_table(const std::string& scene, const std::vector<BenchRow>& rows, int repeat,
+                 bool peak) {
   std::printf("lancer bench: %s, exact precision, median of %d runs, widths interleaved\n",
               scene.c_str(), repeat);
-  std::printf("  %-8s %-8s %5s %-8s %7s %12s %10s %10s %9s\n", "engine", "mode", "width", "isa",
+  std::printf("  %-8s %-8s %5s %-8s %7s %12s %10s %10s %9s", "engine", "mode", "width", "isa",
               "threads", "rays", "seconds", "Mrays/s", "vs w=1");
+  if (peak) std::printf(" %9s %11s %7s", "GFLOP/s", "lane GFLOP/s", "of peak");
+  std::printf("\n");
   for (const BenchRow& r : rows) {
     // Speed-up against the reference row of the same mode and threads, when there is one.
     double base = 0;
@@ -34,26 +105,50 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
         base = b.mrays_per_s();
     char ratio[32] = "-";
     if (base > 0) std::snprintf(ratio, sizeof ratio, "%.2fx", r.mrays_per_s() / base);
-    std::printf("  %-8s %-8s %5d %-8s %7d %12llu %10.5f %10.2f %9s\n", r.engine.c_str(),
+    std::printf("  %-8s %-8s %5d %-8s %7d %12llu %10.5f %10.2f %9s", r.engine.c_str(),
                 r.mode.c_str(), r.width, r.isa.c_str(), r.threads, (unsigned long long)r.rays,
                 r.seconds, r.mrays_per_s(), ratio);
+    if (peak && r.gflops)
+      std::printf(" %9.2f %11.2f %6.1f%%", *r.gflops, *r.lane_gflops,
+                  100 * r.peak_fraction.value_or(0));
+    std::printf("\n");
   }
+  if (peak)
+    std::printf(
+        "  GFLOP/s: flops of lancer's ray-sphere and ray-plane tests per camera ray (counts in "
+        "include/lancer/peak.hpp;\n  ray generation not included) x rays/s. lane GFLOP/s: what "
+        "the SIMD lanes execute (whole packets on the hit path,\n  idle lanes of partial "
+        "packets). of peak: GFLOP/s / (that width's single-thread peak x threads).\n");
 }
 
-void print_json(const std::string& scene, const std::vector<BenchRow>& rows) {
+void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
+                const std::vector<PeakRow>* peaks) {
   nlohmann::json out;
   out["scene"] = scene;
   out["results"] = nlohmann::json::array();
-  for (const BenchRow& r : rows)
-    out["results"].push_back({{"engine", r.engine},
-                              {"mode", r.mode},
-                              {"width", r.width},
-                              {"isa", r.isa},
-                              {"precision", r.precision},
-                              {"threads", r.threads},
-                              {"rays", r.rays},
-                              {"seconds", r.seconds},
-                              {"mrays_per_s", r.mrays_per_s()}});
+  for (const BenchRow& r : rows) {
+    nlohmann::json row{{"engine", r.engine},
+                       {"mode", r.mode},
+                       {"width", r.width},
+                       {"isa", r.isa},
+                       {"precision", r.precision},
+                       {"threads", r.threads},
+                       {"rays", r.rays},
+                       {"seconds", r.seconds},
+                       {"mrays_per_s", r.mrays_per_s()}};
+    if (r.gflops) row["gflops"] = *r.gflops;
+    if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
+    if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;
+    out["results"].push_back(row);
+  }
+  if (peaks) {
+    out["peak"] = nlohmann::json::array();
+    for (const PeakRow& p : *peaks)
+      out["peak"].push_back({{"width", p.width},
+                             {"isa", p.isa},
+                             {"gflops", p.gflops},
+                             {"muladd_gflops", p.muladd_gflops}});
+  }
   std::printf("%s\n", out.dump(2).c_str());
 }
 
@@ -70,11 +165,25 @@ void run_bench_cmd(const BenchArgs& a) {
     if (m != "primary" && m != "full") throw InputError("--mode: must be primary or full");
     opt.modes.push_back(m);
   }
-  const std::vector<BenchRow> rows = run_bench(scene, opt);
-  if (a.json)
-    print_json(a.scene, rows);
-  else
-    print_table(a.scene, rows, a.repeat);
+  for (const std::string& p : split_list(a.peers)) {
+    if (p != "embree") throw InputError("--peer: must be embree, not '" + p + "'");
+    if (!peer::embree_available())
+      throw InputError(
+          "--peer embree: this lancer was built without Embree (install libembree-dev and "
+          "configure with -DLANCER_WITH_EMBREE=ON)");
+    opt.peers.push_back(p);
+  }
+  // The peak first, while nothing else of ours runs.
+  std::vector<PeakRow> peaks;
+  if (a.peak) peaks = measure_peaks(a.repeat);
+  std::vector<BenchRow> rows = run_bench(scene, opt);
+  if (a.peak) add_flops(scene, peaks, rows);
+  if (a.json) {
+    print_json(a.scene, rows, a.peak ? &peaks : nullptr);
+  } else {
+    print_table(a.scene, rows, a.repeat, a.peak);
+    if (a.peak) print_peaks(peaks);
+  }
 }
 }  // namespace
 
@@ -90,6 +199,11 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
+  cmd->add_option("--peer", args->peers,
+                  "Run a peer beside lancer, interleaved: embree (Embree 3, if built with it)");
+  cmd->add_flag("--peak", args->peak,
+                "Measure each ISA's single-thread peak GFLOP/s and report primary rows' "
+                "intersection GFLOP/s against it");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   cmd->callback([args] { run_bench_cmd(*args); });

@@ -74,7 +74,7 @@ std::vector<int> parse_int_list(const std::vector<std::string>& items, const std
 }
 
 void apply_overrides(Scene& scene, const SceneOverrides& o) {
-  if (o.supersample != 0) {
+  if (o.supersample != kUnset) {
     if (o.supersample < 1 || o.supersample > kMaxSupersample)
       throw InputError("--supersample: must be from 1 to " + std::to_string(kMaxSupersample));
     scene.supersample = o.supersample;

@@ -16,9 +16,10 @@ std::vector<int> parse_width_list(const std::vector<std::string>& items, const s
 std::vector<int> parse_int_list(const std::vector<std::string>& items, const std::string& option,
                                 int min_value);
 
-// Overrides from the command line; empty strings and 0 leave the scene's values.
+// Overrides from the command line; kUnset and empty strings leave the scene's values.
+inline constexpr int kUnset = -2147483647 - 1;
 struct SceneOverrides {
-  int supersample = 0;
+  int supersample = kUnset;
   std::string resolution;  // "NXxNY"
 };
 void apply_overrides(Scene& scene, const SceneOverrides& o);

@@ -200,7 +200,8 @@ struct Kernel {
       counts.shadow += count(lit);
       if (!xsimd::any(lit)) continue;
       const V l = to_light / dist;
-      const M unblocked = lit & ~occluded(s, lit, p, l, dist);
+      const V from = offset_origin<B, T>(p, n, dot(l, n), o, best_t);
+      const M unblocked = lit & ~occluded(s, lit, from, l, dist);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
       diffuse = xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(dot(n, l)),
@@ -225,8 +226,9 @@ struct Kernel {
     if (xsimd::any(out.reflected)) {
       counts.reflected += count(out.reflected);
       const V r = normalize(reflect(d, n));
-      o = V{xsimd::select(out.reflected, p.x, o.x), xsimd::select(out.reflected, p.y, o.y),
-            xsimd::select(out.reflected, p.z, o.z)};
+      const V from = offset_origin<B, T>(p, n, dot(r, n), o, best_t);
+      o = V{xsimd::select(out.reflected, from.x, o.x), xsimd::select(out.reflected, from.y, o.y),
+            xsimd::select(out.reflected, from.z, o.z)};
       d = V{xsimd::select(out.reflected, r.x, d.x), xsimd::select(out.reflected, r.y, d.y),
             xsimd::select(out.reflected, r.z, d.z)};
     }

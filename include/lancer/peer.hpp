@@ -1,0 +1,103 @@
+// Peers: other ray tracers fed the same scene and the same camera rays, so that lancer's speed
+// can be read against them (`lancer bench --peer embree`). One peer for now: Intel Embree 3.
+//
+// Embree is optional (CMake option LANCER_WITH_EMBREE, on by default, and the package must be
+// found). Without it this header still compiles and links: embree_available() is false and
+// making an EmbreeScene throws InputError.
+//
+// The Embree scene, built from lancer::prepare<float>, so from the very floats lancer uses:
+//  - all spheres in one RTC_GEOMETRY_TYPE_SPHERE_POINT geometry (RTC_FORMAT_FLOAT4 x, y, z, r);
+//    Embree's own sphere test, not lancer's;
+//  - planes, by default, as one user geometry (rtcSetGeometryIntersectFunction) whose callbacks
+//    compute lancer's formula t = dot(Q - o, N) / dot(d, N): exact, the infinite plane. Its
+//    bounds are a box about Q of half-size kPlaneExtent x the scene's size (Embree's BVH needs
+//    finite bounds), so a hit farther than that from Q is missed: only rays within about
+//    1/kPlaneExtent radian of grazing the plane can be affected.
+//  - or, with PlaneMode::quad, as one large quad per plane (RTC_GEOMETRY_TYPE_QUAD) over the
+//    same square: Embree's own (hardware-friendlier) triangle test, but the corners are floats
+//    of magnitude kPlaneExtent x the scene's size, so a plane that is not axis-aligned is off by
+//    up to a float ulp there (1e-2 for a scene of size 10), which is enough for shadow acne. Kept
+//    to measure what the exact user geometry costs.
+// Rays: tnear = the scene's epsilon, tfar = infinity (primary and reflected) or the distance to
+// the light (shadow). Embree accepts hits with tnear <= t <= tfar where lancer wants
+// epsilon < t < tfar: the two differ only on exact ties.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lancer/render.hpp"
+#include "lancer/scene.hpp"
+#include "lancer/stats.hpp"
+
+namespace lancer::peer {
+
+// True when this lancer was built with Embree.
+bool embree_available();
+// "3.13.5", or "" without Embree.
+std::string embree_version();
+
+enum class PlaneMode { user, quad };
+
+// Half-size of the square that stands for an infinite plane, in units of the scene's size (the
+// largest distance from the origin of the camera, the lights, the sphere surfaces and the
+// planes' points).
+inline constexpr float kPlaneExtent = 1e4f;
+
+// The hit of one ray, for tests: t (infinity on a miss) and lancer's object id (-1 on a miss).
+struct PeerHit {
+  float t;
+  int id;
+};
+
+class EmbreeScene {
+ public:
+  // Builds the Embree device and scene (BVH) once; throws InputError naming --peer when lancer
+  // was built without Embree. `config` goes to rtcNewDevice (e.g. "isa=avx2"); the environment
+  // variable LANCER_EMBREE_CONFIG is used when it is empty.
+  explicit EmbreeScene(const Scene& scene, PlaneMode planes = PlaneMode::user,
+                       const std::string& config = "");
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  // Camera rays only, closest hit: the peer of lancer::render_primary. `width` 1, 4, 8 or 16
+  // picks rtcIntersect1/4/8/16 (Embree then runs its own ISA inside); packets are a row's
+  // columns i0 .. i0+width-1, the last one partial with a valid mask, as lancer's. Rows are
+  // split into tiles of 4 over `threads` threads (TBB), each thread making single-threaded
+  // Embree calls. Per pixel, the sum of its samples' hit distances (infinity if any missed).
+  // The timing covers the rays only: the BVH was built by the constructor.
+  PrimaryResult primary(int width, int threads) const;
+
+  // Every ray lancer's full render traces, and nothing else: camera rays (rtcIntersectN), at
+  // each hit a shadow ray to each light (rtcOccludedN; counted where the light is not at the
+  // hit point, as lancer does) and, below max_depth on a material with reflect > 0, the mirror
+  // ray (rtcIntersectN again). No shading: Embree does not shade, so this is lancer's "full"
+  // ray traffic without its shading arithmetic. The hit point, normal and new directions are
+  // lancer's formulas, computed lane by lane in scalar code between Embree calls. The counts
+  // are comparable with render()'s.
+  struct RaysResult {
+    RayCounts rays;
+    double seconds = 0;
+  };
+  RaysResult trace_all(int width, int threads) const;
+
+  // Closest hit of each camera ray of the scene, sample (a, b) of pixel (i, j) at
+  // [((b * s + a) * ny + j) * nx + i] (s samples per axis), through rtcIntersect<width>, packets
+  // grouped as in primary(). For tests.
+  std::vector<PeerHit> camera_hits(int width) const;
+
+  // How the planes are modelled.
+  PlaneMode plane_mode() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Widths the embree peer offers on this machine: those of `requested` that are 1 or a packet
+// width this CPU runs (packet::kernels_for), in the order given.
+std::vector<int> embree_widths(const std::vector<int>& requested);
+
+}  // namespace lancer::peer

@@ -1,0 +1,278 @@
+// The 2D flux view: profile, plane of the rays, diagram. See flux.hpp and docs/flux.md.
+#include "lancer/flux.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "lancer/error.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/render.hpp"
+
+namespace lancer::flux {
+
+namespace {
+
+// objects[k] of each sphere and plane, from the file's order of objects; "spheres[k]" style
+// names if the text cannot be read again (it parsed once already, so it always can).
+ObjectNames names_from_text(const std::string& text, const Scene& scene) {
+  ObjectNames n;
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_object() && j.contains("objects") && j["objects"].is_array()) {
+    const auto& objects = j["objects"];
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      const auto& o = objects[k];
+      if (!o.is_object() || !o.contains("type") || !o["type"].is_string()) continue;
+      const std::string name = "objects[" + std::to_string(k) + "]";
+      if (o["type"] == "sphere") n.spheres.push_back(name);
+      if (o["type"] == "plane") n.planes.push_back(name);
+    }
+  }
+  if (n.spheres.size() != scene.spheres.size() || n.planes.size() != scene.planes.size()) {
+    n = {};
+    for (std::size_t k = 0; k < scene.spheres.size(); ++k)
+      n.spheres.push_back("spheres[" + std::to_string(k) + "]");
+    for (std::size_t k = 0; k < scene.planes.size(); ++k)
+      n.planes.push_back("planes[" + std::to_string(k) + "]");
+  }
+  return n;
+}
+
+std::string show(const Vec3<double>& v) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, "(%.6g, %.6g, %.6g)", v.x, v.y, v.z);
+  return buf;
+}
+std::string show(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+}  // namespace
+
+FluxScene parse_flux_scene(const std::string& text, const std::string& name) {
+  FluxScene f;
+  f.scene = parse_scene(text, name);
+  f.names = names_from_text(text, f.scene);
+  return f;
+}
+
+FluxScene load_flux_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read scene file");
+  return parse_flux_scene(text.str(), path);
+}
+
+RayPlane ray_plane(const Scene& scene, const ObjectNames& names) {
+  const CameraSpec& c = scene.camera;
+  if (c.type != CameraType::orthographic)
+    throw InputError(
+        "camera.type: lancer flux needs an orthographic camera (parallel rays in one plane), "
+        "not pinhole");
+  if (c.ny != 1)
+    throw InputError("camera.resolution: lancer flux needs one row of rays (ny = 1), not ny = " +
+                     std::to_string(c.ny));
+  if (scene.supersample != 1)
+    throw InputError("supersample: lancer flux needs one ray per pixel (supersample 1), not " +
+                     std::to_string(scene.supersample));
+
+  // The camera's basis and row exactly as the renderer computes them.
+  const PreparedScene<double> p = prepare<double>(scene);
+  const PreparedCamera<double>& cam = p.camera;
+  RayPlane plane;
+  plane.along = cam.u;
+  plane.forward = -cam.w;
+  plane.normal = cam.v;
+  plane.origin = c.position + cam.v * cam.screen_y[0];
+
+  double size = std::max(std::abs(c.xmin), std::abs(c.xmax));
+  for (const Sphere& s : scene.spheres)
+    size = std::max(size, length(s.center - c.position) + s.radius);
+  for (const Light& l : scene.lights) size = std::max(size, length(l.position - c.position));
+  for (const Plane& q : scene.planes) size = std::max(size, length(q.point - c.position));
+  plane.size = size;
+  plane.tolerance = 1e-9 * size;
+
+  const std::string where = " off the plane of the camera rays (through " + show(plane.origin) +
+                            ", normal " + show(plane.normal) + " = the camera's v)";
+  const std::string need =
+      "; lancer flux needs every sphere centre, light and plane normal in that plane "
+      "(or move the plane: camera.position, camera.direction)";
+  for (std::size_t k = 0; k < scene.spheres.size(); ++k) {
+    const double off = dot(scene.spheres[k].center - plane.origin, plane.normal);
+    if (!(std::abs(off) <= plane.tolerance))
+      throw InputError(names.spheres.at(k) + ".center: " + show(scene.spheres[k].center) +
+                       " is " + show(std::abs(off)) + where + need);
+  }
+  for (std::size_t k = 0; k < scene.lights.size(); ++k) {
+    const double off = dot(scene.lights[k].position - plane.origin, plane.normal);
+    if (!(std::abs(off) <= plane.tolerance))
+      throw InputError("lights[" + std::to_string(k) + "].position: " +
+                       show(scene.lights[k].position) + " is " + show(std::abs(off)) + where +
+                       need);
+  }
+  for (std::size_t k = 0; k < scene.planes.size(); ++k) {
+    const Vec3<double> n = normalize(scene.planes[k].normal);
+    const double cosine = dot(n, plane.normal);
+    if (!(std::abs(cosine) <= 1e-9))
+      throw InputError(names.planes.at(k) + ".normal: " + show(scene.planes[k].normal) +
+                       " is not parallel to the plane of the camera rays (normal " +
+                       show(plane.normal) + ", cosine " + show(cosine) +
+                       "): mirrored rays would leave it" + need);
+  }
+  return plane;
+}
+
+Profile flux_profile(const Scene& scene) {
+  RenderOptions opt;
+  opt.width = 1;
+  opt.precision = Precision::dbl;
+  opt.threads = 1;
+  const RenderResult r = render(scene, opt);
+  const CameraSpec& c = scene.camera;
+  Profile p;
+  p.rays = r.rays;
+  for (int i = 0; i < c.nx; ++i) {
+    const float* px = r.image.pixel(i, 0);
+    p.x.push_back(c.xmin + (i + 0.5) * (c.xmax - c.xmin) / c.nx);
+    p.flux.push_back((double(px[0]) + double(px[1]) + double(px[2])) / 3);
+  }
+  return p;
+}
+
+std::string profile_csv(const Profile& profile) {
+  std::string s = "x,flux\n";
+  char buf[96];
+  for (std::size_t i = 0; i < profile.x.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.17g,%.17g\n", profile.x[i], profile.flux[i]);
+    s += buf;
+  }
+  return s;
+}
+
+Paths record_paths(const Scene& scene, const RayPlane& plane) {
+  const PreparedScene<double> p = prepare<double>(scene);
+  Paths out;
+  out.image = Image(scene.camera.nx, scene.camera.ny);
+  // Beyond any drawing of the scene; diagram() extends misses to its edge anyway.
+  out.log.miss_length = 4 * plane.size;
+  reference::render_rows_recorded(p, out.image, 0, scene.camera.ny, out.rays, out.log);
+  return out;
+}
+
+plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference::PathLog& log,
+                      const DiagramOptions& o) {
+  using plot::Circle;
+  using plot::Line;
+  const CameraSpec& cam = scene.camera;
+
+  // The region shown, in plane coordinates (a along the row, b along the rays): the camera's
+  // row, the spheres, the lights, and where each plane passes nearest to all that.
+  double a0 = std::min(cam.xmin, cam.xmax), a1 = std::max(cam.xmin, cam.xmax), b0 = 0, b1 = 0;
+  auto include = [&](double a, double b, double r) {
+    a0 = std::min(a0, a - r), a1 = std::max(a1, a + r);
+    b0 = std::min(b0, b - r), b1 = std::max(b1, b + r);
+  };
+  for (const Sphere& s : scene.spheres) include(plane.a(s.center), plane.b(s.center), s.radius);
+  for (const Light& l : scene.lights) include(plane.a(l.position), plane.b(l.position), 0);
+  // Each plane crosses the ray plane in the line through q with in-plane normal n.
+  struct PlaneLine {
+    double qa, qb, na, nb;
+  };
+  std::vector<PlaneLine> plane_lines;
+  for (const Plane& q : scene.planes) {
+    const Vec3<double> n = normalize(q.normal);
+    double na = dot(n, plane.along), nb = dot(n, plane.forward);
+    const double len = std::hypot(na, nb);
+    na /= len, nb /= len;
+    plane_lines.push_back({plane.a(q.point), plane.b(q.point), na, nb});
+  }
+  {
+    const double ca = (a0 + a1) / 2, cb = (b0 + b1) / 2;
+    for (const PlaneLine& l : plane_lines) {
+      // The point of the line nearest the centre.
+      const double d = (ca - l.qa) * l.na + (cb - l.qb) * l.nb;
+      include(ca - d * l.na, cb - d * l.nb, 0);
+    }
+  }
+  double span_a = a1 - a0, span_b = b1 - b0;
+  const double span = std::max(span_a, span_b);
+  // Keep a flat scene visible: at least a tenth as tall as wide.
+  if (span_a < span / 10) a0 -= (span / 10 - span_a) / 2, a1 = a0 + span / 10;
+  if (span_b < span / 10) b0 -= (span / 10 - span_b) / 2, b1 = b0 + span / 10;
+  const double margin = 0.04 * span;
+  a0 -= margin, a1 += margin, b0 -= margin, b1 += margin;
+  span_a = a1 - a0, span_b = b1 - b0;
+
+  plot::Drawing d;
+  const double scale = o.size / std::max(span_a, span_b);
+  d.width = std::max(1, int(std::lround(span_a * scale)));
+  d.height = std::max(1, int(std::lround(span_b * scale)));
+  auto X = [&](double a) { return (a - a0) * scale; };
+  auto Y = [&](double b) { return (b - b0) * scale; };
+  const double W = d.width, H = d.height;
+  auto segment = [&](double pa, double pb, double qa, double qb, plot::Color c, double w) {
+    double x0 = X(pa), y0 = Y(pb), x1 = X(qa), y1 = Y(qb);
+    if (plot::clip_segment(x0, y0, x1, y1, 0, 0, W, H)) d.lines.push_back({x0, y0, x1, y1, c, w});
+  };
+
+  // The camera's row.
+  segment(cam.xmin, 0, cam.xmax, 0, plot::kGrey, 3);
+  // Planes, across the whole drawing.
+  const double reach = 2 * (span_a + span_b);
+  for (const PlaneLine& l : plane_lines) {
+    const double ta = -l.nb, tb = l.na;  // along the line
+    const double ca = (a0 + a1) / 2, cb = (b0 + b1) / 2;
+    const double d0 = (ca - l.qa) * l.na + (cb - l.qb) * l.nb;
+    const double pa = ca - d0 * l.na, pb = cb - d0 * l.nb;
+    segment(pa - reach * ta, pb - reach * tb, pa + reach * ta, pb + reach * tb, plot::kBlack, 2);
+  }
+  // Rays, in tracing order.
+  for (const auto& s : log.segments) {
+    const double fa = plane.a(s.from), fb = plane.b(s.from);
+    double ta = plane.a(s.to), tb = plane.b(s.to);
+    if (s.kind == reference::PathLog::Segment::light) {
+      if (s.hit && !o.show_blocked) continue;
+      segment(fa, fb, ta, tb, s.hit ? plot::kGrey : plot::kBlue, s.hit ? 0.6 : 1);
+      continue;
+    }
+    if (!s.hit) {
+      if (o.hits_only) continue;
+      // A miss goes on past the edge of the drawing, wherever it started.
+      const double da = ta - fa, db = tb - fb, len = std::hypot(da, db);
+      if (!(len > 0)) continue;
+      const double far = std::hypot(fa - (a0 + a1) / 2, fb - (b0 + b1) / 2) + span_a + span_b;
+      ta = fa + da / len * far, tb = fb + db / len * far;
+    }
+    segment(fa, fb, ta, tb, plot::kRed, 1);
+  }
+  for (const Sphere& s : scene.spheres) {
+    // The circle the sphere cuts from the plane (its centre is in the plane within tolerance).
+    const double off = dot(s.center - plane.origin, plane.normal);
+    const double r = std::sqrt(std::max(0.0, s.radius * s.radius - off * off));
+    d.circles.push_back(Circle{X(plane.a(s.center)), Y(plane.b(s.center)), r * scale,
+                               plot::kBlack, 2});
+  }
+  for (const Light& l : scene.lights)
+    d.circles.push_back(
+        Circle{X(plane.a(l.position)), Y(plane.b(l.position)), 6, plot::kBlue, 2});
+  return d;
+}
+
+plot::Drawing profile_plot(const Profile& profile, const std::string& title) {
+  plot::ScatterOptions o;
+  o.x_label = "position x";
+  o.y_label = "flux";
+  o.title = title;
+  return plot::scatter_plot(profile.x, profile.flux, o);
+}
+
+}  // namespace lancer::flux

@@ -1,0 +1,136 @@
+// The machine's peak (dispatching to src/isa/peak_*.cpp) and the flop counts of lancer's
+// primary rays. See include/lancer/peak.hpp for what is counted and how.
+#include "lancer/peak.hpp"
+
+#include <immintrin.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "isa/peak_kernels.hpp"
+#include "lancer/formulas.hpp"
+#include "lancer/packet/api.hpp"
+#include "lancer/prepared.hpp"
+
+namespace lancer {
+
+namespace peak_kernels {
+
+volatile float sink = 0;
+
+// Scalar mulss + addss. The _ss intrinsics keep the compiler from packing the chains into
+// vectors (which it could do with plain float code), so this is the width-1 rate.
+double scalar_muladd(long iterations) {
+  constexpr int N = kPeakChains;
+  const __m128 a = _mm_set_ss(0.999f), b = _mm_set_ss(1e-3f);
+  __m128 acc[N];
+#pragma GCC unroll 16
+  for (int k = 0; k < N; ++k) acc[k] = _mm_set_ss(1.0f + 0.01f * k);
+  for (long i = 0; i < iterations; ++i) {
+#pragma GCC unroll 16
+    for (int k = 0; k < N; ++k) acc[k] = _mm_add_ss(_mm_mul_ss(acc[k], a), b);
+  }
+  __m128 sum = acc[0];
+  for (int k = 1; k < N; ++k) sum = _mm_add_ss(sum, acc[k]);
+  sink = _mm_cvtss_f32(sum);
+  return 2.0 * N * double(iterations);
+}
+
+}  // namespace peak_kernels
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// GFLOP/s of `kernel` over about `seconds`, after a short warm-up (wide units may be powered
+// up, and the clock raised, only once they are in use).
+double measure(double (*kernel)(long), double seconds) {
+  constexpr long kBatch = 1L << 18;
+  kernel(kBatch);
+  double flops = 0, elapsed = 0;
+  const auto start = Clock::now();
+  do {
+    flops += kernel(kBatch);
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  } while (elapsed < seconds);
+  return flops / elapsed * 1e-9;
+}
+
+bool runs(int width) { return width == 1 || packet::kernels_for(width) != nullptr; }
+
+}  // namespace
+
+double peak_gflops(int width, double seconds) {
+  if (!runs(width)) return 0;
+  switch (width) {
+    case 1:
+      return measure(peak_kernels::scalar_muladd, seconds);
+    case 4:
+      return measure(peak_kernels::sse42_muladd, seconds);
+    case 8:
+      return measure(peak_kernels::avx2_fma, seconds);
+    case 16:
+      return measure(peak_kernels::avx512_fma, seconds);
+    default:
+      return 0;
+  }
+}
+
+double peak_muladd_gflops(int width, double seconds) {
+  if (!runs(width)) return 0;
+  switch (width) {
+    case 8:
+      return measure(peak_kernels::avx2_muladd, seconds);
+    case 16:
+      return measure(peak_kernels::avx512_muladd, seconds);
+    default:
+      return peak_gflops(width, seconds);
+  }
+}
+
+PrimaryFlops primary_flops(const Scene& scene, int width) {
+  const PreparedScene<float> s = prepare<float>(scene);
+  const PreparedCamera<float>& cam = s.camera;
+  const bool from_eye = width > 1 && !cam.orthographic;
+  const double disc = from_eye ? kSphereDiscFlopsFromEye : kSphereDiscFlops;
+  const double hit = from_eye ? kSphereHitFlopsFromEye : kSphereHitFlops;
+  const int lanes = std::max(1, width);
+
+  // Every camera ray against every sphere: which pairs take the hit path, per ray and per
+  // packet (columns i0 .. i0+width-1 of a row, as the kernels group them).
+  double rays = 0, hit_pairs = 0, lane_slots = 0, packet_hit_lanes = 0;
+  std::vector<char> lane_hits;
+  for (int b = 0; b < cam.samples; ++b)
+    for (int j = 0; j < cam.ny; ++j)
+      for (int a = 0; a < cam.samples; ++a)
+        for (int i0 = 0; i0 < cam.nx; i0 += lanes) {
+          const int n = std::min(lanes, cam.nx - i0);
+          rays += n;
+          lane_slots += lanes;
+          for (int i = 0; i < s.num_spheres; ++i) {
+            bool any = false;
+            for (int k = 0; k < n; ++k) {
+              Vec3<float> o, d;
+              camera_ray(cam, cam.screen_x[std::size_t(a) * cam.nx + i0 + k],
+                         cam.screen_y[std::size_t(b) * cam.ny + j], o, d);
+              const Vec3<float> f =
+                  o - Vec3<float>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
+              const bool h = sphere_disc(f, d, s.sphere_r2[i]).disc >= 0.0f;
+              hit_pairs += h;
+              any = any || h;
+            }
+            if (any) packet_hit_lanes += lanes;
+          }
+        }
+  PrimaryFlops out;
+  if (rays == 0) return out;
+  const double spheres = s.num_spheres, planes = s.num_planes;
+  out.sphere_hit_fraction = spheres > 0 ? hit_pairs / (rays * spheres) : 0;
+  out.per_ray = spheres * disc + hit * hit_pairs / rays + planes * kPlaneFlops;
+  out.per_lane =
+      (lane_slots * (spheres * disc + planes * kPlaneFlops) + packet_hit_lanes * hit) / rays;
+  return out;
+}
+
+}  // namespace lancer

@@ -1,0 +1,617 @@
+// The Embree peer: the scene in Embree 3, traced with rtcIntersect1/4/8/16 and rtcOccluded1/4/8/16
+// on lancer's own camera rays. See include/lancer/peer.hpp for the model and its limits.
+#include "lancer/peer.hpp"
+
+#include "lancer/error.hpp"
+#include "lancer/packet/api.hpp"
+
+#ifdef LANCER_HAVE_EMBREE
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <stdexcept>
+
+#include "lancer/formulas.hpp"
+#include "lancer/prepared.hpp"
+
+namespace lancer::peer {
+
+bool embree_available() { return true; }
+std::string embree_version() { return RTC_VERSION_STRING; }
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+using Clock = std::chrono::steady_clock;
+
+// The packet calls of one width, over Embree's own packet types. Every Embree ray type is laid
+// out as RTCRayHitN with N = its width (N = 1 included), so lanes are reached through the
+// RTCRayN_* / RTCHitN_* accessors whatever the width.
+template <int W>
+struct Api;
+template <>
+struct Api<1> {
+  using RayHit = RTCRayHit;
+  using Ray = RTCRay;
+  static void intersect(const int* valid, RTCScene s, RTCIntersectContext* c, RayHit& r) {
+    if (valid[0]) rtcIntersect1(s, c, &r);
+  }
+  static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, Ray& r) {
+    if (valid[0]) rtcOccluded1(s, c, &r);
+  }
+};
+template <>
+struct Api<4> {
+  using RayHit = RTCRayHit4;
+  using Ray = RTCRay4;
+  static void intersect(const int* v, RTCScene s, RTCIntersectContext* c, RayHit& r) {
+    rtcIntersect4(v, s, c, &r);
+  }
+  static void occluded(const int* v, RTCScene s, RTCIntersectContext* c, Ray& r) {
+    rtcOccluded4(v, s, c, &r);
+  }
+};
+template <>
+struct Api<8> {
+  using RayHit = RTCRayHit8;
+  using Ray = RTCRay8;
+  static void intersect(const int* v, RTCScene s, RTCIntersectContext* c, RayHit& r) {
+    rtcIntersect8(v, s, c, &r);
+  }
+  static void occluded(const int* v, RTCScene s, RTCIntersectContext* c, Ray& r) {
+    rtcOccluded8(v, s, c, &r);
+  }
+};
+template <>
+struct Api<16> {
+  using RayHit = RTCRayHit16;
+  using Ray = RTCRay16;
+  static void intersect(const int* v, RTCScene s, RTCIntersectContext* c, RayHit& r) {
+    rtcIntersect16(v, s, c, &r);
+  }
+  static void occluded(const int* v, RTCScene s, RTCIntersectContext* c, Ray& r) {
+    rtcOccluded16(v, s, c, &r);
+  }
+};
+
+// Sets lane k of a ray (of an RTCRayN laid out for W lanes).
+template <int W>
+inline void set_ray(RTCRayN* r, int k, const Vec3<float>& o, const Vec3<float>& d, float tnear,
+                    float tfar) {
+  RTCRayN_org_x(r, W, k) = o.x;
+  RTCRayN_org_y(r, W, k) = o.y;
+  RTCRayN_org_z(r, W, k) = o.z;
+  RTCRayN_tnear(r, W, k) = tnear;
+  RTCRayN_dir_x(r, W, k) = d.x;
+  RTCRayN_dir_y(r, W, k) = d.y;
+  RTCRayN_dir_z(r, W, k) = d.z;
+  RTCRayN_time(r, W, k) = 0.0f;
+  RTCRayN_tfar(r, W, k) = tfar;
+  RTCRayN_mask(r, W, k) = ~0u;
+  RTCRayN_id(r, W, k) = unsigned(k);
+  RTCRayN_flags(r, W, k) = 0;
+}
+
+template <int W>
+inline void clear_hit(RTCHitN* h, int k) {
+  RTCHitN_geomID(h, W, k) = RTC_INVALID_GEOMETRY_ID;
+  RTCHitN_primID(h, W, k) = RTC_INVALID_GEOMETRY_ID;
+  RTCHitN_instID(h, W, k, 0) = RTC_INVALID_GEOMETRY_ID;
+}
+
+// Runs body(row_begin, row_end, counts) over tiles of 4 rows on `threads` threads, as lancer's
+// render does (src/render.cpp run_tiles), and sums the counts.
+template <class Body>
+RayCounts run_tiles(int ny, int threads, Body body) {
+  constexpr int kTileRows = 4;
+  const int tiles = (ny + kTileRows - 1) / kTileRows;
+  auto tile = [&](int t, RayCounts& counts) {
+    const int r0 = t * kTileRows, r1 = std::min(ny, r0 + kTileRows);
+    body(r0, r1, counts);
+  };
+  if (threads <= 1) {
+    RayCounts counts;
+    for (int t = 0; t < tiles; ++t) tile(t, counts);
+    return counts;
+  }
+  tbb::combinable<RayCounts> per_thread;
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, tiles, 1),
+        [&](const tbb::blocked_range<int>& r) {
+          RayCounts& counts = per_thread.local();
+          for (int t = r.begin(); t < r.end(); ++t) tile(t, counts);
+        },
+        tbb::simple_partitioner());
+  });
+  RayCounts total;
+  per_thread.combine_each([&](const RayCounts& c) { total += c; });
+  return total;
+}
+
+// The scene's size: the largest distance from the origin of anything a ray starts from or
+// hits at a finite place, at least 1.
+float scene_size(const Scene& scene) {
+  double r = 1;
+  auto grow = [&](const Vec3<double>& p, double pad) { r = std::max(r, length(p) + pad); };
+  // Orthographic rays start anywhere on the screen rectangle about the camera's position.
+  const CameraSpec& c = scene.camera;
+  grow(c.position, std::hypot(std::max(std::abs(c.xmin), std::abs(c.xmax)),
+                              std::max(std::abs(c.ymin), std::abs(c.ymax))));
+  for (const Light& l : scene.lights) grow(l.position, 0);
+  for (const Sphere& s : scene.spheres) grow(s.center, s.radius);
+  for (const Plane& p : scene.planes) grow(p.point, 0);
+  return float(r);
+}
+
+// Two unit vectors spanning the plane of unit normal n.
+void plane_basis(const Vec3<double>& n, Vec3<double>& t1, Vec3<double>& t2) {
+  const Vec3<double> axis = std::abs(n.x) < 0.5 ? Vec3<double>{1, 0, 0} : Vec3<double>{0, 1, 0};
+  t1 = normalize(cross(n, axis));
+  t2 = cross(n, t1);
+}
+
+}  // namespace
+
+struct EmbreeScene::Impl {
+  PreparedScene<float> s;
+  PlaneMode mode = PlaneMode::user;
+  float plane_half = 0;  // half-size of the square standing for each plane
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  unsigned sphere_geom = RTC_INVALID_GEOMETRY_ID, plane_geom = RTC_INVALID_GEOMETRY_ID;
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  void check(const char* what) const {
+    const RTCError e = rtcGetDeviceError(device);
+    if (e != RTC_ERROR_NONE)
+      throw std::runtime_error(std::string("embree: ") + what + " failed (error " +
+                               std::to_string(int(e)) + ")");
+  }
+
+  // lancer's object id of an Embree hit, -1 for none.
+  int object_id(unsigned geom, unsigned prim) const {
+    if (geom == RTC_INVALID_GEOMETRY_ID) return -1;
+    return geom == sphere_geom ? int(prim) : s.num_spheres + int(prim);
+  }
+
+  // ---- planes as user geometry: lancer's formula, exactly --------------------------------
+  static void plane_bounds(const RTCBoundsFunctionArguments* args) {
+    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
+    const PreparedScene<float>& s = im.s;
+    const unsigned k = args->primID;
+    const float n[3] = {s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+    const float q[3] = {s.plane_px[k], s.plane_py[k], s.plane_pz[k]};
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      // A disc of radius R in the plane reaches R * sqrt(1 - n_a^2) along axis a; padded so
+      // that an axis-aligned plane's box has some thickness to round into.
+      const float reach = im.plane_half * std::sqrt(std::max(0.0f, 1.0f - n[a] * n[a]));
+      const float pad = 1e-5f * (std::abs(q[a]) + 1.0f) + 1e-6f * reach;
+      lo[a] = q[a] - reach - pad;
+      hi[a] = q[a] + reach + pad;
+    }
+    RTCBounds* b = args->bounds_o;
+    b->lower_x = lo[0], b->lower_y = lo[1], b->lower_z = lo[2];
+    b->upper_x = hi[0], b->upper_y = hi[1], b->upper_z = hi[2];
+  }
+
+  // t of ray i against plane k by lancer's formula, or NaN-free "no hit" as a negative value.
+  static bool plane_t(const PreparedScene<float>& s, unsigned k, RTCRayN* ray, unsigned N,
+                      unsigned i, float& t) {
+    const Vec3<float> n{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+    const Vec3<float> o{RTCRayN_org_x(ray, N, i), RTCRayN_org_y(ray, N, i),
+                        RTCRayN_org_z(ray, N, i)};
+    const Vec3<float> d{RTCRayN_dir_x(ray, N, i), RTCRayN_dir_y(ray, N, i),
+                        RTCRayN_dir_z(ray, N, i)};
+    const float denom = dot(d, n);
+    if (denom == 0.0f) return false;
+    t = dot(Vec3<float>{s.plane_px[k], s.plane_py[k], s.plane_pz[k]} - o, n) / denom;
+    return t > RTCRayN_tnear(ray, N, i) && t < RTCRayN_tfar(ray, N, i);
+  }
+
+  static void plane_intersect(const RTCIntersectFunctionNArguments* args) {
+    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
+    const unsigned N = args->N, k = args->primID;
+    RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, N);
+    RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, N);
+    for (unsigned i = 0; i < N; ++i) {
+      float t;
+      if (args->valid[i] != -1 || !plane_t(im.s, k, ray, N, i, t)) continue;
+      RTCRayN_tfar(ray, N, i) = t;
+      RTCHitN_Ng_x(hit, N, i) = im.s.plane_nx[k];
+      RTCHitN_Ng_y(hit, N, i) = im.s.plane_ny[k];
+      RTCHitN_Ng_z(hit, N, i) = im.s.plane_nz[k];
+      RTCHitN_u(hit, N, i) = 0.0f;
+      RTCHitN_v(hit, N, i) = 0.0f;
+      RTCHitN_primID(hit, N, i) = k;
+      RTCHitN_geomID(hit, N, i) = args->geomID;
+      RTCHitN_instID(hit, N, i, 0) = args->context->instID[0];
+    }
+  }
+
+  static void plane_occluded(const RTCOccludedFunctionNArguments* args) {
+    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
+    const unsigned N = args->N, k = args->primID;
+    for (unsigned i = 0; i < N; ++i) {
+      float t;
+      if (args->valid[i] != -1 || !plane_t(im.s, k, args->ray, N, i, t)) continue;
+      RTCRayN_tfar(args->ray, N, i) = -kInf;
+    }
+  }
+
+  void build(const Scene& src, const std::string& config) {
+    s = prepare<float>(src);
+    plane_half = kPlaneExtent * scene_size(src);
+    std::string cfg = config;
+    if (cfg.empty())
+      if (const char* env = std::getenv("LANCER_EMBREE_CONFIG")) cfg = env;
+    device = rtcNewDevice(cfg.empty() ? nullptr : cfg.c_str());
+    if (!device)
+      throw std::runtime_error("embree: rtcNewDevice failed (error " +
+                               std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+    scene = rtcNewScene(device);
+    check("rtcNewScene");
+
+    if (s.num_spheres > 0) {
+      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+      auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+          g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), s.num_spheres));
+      check("sphere vertex buffer");
+      for (int i = 0; i < s.num_spheres; ++i) {
+        v[4 * i + 0] = s.sphere_cx[i];
+        v[4 * i + 1] = s.sphere_cy[i];
+        v[4 * i + 2] = s.sphere_cz[i];
+        v[4 * i + 3] = s.sphere_r[i];
+      }
+      rtcCommitGeometry(g);
+      sphere_geom = rtcAttachGeometry(scene, g);
+      rtcReleaseGeometry(g);
+      check("spheres");
+    }
+    if (s.num_planes > 0) {
+      if (mode == PlaneMode::user) {
+        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
+        rtcSetGeometryUserPrimitiveCount(g, unsigned(s.num_planes));
+        rtcSetGeometryUserData(g, this);
+        rtcSetGeometryBoundsFunction(g, &Impl::plane_bounds, this);
+        rtcSetGeometryIntersectFunction(g, &Impl::plane_intersect);
+        rtcSetGeometryOccludedFunction(g, &Impl::plane_occluded);
+        rtcCommitGeometry(g);
+        plane_geom = rtcAttachGeometry(scene, g);
+        rtcReleaseGeometry(g);
+      } else {
+        // A square of half-size plane_half about the plane's point: rays from within the scene
+        // miss it only when they run within about 1/kPlaneExtent radian of parallel to it.
+        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
+        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+            g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+            4 * std::size_t(s.num_planes)));
+        auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+            g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned),
+            std::size_t(s.num_planes)));
+        check("plane buffers");
+        for (int k = 0; k < s.num_planes; ++k) {
+          const Vec3<double> n{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+          const Vec3<double> q{s.plane_px[k], s.plane_py[k], s.plane_pz[k]};
+          Vec3<double> t1, t2;
+          plane_basis(n, t1, t2);
+          const double h = plane_half;
+          const Vec3<double> corners[4] = {q - t1 * h - t2 * h, q + t1 * h - t2 * h,
+                                           q + t1 * h + t2 * h, q - t1 * h + t2 * h};
+          for (int c = 0; c < 4; ++c) {
+            v[3 * (4 * k + c) + 0] = float(corners[c].x);
+            v[3 * (4 * k + c) + 1] = float(corners[c].y);
+            v[3 * (4 * k + c) + 2] = float(corners[c].z);
+            idx[4 * k + c] = unsigned(4 * k + c);
+          }
+        }
+        rtcCommitGeometry(g);
+        plane_geom = rtcAttachGeometry(scene, g);
+        rtcReleaseGeometry(g);
+      }
+      check("planes");
+    }
+    rtcCommitScene(scene);
+    check("rtcCommitScene");
+  }
+
+  // ---- camera rays -----------------------------------------------------------------------
+  // Lane k of packet (i0, j, a, b): lancer's camera ray from its screen tables.
+  void camera_ray_of(int i, int j, int a, int b, Vec3<float>& o, Vec3<float>& d) const {
+    const PreparedCamera<float>& cam = s.camera;
+    camera_ray(cam, cam.screen_x[std::size_t(a) * cam.nx + i],
+               cam.screen_y[std::size_t(b) * cam.ny + j], o, d);
+  }
+
+  // Fills a camera packet; lanes >= `lanes` get a copy of lane 0 and valid 0.
+  template <int W>
+  void camera_packet(typename Api<W>::RayHit& rh, int* valid, int i0, int j, int a, int b,
+                     int lanes) const {
+    RTCRayHitN* rhn = reinterpret_cast<RTCRayHitN*>(&rh);
+    RTCRayN* ray = RTCRayHitN_RayN(rhn, W);
+    RTCHitN* hit = RTCRayHitN_HitN(rhn, W);
+    Vec3<float> o, d, o0, d0;
+    for (int k = 0; k < W; ++k) {
+      if (k < lanes) camera_ray_of(i0 + k, j, a, b, o, d);
+      if (k == 0) o0 = o, d0 = d;
+      valid[k] = k < lanes ? -1 : 0;
+      set_ray<W>(ray, k, k < lanes ? o : o0, k < lanes ? d : d0, s.epsilon, kInf);
+      clear_hit<W>(hit, k);
+    }
+  }
+
+  template <int W>
+  void primary_rows(float* t_out, int r0, int r1, RayCounts& counts) const {
+    const PreparedCamera<float>& cam = s.camera;
+    alignas(64) typename Api<W>::RayHit rh;
+    alignas(64) int valid[W];
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTCRayN* ray = RTCRayHitN_RayN(reinterpret_cast<RTCRayHitN*>(&rh), W);
+    float sum[W];
+    for (int j = r0; j < r1; ++j) {
+      for (int i0 = 0; i0 < cam.nx; i0 += W) {
+        const int lanes = std::min(W, cam.nx - i0);
+        for (int k = 0; k < W; ++k) sum[k] = 0.0f;
+        for (int b = 0; b < cam.samples; ++b)
+          for (int a = 0; a < cam.samples; ++a) {
+            camera_packet<W>(rh, valid, i0, j, a, b, lanes);
+            counts.camera += lanes;
+            Api<W>::intersect(valid, scene, &ctx, rh);
+            for (int k = 0; k < lanes; ++k) sum[k] = sum[k] + RTCRayN_tfar(ray, W, k);
+          }
+        float* row = t_out + std::size_t(j) * cam.nx + i0;
+        for (int k = 0; k < lanes; ++k) row[k] = sum[k];
+      }
+    }
+  }
+
+  template <int W>
+  void camera_hits(PeerHit* out) const {
+    const PreparedCamera<float>& cam = s.camera;
+    alignas(64) typename Api<W>::RayHit rh;
+    alignas(64) int valid[W];
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHitN* rhn = reinterpret_cast<RTCRayHitN*>(&rh);
+    RTCRayN* ray = RTCRayHitN_RayN(rhn, W);
+    RTCHitN* hit = RTCRayHitN_HitN(rhn, W);
+    for (int b = 0; b < cam.samples; ++b)
+      for (int a = 0; a < cam.samples; ++a)
+        for (int j = 0; j < cam.ny; ++j)
+          for (int i0 = 0; i0 < cam.nx; i0 += W) {
+            const int lanes = std::min(W, cam.nx - i0);
+            camera_packet<W>(rh, valid, i0, j, a, b, lanes);
+            Api<W>::intersect(valid, scene, &ctx, rh);
+            PeerHit* row =
+                out + (std::size_t(b * cam.samples + a) * cam.ny + j) * cam.nx + i0;
+            for (int k = 0; k < lanes; ++k) {
+              const int id = object_id(RTCHitN_geomID(hit, W, k), RTCHitN_primID(hit, W, k));
+              row[k] = {id < 0 ? kInf : RTCRayN_tfar(ray, W, k), id};
+            }
+          }
+  }
+
+  // ---- every ray of a render, without shading ------------------------------------------
+  template <int W>
+  void trace_rows(int r0, int r1, RayCounts& counts) const {
+    const PreparedCamera<float>& cam = s.camera;
+    alignas(64) typename Api<W>::RayHit rh;
+    alignas(64) typename Api<W>::Ray shadow;
+    alignas(64) int active[W], lit[W];
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHitN* rhn = reinterpret_cast<RTCRayHitN*>(&rh);
+    RTCRayN* ray = RTCRayHitN_RayN(rhn, W);
+    RTCHitN* hit = RTCRayHitN_HitN(rhn, W);
+    RTCRayN* sray = reinterpret_cast<RTCRayN*>(&shadow);
+    Vec3<float> o[W], d[W], p[W], n[W];
+    int id[W];
+    for (int j = r0; j < r1; ++j) {
+      for (int i0 = 0; i0 < cam.nx; i0 += W) {
+        const int lanes = std::min(W, cam.nx - i0);
+        for (int b = 0; b < cam.samples; ++b)
+          for (int a = 0; a < cam.samples; ++a) {
+            for (int k = 0; k < W; ++k) {
+              active[k] = k < lanes ? -1 : 0;
+              if (k < lanes) camera_ray_of(i0 + k, j, a, b, o[k], d[k]);
+              else o[k] = o[0], d[k] = d[0];
+            }
+            counts.camera += lanes;
+            for (int depth = 0;; ++depth) {
+              // Closest hits of the active lanes.
+              ctx.flags = depth == 0 ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+                                     : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+              for (int k = 0; k < W; ++k) {
+                set_ray<W>(ray, k, o[k], d[k], s.epsilon, kInf);
+                clear_hit<W>(hit, k);
+              }
+              Api<W>::intersect(active, scene, &ctx, rh);
+              bool any_hit = false;
+              for (int k = 0; k < W; ++k) {
+                id[k] = active[k] ? object_id(RTCHitN_geomID(hit, W, k),
+                                              RTCHitN_primID(hit, W, k))
+                                  : -1;
+                if (id[k] < 0) continue;
+                any_hit = true;
+                // The hit point and the normal facing the ray, as lancer computes them.
+                p[k] = along(o[k], d[k], RTCRayN_tfar(ray, W, k));
+                const int m = id[k];
+                if (m < s.num_spheres) {
+                  const float r = s.sphere_r[m];
+                  n[k] = Vec3<float>{(p[k].x - s.sphere_cx[m]) / r, (p[k].y - s.sphere_cy[m]) / r,
+                                     (p[k].z - s.sphere_cz[m]) / r};
+                } else {
+                  const int q = m - s.num_spheres;
+                  n[k] = Vec3<float>{s.plane_nx[q], s.plane_ny[q], s.plane_nz[q]};
+                }
+                if (dot(n[k], d[k]) > 0.0f) n[k] = -n[k];
+              }
+              if (!any_hit) break;
+              // A shadow ray to each light from each hit lane.
+              ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+              for (int l = 0; l < s.num_lights; ++l) {
+                const Vec3<float> light{s.light_x[l], s.light_y[l], s.light_z[l]};
+                int nlit = 0;
+                for (int k = 0; k < W; ++k) {
+                  lit[k] = 0;
+                  Vec3<float> dir = d[0];
+                  float dist = 1.0f;
+                  if (id[k] >= 0) {
+                    const Vec3<float> to_light = light - p[k];
+                    dist = length(to_light);
+                    if (dist > 0.0f) {
+                      lit[k] = -1, ++nlit;
+                      dir = to_light / dist;
+                    } else {
+                      dist = 1.0f;
+                    }
+                  }
+                  set_ray<W>(sray, k, id[k] >= 0 ? p[k] : o[0], dir, s.epsilon, dist);
+                }
+                counts.shadow += nlit;
+                if (nlit) Api<W>::occluded(lit, scene, &ctx, shadow);
+              }
+              // Mirror rays where the material reflects and depth allows.
+              if (!s.features.reflection || depth >= s.max_depth) break;
+              bool any_reflected = false;
+              for (int k = 0; k < W; ++k) {
+                active[k] = id[k] >= 0 && s.mat_reflect[id[k]] > 0.0f ? -1 : 0;
+                if (!active[k]) continue;
+                any_reflected = true;
+                ++counts.reflected;
+                d[k] = normalize(reflect(d[k], n[k]));
+                o[k] = p[k];
+              }
+              if (!any_reflected) break;
+            }
+          }
+      }
+    }
+  }
+};
+
+EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->mode = planes;
+  impl_->build(scene, config);
+}
+
+EmbreeScene::~EmbreeScene() = default;
+
+PlaneMode EmbreeScene::plane_mode() const { return impl_->mode; }
+
+namespace {
+void check_width(int width) {
+  if (width != 1 && width != 4 && width != 8 && width != 16)
+    throw InputError("--peer embree: width must be 1, 4, 8 or 16, not " + std::to_string(width));
+  if (width > 1 && !packet::kernels_for(width))
+    throw InputError("--peer embree: width " + std::to_string(width) + " needs " +
+                     packet::isa_name(width) + ", which this CPU or OS does not run");
+}
+}  // namespace
+
+PrimaryResult EmbreeScene::primary(int width, int threads) const {
+  check_width(width);
+  const Impl& im = *impl_;
+  PrimaryResult res;
+  res.width = width;
+  res.threads = std::max(1, threads);
+  res.t.assign(std::size_t(im.s.camera.nx) * im.s.camera.ny, 0.0f);
+  const auto start = Clock::now();
+  res.rays = run_tiles(im.s.camera.ny, res.threads, [&](int r0, int r1, RayCounts& c) {
+    switch (width) {
+      case 1: im.primary_rows<1>(res.t.data(), r0, r1, c); break;
+      case 4: im.primary_rows<4>(res.t.data(), r0, r1, c); break;
+      case 8: im.primary_rows<8>(res.t.data(), r0, r1, c); break;
+      default: im.primary_rows<16>(res.t.data(), r0, r1, c); break;
+    }
+  });
+  res.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return res;
+}
+
+EmbreeScene::RaysResult EmbreeScene::trace_all(int width, int threads) const {
+  check_width(width);
+  const Impl& im = *impl_;
+  RaysResult res;
+  const auto start = Clock::now();
+  res.rays = run_tiles(im.s.camera.ny, std::max(1, threads), [&](int r0, int r1, RayCounts& c) {
+    switch (width) {
+      case 1: im.trace_rows<1>(r0, r1, c); break;
+      case 4: im.trace_rows<4>(r0, r1, c); break;
+      case 8: im.trace_rows<8>(r0, r1, c); break;
+      default: im.trace_rows<16>(r0, r1, c); break;
+    }
+  });
+  res.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return res;
+}
+
+std::vector<PeerHit> EmbreeScene::camera_hits(int width) const {
+  check_width(width);
+  const Impl& im = *impl_;
+  const PreparedCamera<float>& cam = im.s.camera;
+  std::vector<PeerHit> out(std::size_t(cam.nx) * cam.ny * cam.samples * cam.samples);
+  switch (width) {
+    case 1: im.camera_hits<1>(out.data()); break;
+    case 4: im.camera_hits<4>(out.data()); break;
+    case 8: im.camera_hits<8>(out.data()); break;
+    default: im.camera_hits<16>(out.data()); break;
+  }
+  return out;
+}
+
+}  // namespace lancer::peer
+
+#else  // !LANCER_HAVE_EMBREE
+
+namespace lancer::peer {
+
+bool embree_available() { return false; }
+std::string embree_version() { return ""; }
+
+struct EmbreeScene::Impl {};
+
+EmbreeScene::EmbreeScene(const Scene&, PlaneMode, const std::string&) {
+  throw InputError(
+      "--peer embree: this lancer was built without Embree (install libembree-dev and "
+      "configure with -DLANCER_WITH_EMBREE=ON)");
+}
+EmbreeScene::~EmbreeScene() = default;
+PlaneMode EmbreeScene::plane_mode() const { return PlaneMode::user; }
+PrimaryResult EmbreeScene::primary(int, int) const { return {}; }
+EmbreeScene::RaysResult EmbreeScene::trace_all(int, int) const { return {}; }
+std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
+
+}  // namespace lancer::peer
+
+#endif  // LANCER_HAVE_EMBREE
+
+namespace lancer::peer {
+
+std::vector<int> embree_widths(const std::vector<int>& requested) {
+  std::vector<int> out;
+  for (int w : requested)
+    if (w == 1 || ((w == 4 || w == 8 || w == 16) && packet::kernels_for(w))) out.push_back(w);
+  return out;
+}
+
+}  // namespace lancer::peer

@@ -1,0 +1,82 @@
+// Helpers the lancer test executables share: paths, temporary folders, running the CLI.
+#pragma once
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "lancer/image.hpp"
+#include "lancer/render.hpp"
+#include "lancer/scene.hpp"
+
+namespace lancer::testing {
+
+inline std::string source_path(const std::string& rel) {
+  return std::string(LANCER_SOURCE_DIR) + "/" + rel;
+}
+
+// The scene files the project ships, sorted by name.
+inline std::vector<std::string> shipped_scenes() {
+  std::vector<std::string> out;
+  for (const auto& e : std::filesystem::directory_iterator(source_path("scenes")))
+    if (e.path().extension() == ".json") out.push_back(e.path().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// A fresh folder removed with everything in it when the object goes.
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "lancer-test-XXXXXX").string();
+    path_ = mkdtemp(pattern.data());
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  std::string file(const std::string& name) const { return path_ + "/" + name; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+struct CommandResult {
+  int status = -1;  // exit status, or -1 if it did not exit normally
+  std::string out;  // stdout and stderr together
+};
+
+// Runs a shell command line, capturing its output.
+inline CommandResult run_command(const std::string& command) {
+  CommandResult r;
+  FILE* p = popen((command + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+inline std::string cli() { return LANCER_CLI; }
+
+inline Image render_with(const Scene& scene, int width, Precision precision = Precision::exact,
+                         int threads = 1) {
+  RenderOptions opt;
+  opt.width = width;
+  opt.precision = precision;
+  opt.threads = threads;
+  return render(scene, opt).image;
+}
+
+}  // namespace lancer::testing

@@ -1,0 +1,203 @@
+// The packet path against the scalar reference: bit for bit, at every width this CPU runs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "lancer/compare.hpp"
+#include "lancer/error.hpp"
+#include "lancer/packet/api.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/reference.hpp"
+#include "support/random_scene.hpp"
+#include "support/test_util.hpp"
+
+namespace lancer {
+namespace {
+
+std::vector<int> packet_widths() {
+  std::vector<int> w;
+  for (int width : packet::supported_widths())
+    if (width > 1) w.push_back(width);
+  return w;
+}
+
+struct Outcome {
+  BitDiff diff;
+  bool same_rays;
+};
+
+Outcome compare_to_reference(const Scene& s, int width) {
+  RenderOptions ref_opt, opt;
+  ref_opt.width = 1;
+  ref_opt.threads = opt.threads = 1;
+  opt.width = width;
+  const RenderResult ref = render(s, ref_opt);
+  const RenderResult r = render(s, opt);
+  return {bit_diff(r.image, ref.image), r.rays == ref.rays};
+}
+
+void expect_identical(const Scene& s, int width) {
+  const Outcome o = compare_to_reference(s, width);
+  EXPECT_TRUE(o.diff.identical()) << "width " << width << ": " << o.diff.differing_pixels
+                                  << " pixels differ, up to " << o.diff.max_ulps
+                                  << " ulps, first at (" << o.diff.first_i << ", "
+                                  << o.diff.first_j << ")";
+  EXPECT_TRUE(o.same_rays) << "width " << width << " traced other rays than the reference";
+}
+
+TEST(PacketIdentity, TheMachineRunsSomePacketWidth) {
+  // Every x86-64 CPU lancer targets has SSE4.2; without it the suite would prove nothing.
+  EXPECT_FALSE(packet_widths().empty());
+}
+
+TEST(PacketIdentity, EveryShippedSceneAtEveryWidth) {
+  for (const std::string& path : testing::shipped_scenes()) {
+    const Scene s = load_scene(path);
+    for (int width : packet_widths()) {
+      SCOPED_TRACE(path);
+      expect_identical(s, width);
+    }
+  }
+}
+
+TEST(PacketIdentity, SupersampledAndOddSizes) {
+  Scene s = load_scene(testing::source_path("scenes/lorenzi-reflections.json"));
+  for (auto [nx, ny, ss] : {std::tuple{1, 1, 1}, {3, 2, 2}, {17, 5, 1}, {31, 7, 3}, {33, 9, 2}}) {
+    s.camera.nx = nx, s.camera.ny = ny, s.supersample = ss;
+    for (int width : packet_widths()) {
+      SCOPED_TRACE(::testing::Message() << nx << "x" << ny << " ss " << ss);
+      expect_identical(s, width);
+    }
+  }
+}
+
+// Seeded random scenes: 1 to 64 objects, log-uniform sizes and distances, random materials,
+// depth 0 to 8, both cameras. The seed of a failure is printed; keep it below as a regression.
+TEST(PacketIdentity, RandomScenes) {
+  constexpr int kScenes = 300;
+  for (int seed = 1; seed <= kScenes; ++seed) {
+    const auto j = testing::random_scene(static_cast<std::uint64_t>(seed));
+    const Scene s = parse_scene(j.dump(), "random-" + std::to_string(seed));
+    for (int width : packet_widths()) {
+      SCOPED_TRACE(::testing::Message() << "random_scene seed " << seed);
+      expect_identical(s, width);
+      if (HasFailure()) return;  // one seed's report is enough to start from
+    }
+  }
+}
+
+// Regression cases: scenes that once made the packets differ from the reference, kept literally.
+TEST(PacketIdentity, Regressions) {
+  // Equal distances to two objects: the first in the fixed order (spheres, then planes) wins.
+  const char* ties = R"({
+    "camera": {"type": "orthographic", "position": [0, 5, 0], "direction": [0, -1, 0],
+               "resolution": [19, 3], "bounds": [-2, 2, -1, 1]},
+    "lights": [{"position": [0, 10, 0]}],
+    "objects": [
+      {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": {"color": [1, 0, 0]}},
+      {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": {"color": [0, 1, 0]}},
+      {"type": "sphere", "center": [0, -1, 0], "radius": 1, "material": {"color": [0, 0, 1]}}
+    ]})";
+  // Fractional shininess mixed with whole shininess in one packet (std::pow lanes).
+  const char* mixed_shininess = R"({
+    "camera": {"type": "pinhole", "position": [0, 0, 5], "direction": [0, 0, -1], "distance": 5,
+               "resolution": [41, 13], "bounds": [-3, 3, -1, 1]},
+    "lights": [{"position": [3, 5, 5]}],
+    "objects": [
+      {"type": "sphere", "center": [-1, 0, 0], "radius": 1, "material": {"ks": 1, "shininess": 7.5}},
+      {"type": "sphere", "center": [1, 0, 0], "radius": 1, "material": {"ks": 1, "shininess": 12}}
+    ]})";
+  for (const char* text : {ties, mixed_shininess}) {
+    const Scene s = parse_scene(text, "regression");
+    for (int width : packet_widths()) expect_identical(s, width);
+  }
+}
+
+// The closest-hit kernel must leave lanes outside its valid mask exactly as they were, and find
+// the same hits as the reference in the lanes inside it.
+TEST(PacketKernel, InactiveLanesUntouched) {
+  const Scene scene = load_scene(testing::source_path("scenes/lorenzi-shadows.json"));
+  const auto p = prepare<float>(scene);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int width : packet_widths()) {
+    const packet::Kernels* k = packet::kernels_for(width);
+    ASSERT_NE(k, nullptr);
+    for (int round = 0; round < 50; ++round) {
+      SCOPED_TRACE(::testing::Message() << "width " << width << " round " << round);
+      std::vector<float> rays(6 * width), t(width), id(width);
+      std::unique_ptr<bool[]> valid(new bool[width]), hit(new bool[width]);
+      for (int l = 0; l < width; ++l) {
+        Vec3<float> d = normalize(Vec3<float>{u(rng) * 0.5f, u(rng) * 0.4f, -1.0f});
+        rays[0 * width + l] = 0, rays[1 * width + l] = 0, rays[2 * width + l] = 5;
+        rays[3 * width + l] = d.x, rays[4 * width + l] = d.y, rays[5 * width + l] = d.z;
+        valid[l] = (rng() & 1) != 0;
+        t[l] = std::numeric_limits<float>::infinity();
+        id[l] = -1;
+        if (!valid[l]) t[l] = 1234.5f + l, id[l] = 99.0f + l;  // sentinels
+      }
+      k->closest_hit_packet(p, valid.get(), rays.data(), t.data(), id.data(), hit.get());
+      for (int l = 0; l < width; ++l) {
+        if (!valid[l]) {
+          EXPECT_EQ(t[l], 1234.5f + l) << "lane " << l;
+          EXPECT_EQ(id[l], 99.0f + l) << "lane " << l;
+          EXPECT_FALSE(hit[l]) << "lane " << l;
+          continue;
+        }
+        const Vec3<float> o{rays[l], rays[width + l], rays[2 * width + l]};
+        const Vec3<float> d{rays[3 * width + l], rays[4 * width + l], rays[5 * width + l]};
+        const auto ref = reference::closest_hit(p, o, d);
+        EXPECT_EQ(static_cast<int>(id[l]), ref.id) << "lane " << l;
+        EXPECT_EQ(hit[l], ref.id >= 0) << "lane " << l;
+        if (ref.id >= 0) {
+          EXPECT_EQ(t[l], ref.t) << "lane " << l;
+        }
+      }
+    }
+  }
+}
+
+TEST(PacketPrimary, SameDistancesAsTheReference) {
+  for (const std::string& path : testing::shipped_scenes()) {
+    SCOPED_TRACE(path);
+    const Scene s = load_scene(path);
+    RenderOptions ref_opt, opt;
+    ref_opt.width = 1;
+    ref_opt.threads = opt.threads = 1;
+    const PrimaryResult ref = render_primary(s, ref_opt);
+    for (int width : packet_widths()) {
+      opt.width = width;
+      const PrimaryResult r = render_primary(s, opt);
+      ASSERT_EQ(r.t.size(), ref.t.size());
+      std::size_t differ = 0;
+      for (std::size_t k = 0; k < r.t.size(); ++k)
+        differ += std::memcmp(&r.t[k], &ref.t[k], sizeof(float)) != 0;
+      EXPECT_EQ(differ, 0u) << "width " << width;
+      EXPECT_EQ(r.rays.camera, ref.rays.camera);
+    }
+  }
+}
+
+TEST(PacketDispatch, UnavailableWidthIsAClearError) {
+  // Width 2 does not exist; a width this CPU lacks names its ISA.
+  EXPECT_THROW(resolve_width(2, Precision::exact), InputError);
+  for (int width : {4, 8, 16}) {
+    if (packet::kernels_for(width)) continue;
+    try {
+      resolve_width(width, Precision::exact);
+      ADD_FAILURE() << "width " << width << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(packet::isa_name(width)), std::string::npos);
+    }
+  }
+}
+
+TEST(PacketDispatch, AutoPicksTheWidest) {
+  EXPECT_EQ(resolve_width(0, Precision::exact), packet::supported_widths().front());
+}
+
+}  // namespace
+}  // namespace lancer
