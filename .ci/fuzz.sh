@@ -26,10 +26,11 @@ fi
 cc="$(command -v clang || command -v clang-14 || true)"
 if [ -z "$cxx" ]; then echo "fuzz.sh: clang++ not found" >&2; exit 2; fi
 
+mkdir -p "$build"
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_COMPILER="$cxx" ${cc:+-DCMAKE_C_COMPILER="$cc"} \
-  -DLANCER_FUZZ=ON -DLANCER_BUILD_BENCH=OFF >"$build.configure.log" 2>&1 \
-  || { cat "$build.configure.log" >&2; exit 2; }
+  -DLANCER_FUZZ=ON -DLANCER_BUILD_BENCH=OFF >"$build/configure.log" 2>&1 \
+  || { cat "$build/configure.log" >&2; exit 2; }
 cmake --build "$build" --target fuzz_scene -j2
 
 mkdir -p "$build/corpus" "$build/artifacts"

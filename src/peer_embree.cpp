@@ -8,6 +8,8 @@
 #ifdef LANCER_HAVE_EMBREE
 
 #include <embree3/rtcore.h>
+#include <pmmintrin.h>
+#include <xmmintrin.h>
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
@@ -109,6 +111,24 @@ inline void clear_hit(RTCHitN* h, int k) {
   RTCHitN_instID(h, W, k, 0) = RTC_INVALID_GEOMETRY_ID;
 }
 
+// Embree asks for flush-to-zero and denormals-are-zero on every thread that calls it (it warns
+// of a "severe performance impact" otherwise). They change float results, so they are set only
+// around the peer's own work and the caller's MXCSR is restored after: lancer's kernels never
+// run under them.
+class FlushDenormals {
+ public:
+  FlushDenormals() : saved_(_mm_getcsr()) {
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  }
+  ~FlushDenormals() { _mm_setcsr(saved_); }
+  FlushDenormals(const FlushDenormals&) = delete;
+  FlushDenormals& operator=(const FlushDenormals&) = delete;
+
+ private:
+  unsigned saved_;
+};
+
 // Runs body(row_begin, row_end, counts) over tiles of 4 rows on `threads` threads, as lancer's
 // render does (src/render.cpp run_tiles), and sums the counts.
 template <class Body>
@@ -117,6 +137,7 @@ RayCounts run_tiles(int ny, int threads, Body body) {
   const int tiles = (ny + kTileRows - 1) / kTileRows;
   auto tile = [&](int t, RayCounts& counts) {
     const int r0 = t * kTileRows, r1 = std::min(ny, r0 + kTileRows);
+    const FlushDenormals ftz_daz;
     body(r0, r1, counts);
   };
   if (threads <= 1) {
@@ -510,6 +531,14 @@ struct EmbreeScene::Impl {
 
 EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config)
     : impl_(std::make_unique<Impl>()) {
+  // LANCER_EMBREE_PLANES=quad|user overrides the default (user), to compare the two.
+  if (const char* env = std::getenv("LANCER_EMBREE_PLANES")) {
+    const std::string v = env;
+    if (v == "quad") planes = PlaneMode::quad;
+    else if (v == "user") planes = PlaneMode::user;
+    else if (!v.empty())
+      throw InputError("LANCER_EMBREE_PLANES: must be quad or user, not '" + v + "'");
+  }
   impl_->mode = planes;
   impl_->build(scene, config);
 }
@@ -570,6 +599,7 @@ std::vector<PeerHit> EmbreeScene::camera_hits(int width) const {
   const Impl& im = *impl_;
   const PreparedCamera<float>& cam = im.s.camera;
   std::vector<PeerHit> out(std::size_t(cam.nx) * cam.ny * cam.samples * cam.samples);
+  const FlushDenormals ftz_daz;
   switch (width) {
     case 1: im.camera_hits<1>(out.data()); break;
     case 4: im.camera_hits<4>(out.data()); break;

@@ -49,6 +49,16 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+template <class T>
+PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
+  PreparedScene<T> p = prepare<T>(scene);
+  if (opt.model_everything) {
+    Features& f = p.features;
+    f.spheres = f.planes = f.lights = f.specular = f.reflection = true;
+  }
+  return p;
+}
+
 // Runs body(row_begin, row_end, counts) over row tiles on `threads` threads and sums the
 // counts. Each pixel depends only on its own rays, so the image is the same for any split.
 template <class Body>
@@ -100,12 +110,12 @@ RenderResult render(const Scene& scene, const RenderOptions& opt) {
   res.image = Image(scene.camera.nx, scene.camera.ny);
   const auto start = Clock::now();
   if (opt.precision == Precision::dbl) {
-    const auto prepared = prepare<double>(scene);
+    const auto prepared = prepare_for<double>(scene, opt);
     res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
       reference::render_rows(prepared, res.image, r0, r1, c);
     });
   } else {
-    const auto prepared = prepare<float>(scene);
+    const auto prepared = prepare_for<float>(scene, opt);
     const packet::Kernels* k = res.width == 1 ? nullptr : packet::kernels_for(res.width);
     res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
       if (k)
@@ -123,7 +133,7 @@ PrimaryResult render_primary(const Scene& scene, const RenderOptions& opt) {
   res.width = resolve_width(opt.width, opt.precision);
   res.threads = resolve_threads(opt.threads);
   res.t.assign(std::size_t(scene.camera.nx) * scene.camera.ny, 0.0f);
-  const auto prepared = prepare<float>(scene);
+  const auto prepared = prepare_for<float>(scene, opt);
   const packet::Kernels* k = res.width == 1 ? nullptr : packet::kernels_for(res.width);
   const auto start = Clock::now();
   res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {

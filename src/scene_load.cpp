@@ -3,9 +3,11 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <algorithm>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <vector>
 #include <sstream>
 
 #include "lancer/error.hpp"
@@ -19,6 +21,20 @@ using json = nlohmann::json;
 // Documents nested deeper than this are rejected before they can exhaust the stack.
 constexpr int kMaxJsonDepth = 32;
 constexpr std::size_t kMaxSceneBytes = std::size_t(1) << 30;
+
+// Ranges beyond the contract's own rules, so that a render in single precision stays finite
+// (issue 7; each was a fuzzing finding, kept in tests/fuzz/test_regressions.cpp):
+// - coordinates (positions, centres, points, bounds) and lengths (radius, distance) at most
+//   kMaxCoordinate in magnitude: squared distances between them stay below FLT_MAX;
+// - radius and distance at least kMinLength: their squares stay normal floats, not 0;
+// - brightness (colours, coefficients, intensities, background) at most kMaxRadiance, and so the
+//   brightest radiance the scene can produce (scene_radiance_bound), times 64^2 sub-samples
+//   summed, stays below FLT_MAX;
+// - shininess at most kMaxShininess: a cosine one float step above 1 raised to it stays near 1.
+constexpr double kMaxCoordinate = 1e18;
+constexpr double kMinLength = 1e-18;
+constexpr double kMaxRadiance = 1e34;
+constexpr double kMaxShininess = 1e6;
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) {
   throw InputError(where + ": " + what);
@@ -86,15 +102,47 @@ class ObjectReader {
   double number_or(const std::string& key, double fallback) {
     return has(key) ? number(key) : fallback;
   }
-  double non_negative_or(const std::string& key, double fallback) {
+  double non_negative_or(const std::string& key, double fallback,
+                         double max_value = kMaxRadiance) {
     double v = number_or(key, fallback);
     if (v < 0) fail(at(key), "must be >= 0");
+    if (v > max_value) fail(at(key), "must be at most " + show(max_value));
+    return v;
+  }
+  // A length: radius or distance.
+  double length(const std::string& key) {
+    const double v = number(key);
+    if (!(v > 0)) fail(at(key), "must be > 0");
+    if (v < kMinLength || v > kMaxCoordinate)
+      fail(at(key), "must be from " + show(kMinLength) + " to " + show(kMaxCoordinate));
     return v;
   }
   int integer_or(const std::string& key, int fallback) {
     return has(key) ? as_integer(get(key), at(key)) : fallback;
   }
   Vec3<double> vec3(const std::string& key) { return as_vec3(get(key), at(key)); }
+  // A position: every component at most kMaxCoordinate in magnitude.
+  Vec3<double> point(const std::string& key) {
+    const Vec3<double> v = vec3(key);
+    const double c[3] = {v.x, v.y, v.z};
+    for (int i = 0; i < 3; ++i)
+      if (std::fabs(c[i]) > kMaxCoordinate)
+        fail(index_path(at(key), i), "must be from " + show(-kMaxCoordinate) + " to " +
+                                         show(kMaxCoordinate));
+    return v;
+  }
+  // A direction, of any non-zero length. One far from 1 is scaled by a power of two, which
+  // changes no bit of its normalised value but keeps |v|^2 from underflowing or overflowing.
+  Vec3<double> direction(const std::string& key) {
+    Vec3<double> v = vec3(key);
+    if (v.x == 0 && v.y == 0 && v.z == 0) fail(at(key), "must not be zero");
+    const double big = std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)});
+    if (big < 0x1p-64 || big > 0x1p64) {
+      const int e = -std::ilogb(big);
+      v = {std::ldexp(v.x, e), std::ldexp(v.y, e), std::ldexp(v.z, e)};
+    }
+    return v;
+  }
   Rgb rgb_or(const std::string& key, Rgb fallback) {
     return has(key) ? as_rgb(get(key), at(key)) : fallback;
   }
@@ -108,6 +156,12 @@ class ObjectReader {
   void finish() const {
     for (auto it = j_.begin(); it != j_.end(); ++it)
       if (!seen_.count(it.key())) fail(at(it.key()), "unknown key");
+  }
+
+  static std::string show(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
   }
 
   static double as_number(const json& v, const std::string& where) {
@@ -130,12 +184,15 @@ class ObjectReader {
     if (v.is_number()) {
       double g = as_number(v, where);
       if (g < 0) fail(where, "must be >= 0");
+      if (g > kMaxRadiance) fail(where, "must be at most " + show(kMaxRadiance));
       return {g, g, g};
     }
     if (!v.is_array() || v.size() != 3) fail(where, "must be a number or an array of 3 numbers");
     Rgb c{as_number(v[0], index_path(where, 0)), as_number(v[1], index_path(where, 1)),
           as_number(v[2], index_path(where, 2))};
     if (c.r < 0 || c.g < 0 || c.b < 0) fail(where, "components must be >= 0");
+    if (c.r > kMaxRadiance || c.g > kMaxRadiance || c.b > kMaxRadiance)
+      fail(where, "components must be at most " + show(kMaxRadiance));
     return c;
   }
 
@@ -145,7 +202,6 @@ class ObjectReader {
   std::set<std::string> seen_;
 };
 
-bool is_zero(const Vec3<double>& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
 
 CameraSpec read_camera(const json& j) {
   ObjectReader r(j, "camera");
@@ -157,12 +213,19 @@ CameraSpec read_camera(const json& j) {
     c.type = CameraType::orthographic;
   else
     fail(r.at("type"), "must be \"pinhole\" or \"orthographic\"");
-  c.position = r.vec3("position");
-  c.direction = r.vec3("direction");
-  if (is_zero(c.direction)) fail(r.at("direction"), "must not be zero");
+  c.position = r.point("position");
+  c.direction = r.direction("direction");
+  {
+    // The contract's u = normalize((-w.z, 0, w.x)): when that vector is not zero but too short
+    // to normalise in double, the camera has no usable orientation.
+    const Vec3<double> w = normalize(-c.direction);
+    const double h2 = w.z * w.z + w.x * w.x;
+    if ((w.x != 0 || w.z != 0) && !(h2 >= 0x1p-900))
+      fail(r.at("direction"),
+           "too close to vertical to orient the camera; make it exactly vertical or tilt it more");
+  }
   if (c.type == CameraType::pinhole) {
-    c.distance = r.number("distance");
-    if (!(c.distance > 0)) fail(r.at("distance"), "must be > 0");
+    c.distance = r.length("distance");
   } else if (r.has("distance")) {
     r.number("distance");  // accepted and unused: an orthographic camera has no eye distance
   }
@@ -177,7 +240,12 @@ CameraSpec read_camera(const json& j) {
   const json& b = r.get("bounds");
   if (!b.is_array() || b.size() != 4) fail(r.at("bounds"), "must be [xmin, xmax, ymin, ymax]");
   double v[4];
-  for (int i = 0; i < 4; ++i) v[i] = ObjectReader::as_number(b[i], index_path(r.at("bounds"), i));
+  for (int i = 0; i < 4; ++i) {
+    v[i] = ObjectReader::as_number(b[i], index_path(r.at("bounds"), i));
+    if (std::fabs(v[i]) > kMaxCoordinate)
+      fail(index_path(r.at("bounds"), i), "must be from " + ObjectReader::show(-kMaxCoordinate) +
+                                              " to " + ObjectReader::show(kMaxCoordinate));
+  }
   c.xmin = v[0], c.xmax = v[1], c.ymin = v[2], c.ymax = v[3];
   if (!(c.xmax > c.xmin)) fail(r.at("bounds"), "xmax must be > xmin");
   if (!(c.ymax > c.ymin)) fail(r.at("bounds"), "ymax must be > ymin");
@@ -192,7 +260,7 @@ Material read_material(const json& j, const std::string& path) {
   m.ka = r.non_negative_or("ka", m.ka);
   m.kd = r.non_negative_or("kd", m.kd);
   m.ks = r.non_negative_or("ks", m.ks);
-  m.shininess = r.non_negative_or("shininess", m.shininess);
+  m.shininess = r.non_negative_or("shininess", m.shininess, kMaxShininess);
   m.reflect = r.non_negative_or("reflect", m.reflect);
   r.finish();
   return m;
@@ -201,7 +269,7 @@ Material read_material(const json& j, const std::string& path) {
 Light read_light(const json& j, const std::string& path) {
   ObjectReader r(j, path);
   Light l;
-  l.position = r.vec3("position");
+  l.position = r.point("position");
   l.intensity = r.non_negative_or("intensity", l.intensity);
   l.ambient = r.non_negative_or("ambient", l.ambient);
   r.finish();
@@ -240,6 +308,49 @@ json parse_json(const std::string& text, const std::string& name) {
   }
 }
 
+// The brightest radiance a render of the scene can produce, with the model's formulas and unit
+// normals (max(0, n.l) <= 1, max(0, n.h)^shininess <= 1), and the material that reaches it. A
+// miss gives background (camera rays) or environment; a hit on material m at most
+//   max(1, colour) * (ka * sum(ambient) + (kd + ks) * sum(intensity)) + reflect * (next level),
+// where the max(1, .) also bounds the shading sum before it is multiplied by the colour.
+struct RadianceBound {
+  double value = 0;
+  int material = -1;  // -1: the background or environment
+};
+RadianceBound radiance_bound(const Scene& s) {
+  double sum_intensity = 0, sum_ambient = 0;
+  for (const Light& l : s.lights) sum_intensity += l.intensity, sum_ambient += l.ambient;
+  std::vector<bool> used(s.materials.size(), false);
+  for (const Sphere& sp : s.spheres) used[sp.material] = true;
+  for (const Plane& p : s.planes) used[p.material] = true;
+  auto max3 = [](const Rgb& c) { return std::max({c.r, c.g, c.b}); };
+  RadianceBound next;  // the level below (none below max_depth)
+  for (int depth = s.max_depth; depth >= 0; --depth) {
+    RadianceBound level{max3(depth == 0 ? s.background : s.environment), -1};
+    for (std::size_t m = 0; m < s.materials.size(); ++m) {
+      if (!used[m]) continue;
+      const Material& mat = s.materials[m];
+      double v = std::max(1.0, max3(mat.color)) *
+                 (mat.ka * sum_ambient + (mat.kd + mat.ks) * sum_intensity);
+      if (depth < s.max_depth && mat.reflect > 0) v += mat.reflect * next.value;
+      if (!(v <= level.value)) level = {v, static_cast<int>(m)};
+    }
+    next = level;
+  }
+  return next;
+}
+
+void check_radiance(const Scene& s, const std::vector<std::string>& material_where) {
+  const RadianceBound b = radiance_bound(s);
+  if (b.value <= kMaxRadiance) return;
+  char what[160];
+  std::snprintf(what, sizeof what,
+                "with these lights%s, radiance could reach %g; at most %g renders in single "
+                "precision",
+                s.max_depth > 0 ? " and reflections" : "", b.value, kMaxRadiance);
+  fail(b.material >= 0 ? material_where[b.material] : std::string("background"), what);
+}
+
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& name) {
@@ -262,12 +373,14 @@ Scene parse_scene(const std::string& text, const std::string& name) {
       fail("supersample", "must be at most " + std::to_string(kMaxSupersample));
 
     std::map<std::string, int> named;
+    std::vector<std::string> material_where;  // the place each material is defined, for messages
     if (top.has("materials")) {
       const json& mats = top.get("materials");
       if (!mats.is_object()) fail("materials", "must be an object of named materials");
       for (auto it = mats.begin(); it != mats.end(); ++it) {
         named[it.key()] = static_cast<int>(s.materials.size());
         s.materials.push_back(read_material(it.value(), key_path("materials", it.key())));
+        material_where.push_back(key_path("materials", it.key()));
       }
     }
 
@@ -296,6 +409,7 @@ Scene parse_scene(const std::string& text, const std::string& name) {
         } else if (m.is_object()) {
           material = static_cast<int>(s.materials.size());
           s.materials.push_back(read_material(m, o.at("material")));
+          material_where.push_back(o.at("material"));
         } else {
           fail(o.at("material"), "must be a material name or a material object");
         }
@@ -303,22 +417,21 @@ Scene parse_scene(const std::string& text, const std::string& name) {
         if (default_material < 0) {
           default_material = static_cast<int>(s.materials.size());
           s.materials.push_back(Material{});
+          material_where.push_back(path + " (default material)");
         }
         material = default_material;
       }
       const std::string type = o.string("type");
       if (type == "sphere") {
         Sphere sp;
-        sp.center = o.vec3("center");
-        sp.radius = o.number("radius");
-        if (!(sp.radius > 0)) fail(o.at("radius"), "must be > 0");
+        sp.center = o.point("center");
+        sp.radius = o.length("radius");
         sp.material = material;
         s.spheres.push_back(sp);
       } else if (type == "plane") {
         Plane p;
-        p.point = o.vec3("point");
-        p.normal = o.vec3("normal");
-        if (is_zero(p.normal)) fail(o.at("normal"), "must not be zero");
+        p.point = o.point("point");
+        p.normal = o.direction("normal");
         p.material = material;
         s.planes.push_back(p);
       } else {
@@ -327,6 +440,7 @@ Scene parse_scene(const std::string& text, const std::string& name) {
       o.finish();
     }
     top.finish();
+    check_radiance(s, material_where);
   } catch (const InputError& e) {
     throw InputError(name + ": " + e.what());
   } catch (const json::exception& e) {

@@ -181,6 +181,22 @@ TEST(PacketPrimary, SameDistancesAsTheReference) {
   }
 }
 
+// Modelling only what a scene requires must not change a bit: the pruned terms add exact zeros.
+TEST(PacketIdentity, PruningChangesNothing) {
+  for (const std::string& path : testing::shipped_scenes()) {
+    SCOPED_TRACE(path);
+    const Scene s = load_scene(path);
+    for (int width : packet::supported_widths()) {
+      RenderOptions pruned, everything;
+      pruned.width = everything.width = width;
+      everything.model_everything = true;
+      const Image a = render(s, pruned).image;
+      const Image b = render(s, everything).image;
+      EXPECT_TRUE(bit_diff(a, b).identical()) << "width " << width;
+    }
+  }
+}
+
 TEST(PacketDispatch, UnavailableWidthIsAClearError) {
   // Width 2 does not exist; a width this CPU lacks names its ISA.
   EXPECT_THROW(resolve_width(2, Precision::exact), InputError);

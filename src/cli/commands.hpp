@@ -9,5 +9,6 @@ namespace lancer::cli {
 void add_render(CLI::App& app);
 void add_validate(CLI::App& app);
 void add_bench(CLI::App& app);
+void add_flux(CLI::App& app);
 
 }  // namespace lancer::cli

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   lancer::cli::add_render(app);
   lancer::cli::add_validate(app);
   lancer::cli::add_bench(app);
+  lancer::cli::add_flux(app);
 
   try {
     app.parse(argc, argv);

@@ -22,7 +22,11 @@ double run(long iterations) {
   }
   __m512 sum = acc[0];
   for (int k = 1; k < N; ++k) sum = _mm512_add_ps(sum, acc[k]);
-  sink = _mm512_reduce_add_ps(sum);
+  alignas(64) float lanes[16];
+  _mm512_store_ps(lanes, sum);
+  float total = 0;
+  for (float v : lanes) total += v;
+  sink = total;
   return 2.0 * 16 * N * double(iterations);
 }
 }  // namespace

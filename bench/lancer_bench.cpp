@@ -1,0 +1,84 @@
+// Google Benchmark cases: rays per second (items/s) for every scene in scenes/, every width this
+// CPU runs (1 = the scalar reference) and both modes, plus what modelling only what a scene
+// requires saves (the same renders with every term forced on).
+//
+//   build/bench/lancer_bench --benchmark_filter=reflections --benchmark_repetitions=5
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "lancer/packet/api.hpp"
+#include "lancer/render.hpp"
+#include "lancer/scene.hpp"
+
+namespace {
+
+using namespace lancer;
+
+void full(benchmark::State& state, const Scene* scene, int width, bool everything) {
+  RenderOptions opt;
+  opt.width = width;
+  opt.threads = 1;
+  opt.model_everything = everything;
+  std::uint64_t rays = 0;
+  for (auto _ : state) {
+    const RenderResult r = render(*scene, opt);
+    benchmark::DoNotOptimize(r.image.rgb.data());
+    rays += r.rays.total();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(rays));
+  state.SetLabel(packet::isa_name(width));
+}
+
+void primary(benchmark::State& state, const Scene* scene, int width) {
+  RenderOptions opt;
+  opt.width = width;
+  opt.threads = 1;
+  std::uint64_t rays = 0;
+  for (auto _ : state) {
+    const PrimaryResult r = render_primary(*scene, opt);
+    benchmark::DoNotOptimize(r.t.data());
+    rays += r.rays.total();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(rays));
+  state.SetLabel(packet::isa_name(width));
+}
+
+}  // namespace
+
+#ifdef LANCER_WITH_EMBREE_BENCH
+void register_embree_benchmarks(const std::string& scene_path);
+#endif
+
+int main(int argc, char** argv) {
+  static std::vector<std::unique_ptr<Scene>> scenes;
+  std::vector<std::string> paths;
+  for (const auto& e : std::filesystem::directory_iterator(LANCER_SOURCE_DIR "/scenes"))
+    if (e.path().extension() == ".json") paths.push_back(e.path().string());
+  std::sort(paths.begin(), paths.end());
+  for (const std::string& path : paths) {
+    scenes.push_back(std::make_unique<Scene>(load_scene(path)));
+    const Scene* s = scenes.back().get();
+    const std::string name = std::filesystem::path(path).stem().string();
+    for (int width : packet::supported_widths()) {
+      const std::string w = "/w" + std::to_string(width);
+      benchmark::RegisterBenchmark(("primary/" + name + w).c_str(), primary, s, width)
+          ->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark(("full/" + name + w).c_str(), full, s, width, false)
+          ->Unit(benchmark::kMillisecond);
+      // The same render computing every term: the difference is what pruning saves.
+      benchmark::RegisterBenchmark(("full_everything/" + name + w).c_str(), full, s, width, true)
+          ->Unit(benchmark::kMillisecond);
+    }
+#ifdef LANCER_WITH_EMBREE_BENCH
+    register_embree_benchmarks(path);
+#endif
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The second command: every test. Installs what is missing and builds first, so it works on a
+# fresh clone. Stages: the Release suite (ctest), then, unless --quick, the same suite under
+# ASan+UBSan and a bounded fuzzing run of the scene loader.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+quick=0
+[ "${1:-}" = "--quick" ] && quick=1
+
+scripts/deps.sh
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j"$(nproc)"
+(cd build && ctest --output-on-failure -j"$(nproc)" --timeout 1200)
+
+for s in scenes/*.json; do build/lancer validate "$s" >/dev/null || { echo "validate: $s differs"; exit 1; }; done
+echo "validate: every scene in scenes/ bit-identical at every width this CPU runs"
+
+if [ "$quick" -eq 0 ]; then
+  [ -x .ci/sanitize.sh ] && .ci/sanitize.sh
+  [ -x .ci/fuzz.sh ] && .ci/fuzz.sh "${LANCER_FUZZ_SECONDS:-300}"
+fi

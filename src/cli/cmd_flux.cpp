@@ -1,0 +1,91 @@
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "commands.hpp"
+#include "lancer/error.hpp"
+#include "lancer/flux.hpp"
+#include "lancer/plot.hpp"
+
+namespace lancer::cli {
+
+namespace {
+struct FluxArgs {
+  std::string scene, csv, plot, diagram;
+  int size = 800;
+  bool hits_only = false, show_blocked = false;
+};
+
+void run_flux(const FluxArgs& a) {
+  const flux::FluxScene fs = flux::load_flux_scene(a.scene);
+  const flux::RayPlane plane = flux::ray_plane(fs.scene, fs.names);
+  // Every output checked before any work, and no two the same file.
+  struct Output {
+    const char* option;
+    const std::string& path;
+  };
+  const Output outputs[] = {{"--csv", a.csv}, {"--plot", a.plot}, {"--diagram", a.diagram}};
+  if (!a.csv.empty()) plot::check_text_path(a.csv, "--csv", a.scene);
+  if (!a.plot.empty()) plot::check_drawing_path(a.plot, "--plot", a.scene);
+  if (!a.diagram.empty()) plot::check_drawing_path(a.diagram, "--diagram", a.scene);
+  for (const Output& p : outputs)
+    for (const Output& q : outputs)
+      if (&p < &q && !p.path.empty() && std::filesystem::absolute(p.path).lexically_normal() ==
+                                            std::filesystem::absolute(q.path).lexically_normal())
+        throw InputError(std::string(q.option) + " " + q.path + ": same file as " + p.option);
+  if (a.size < 100 || a.size > 8192) throw InputError("--size: must be from 100 to 8192");
+
+  const flux::Profile profile = flux::flux_profile(fs.scene);
+  const bool any_file = !a.csv.empty() || !a.plot.empty() || !a.diagram.empty();
+  if (!any_file) {
+    std::fputs(flux::profile_csv(profile).c_str(), stdout);
+    return;
+  }
+  if (!a.csv.empty()) {
+    plot::write_text_file(flux::profile_csv(profile), a.csv);
+    std::printf("lancer flux: %s -> %s (%zu rays)\n", a.scene.c_str(), a.csv.c_str(),
+                profile.x.size());
+  }
+  if (!a.plot.empty()) {
+    plot::write_drawing(flux::profile_plot(profile), a.plot);
+    std::printf("lancer flux: %s -> %s (flux against position x)\n", a.scene.c_str(),
+                a.plot.c_str());
+  }
+  if (!a.diagram.empty()) {
+    const flux::Paths paths = flux::record_paths(fs.scene, plane);
+    flux::DiagramOptions o;
+    o.size = a.size;
+    o.hits_only = a.hits_only;
+    o.show_blocked = a.show_blocked;
+    plot::write_drawing(flux::diagram(fs.scene, plane, paths.log, o), a.diagram);
+    std::printf("lancer flux: %s -> %s (%zu ray segments: %llu camera, %llu reflected, "
+                "%llu light)\n",
+                a.scene.c_str(), a.diagram.c_str(), paths.log.segments.size(),
+                (unsigned long long)paths.rays.camera, (unsigned long long)paths.rays.reflected,
+                (unsigned long long)paths.rays.shadow);
+  }
+}
+}  // namespace
+
+void add_flux(CLI::App& app) {
+  auto args = std::make_shared<FluxArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "flux",
+      "2D flux of a one-row orthographic scene (seeds/002): flux of each ray against its "
+      "position x, as CSV (stdout by default), a plot, or a diagram of every ray in the plane");
+  cmd->add_option("scene", args->scene, "Scene file (JSON, see SCENE-MODEL.md)")->required();
+  cmd->add_option("--csv", args->csv, "Write the x,flux lines to this file instead of stdout");
+  cmd->add_option("--plot", args->plot, "Plot flux against x: .png (or any image format) or .svg");
+  cmd->add_option("--diagram", args->diagram,
+                  "Draw the plane of the rays: spheres, lights, camera and reflected rays (red), "
+                  "light rays that reach their light (blue); .svg or .png");
+  cmd->add_option("--size", args->size, "Diagram size in pixels along its longer side")
+      ->capture_default_str();
+  cmd->add_flag("--hits-only", args->hits_only,
+                "Diagram: leave out rays that hit nothing (as the text's figure does)");
+  cmd->add_flag("--show-blocked", args->show_blocked,
+                "Diagram: draw blocked light rays too, thin and grey");
+  cmd->callback([args] { run_flux(*args); });
+}
+
+}  // namespace lancer::cli

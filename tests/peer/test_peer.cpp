@@ -1,0 +1,265 @@
+// The Embree peer against lancer: the same camera rays must hit and miss alike (a disagreement
+// on fewer than 0.1% of them, at silhouettes, where Embree's sphere test and lancer's round
+// differently), and its full-render ray traffic must count the rays lancer's render counts.
+// Also: the peak kernels and flop counts, and the CLI's --peer / --peak.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "lancer/formulas.hpp"
+#include "lancer/packet/api.hpp"
+#include "lancer/peak.hpp"
+#include "lancer/peer.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/reference.hpp"
+#include "lancer/render.hpp"
+#include "lancer/scene.hpp"
+
+namespace lancer {
+namespace {
+
+std::vector<std::string> scenes() {
+  std::vector<std::string> out;
+  for (const auto& e :
+       std::filesystem::directory_iterator(std::string(LANCER_SOURCE_DIR) + "/scenes"))
+    if (e.path().extension() == ".json") out.push_back(e.path().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+struct Agreement {
+  std::size_t rays = 0, hit_miss = 0, other_object = 0;
+  double max_rel_t = 0;  // over rays both hit on the same object
+};
+
+// Every camera ray of `scene` through lancer's reference closest hit (bit-identical to the
+// packets by lancer's own tests) and through Embree at `width`.
+Agreement compare_camera_rays(const Scene& scene, const peer::EmbreeScene& embree, int width) {
+  const PreparedScene<float> s = prepare<float>(scene);
+  const PreparedCamera<float>& cam = s.camera;
+  const std::vector<peer::PeerHit> hits = embree.camera_hits(width);
+  Agreement a;
+  for (int b = 0; b < cam.samples; ++b)
+    for (int aa = 0; aa < cam.samples; ++aa)
+      for (int j = 0; j < cam.ny; ++j)
+        for (int i = 0; i < cam.nx; ++i) {
+          Vec3<float> o, d;
+          camera_ray(cam, cam.screen_x[std::size_t(aa) * cam.nx + i],
+                     cam.screen_y[std::size_t(b) * cam.ny + j], o, d);
+          const reference::Hit<float> l = reference::closest_hit(s, o, d);
+          const peer::PeerHit& e =
+              hits[(std::size_t(b * cam.samples + aa) * cam.ny + j) * cam.nx + i];
+          ++a.rays;
+          if ((l.id >= 0) != (e.id >= 0)) {
+            ++a.hit_miss;
+          } else if (l.id != e.id) {
+            ++a.other_object;
+          } else if (l.id >= 0) {
+            a.max_rel_t = std::max(a.max_rel_t, double(std::abs(e.t - l.t) / l.t));
+          }
+        }
+  return a;
+}
+
+std::vector<int> widths() { return peer::embree_widths({1, 4, 8, 16}); }
+
+TEST(EmbreePeer, CameraRaysHitAndMissAsLancerOnEveryScene) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  for (const peer::PlaneMode mode : {peer::PlaneMode::user, peer::PlaneMode::quad}) {
+    for (const std::string& path : scenes()) {
+      const Scene scene = load_scene(path);
+      const peer::EmbreeScene embree(scene, mode);
+      for (int w : widths()) {
+        SCOPED_TRACE(path + " width " + std::to_string(w) +
+                     (mode == peer::PlaneMode::user ? " user planes" : " quad planes"));
+        const Agreement a = compare_camera_rays(scene, embree, w);
+        ASSERT_GT(a.rays, 0u);
+        EXPECT_LT(double(a.hit_miss) / a.rays, 1e-3) << a.hit_miss << " of " << a.rays;
+        EXPECT_LT(double(a.other_object) / a.rays, 1e-3) << a.other_object << " of " << a.rays;
+        EXPECT_LT(a.max_rel_t, 1e-3);
+        std::printf("  %-40s w=%-2d %s: %zu rays, hit/miss differ %zu, object differs %zu, "
+                    "max |dt|/t %.2g\n",
+                    std::filesystem::path(path).filename().c_str(), w,
+                    mode == peer::PlaneMode::user ? "user" : "quad", a.rays, a.hit_miss,
+                    a.other_object, a.max_rel_t);
+      }
+    }
+  }
+}
+
+TEST(EmbreePeer, PrimaryMatchesRenderPrimaryPerPixel) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  for (const std::string& path : scenes()) {
+    SCOPED_TRACE(path);
+    const Scene scene = load_scene(path);
+    const peer::EmbreeScene embree(scene);
+    RenderOptions ro;
+    ro.width = 1;
+    ro.threads = 1;
+    const PrimaryResult l = render_primary(scene, ro);
+    for (int w : widths()) {
+      for (int threads : {1, 2}) {
+        const PrimaryResult e = embree.primary(w, threads);
+        ASSERT_EQ(e.t.size(), l.t.size());
+        EXPECT_EQ(e.rays, l.rays);
+        std::size_t differ = 0;
+        for (std::size_t k = 0; k < l.t.size(); ++k)
+          differ += std::isfinite(l.t[k]) != std::isfinite(e.t[k]);
+        EXPECT_LT(double(differ) / l.t.size(), 1e-3) << differ << " pixels, width " << w;
+      }
+    }
+  }
+}
+
+TEST(EmbreePeer, FullRayTrafficCountsLancersRays) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  for (const std::string& path : scenes()) {
+    SCOPED_TRACE(path);
+    const Scene scene = load_scene(path);
+    const peer::EmbreeScene embree(scene);
+    RenderOptions ro;
+    ro.width = 1;
+    ro.threads = 1;
+    const RayCounts l = render(scene, ro).rays;
+    for (int w : widths()) {
+      const RayCounts e = embree.trace_all(w, 2).rays;
+      EXPECT_EQ(e.camera, l.camera);
+      const double tol = 1e-3 * double(l.total()) + 1;
+      EXPECT_NEAR(double(e.shadow), double(l.shadow), tol) << "width " << w;
+      EXPECT_NEAR(double(e.reflected), double(l.reflected), tol) << "width " << w;
+    }
+  }
+}
+
+TEST(EmbreePeer, RejectsWidthsThisMachineDoesNotRun) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  const Scene scene = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/flux2d.json");
+  const peer::EmbreeScene embree(scene);
+  EXPECT_THROW(embree.primary(3, 1), InputError);
+}
+
+TEST(EmbreePeer, WithoutEmbreeConstructionIsAnInputError) {
+  if (peer::embree_available()) GTEST_SKIP() << "built with Embree";
+  const Scene scene = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/flux2d.json");
+  EXPECT_THROW(peer::EmbreeScene{scene}, InputError);
+}
+
+TEST(Peak, EveryIsaThisCpuRunsHasAPositivePeakAndWiderIsNotSlower) {
+  double previous = 0;
+  for (int w : {1, 4, 8, 16}) {
+    const bool runs = w == 1 || packet::kernels_for(w);
+    const double g = peak_gflops(w, 0.02);
+    if (!runs) {
+      EXPECT_EQ(g, 0);
+      continue;
+    }
+    EXPECT_GT(g, 0.5) << "width " << w;
+    // Loose: a wider ISA at least matches a narrower one's rate, noise allowed.
+    EXPECT_GT(g, 0.5 * previous) << "width " << w;
+    previous = g;
+    EXPECT_GT(peak_muladd_gflops(w, 0.02), 0.5) << "width " << w;
+  }
+}
+
+TEST(Peak, PrimaryFlopsFollowTheCounts) {
+  // One sphere that no camera ray reaches, and no plane: only the discriminant runs.
+  Scene scene = parse_scene(R"({
+    "camera": {"type": "pinhole", "position": [0, 0, 5], "direction": [0, 0, -1],
+               "distance": 5, "resolution": [20, 10], "bounds": [-1, 1, -1, 1]},
+    "objects": [{"type": "sphere", "center": [100, 0, 0], "radius": 1}]})",
+                            "inline");
+  PrimaryFlops f = primary_flops(scene, 1);
+  EXPECT_EQ(f.sphere_hit_fraction, 0);
+  EXPECT_EQ(f.per_ray, kSphereDiscFlops);
+  EXPECT_EQ(f.per_lane, kSphereDiscFlops);
+  // From the eye at width 4 (20 columns: no partial packet).
+  f = primary_flops(scene, 4);
+  EXPECT_EQ(f.per_ray, kSphereDiscFlopsFromEye);
+  EXPECT_EQ(f.per_lane, kSphereDiscFlopsFromEye);
+  // At width 16, the second packet of each row has 4 lanes of 16: all 16 execute.
+  f = primary_flops(scene, 16);
+  EXPECT_DOUBLE_EQ(f.per_lane, kSphereDiscFlopsFromEye * 32.0 / 20.0);
+
+  // A sphere filling the view, plus a plane: every ray takes the hit path.
+  scene = parse_scene(R"({
+    "camera": {"type": "pinhole", "position": [0, 0, 5], "direction": [0, 0, -1],
+               "distance": 5, "resolution": [20, 10], "bounds": [-0.1, 0.1, -0.1, 0.1]},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1},
+                {"type": "plane", "point": [0, -2, 0], "normal": [0, 1, 0]}]})",
+                      "inline");
+  f = primary_flops(scene, 8);
+  EXPECT_EQ(f.sphere_hit_fraction, 1);
+  EXPECT_EQ(f.per_ray, kSphereDiscFlopsFromEye + kSphereHitFlopsFromEye + kPlaneFlops);
+}
+
+// ---- the CLI -------------------------------------------------------------------------------
+
+struct Run {
+  int status = -1;
+  std::string out;
+};
+
+Run run(const std::string& args) {
+  Run r;
+  const std::string cmd = std::string(LANCER_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+const std::string kFlux = std::string(LANCER_SOURCE_DIR) + "/scenes/flux2d.json";
+
+TEST(BenchCli, UnknownPeerIsAnInputError) {
+  const Run r = run("bench " + kFlux + " --peer nonesuch --repeat 1");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--peer"), std::string::npos) << r.out;
+}
+
+TEST(BenchCli, PeerEmbreeAddsRowsOrSaysItIsMissing) {
+  const Run r = run("bench " + kFlux + " --peer embree --repeat 1 --json");
+  if (!peer::embree_available()) {
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("--peer embree"), std::string::npos) << r.out;
+    return;
+  }
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  int embree_rows = 0;
+  for (const auto& row : j["results"])
+    if (row["engine"] == "embree") {
+      ++embree_rows;
+      EXPECT_EQ(row["isa"], "embree");
+      EXPECT_GT(row["rays"].get<double>(), 0);
+    }
+  // Both modes at every width this machine runs.
+  EXPECT_EQ(embree_rows, 2 * int(packet::supported_widths().size()));
+}
+
+TEST(BenchCli, PeakAddsPeaksAndFlopsToPrimaryRows) {
+  const Run r = run("bench " + kFlux + " --peak --repeat 1 --json --mode primary --width 1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j.contains("peak"));
+  EXPECT_EQ(j["peak"].size(), packet::supported_widths().size());
+  for (const auto& p : j["peak"]) EXPECT_GT(p["gflops"].get<double>(), 0);
+  for (const auto& row : j["results"]) {
+    ASSERT_TRUE(row.contains("gflops"));
+    ASSERT_TRUE(row.contains("peak_fraction"));
+    EXPECT_GT(row["peak_fraction"].get<double>(), 0);
+    EXPECT_LT(row["peak_fraction"].get<double>(), 1.5);
+  }
+}
+
+}  // namespace
+}  // namespace lancer
