@@ -24,7 +24,7 @@ std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& opt) {
   std::unique_ptr<peer::EmbreeScene> embree;
   for (const std::string& p : opt.peers) {
     if (p != "embree") throw InputError("--peer: unknown peer '" + p + "' (known: embree)");
-    if (!embree) embree = std::make_unique<peer::EmbreeScene>(scene);
+    if (!embree) embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
   }
   const std::vector<int> embree_widths =
       embree ? peer::embree_widths(opt.widths) : std::vector<int>{};

@@ -2,6 +2,8 @@
 // on lancer's own camera rays. See include/lancer/peer.hpp for the model and its limits.
 #include "lancer/peer.hpp"
 
+#include <cstdlib>
+
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
 
@@ -19,7 +21,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 
@@ -531,14 +532,6 @@ struct EmbreeScene::Impl {
 
 EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config)
     : impl_(std::make_unique<Impl>()) {
-  // LANCER_EMBREE_PLANES=quad|user overrides the default (user), to compare the two.
-  if (const char* env = std::getenv("LANCER_EMBREE_PLANES")) {
-    const std::string v = env;
-    if (v == "quad") planes = PlaneMode::quad;
-    else if (v == "user") planes = PlaneMode::user;
-    else if (!v.empty())
-      throw InputError("LANCER_EMBREE_PLANES: must be quad or user, not '" + v + "'");
-  }
   impl_->mode = planes;
   impl_->build(scene, config);
 }
@@ -636,6 +629,14 @@ std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
 #endif  // LANCER_HAVE_EMBREE
 
 namespace lancer::peer {
+
+PlaneMode plane_mode_from_env() {
+  const char* env = std::getenv("LANCER_EMBREE_PLANES");
+  const std::string v = env ? env : "";
+  if (v.empty() || v == "user") return PlaneMode::user;
+  if (v == "quad") return PlaneMode::quad;
+  throw InputError("LANCER_EMBREE_PLANES: must be user or quad, not '" + v + "'");
+}
 
 std::vector<int> embree_widths(const std::vector<int>& requested) {
   std::vector<int> out;

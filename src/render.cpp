@@ -53,8 +53,10 @@ template <class T>
 PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
   PreparedScene<T> p = prepare<T>(scene);
   if (opt.model_everything) {
+    // The sphere and plane flags stay: a type the scene lacks has no data to gather normals
+    // from, and its intersection loop is empty either way.
     Features& f = p.features;
-    f.spheres = f.planes = f.lights = f.specular = f.reflection = true;
+    f.lights = f.specular = f.reflection = true;
   }
   return p;
 }

@@ -40,6 +40,10 @@ std::string embree_version();
 
 enum class PlaneMode { user, quad };
 
+// The environment variable LANCER_EMBREE_PLANES: "user" (or unset) or "quad"; lancer bench and
+// the benchmarks read it to compare the two models. Throws InputError on anything else.
+PlaneMode plane_mode_from_env();
+
 // Half-size of the square that stands for an infinite plane, in units of the scene's size (the
 // largest distance from the origin of the camera, the lights, the sphere surfaces and the
 // planes' points).

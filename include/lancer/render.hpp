@@ -21,8 +21,8 @@ struct RenderOptions {
   Precision precision = Precision::exact;
   int threads = 0;  // 0: all cores
   bool progress = false;
-  // Model every term (specular, shadows, reflection loop, both object loops) even where the
-  // scene needs none, to measure what modelling only what a scene requires saves. Same image.
+  // Model every shading term (specular, shadow rays, the reflection loop) even where the scene
+  // needs none, to measure what modelling only what a scene requires saves. Same image.
   bool model_everything = false;
   // Called with rows done and rows in all, from whichever thread finished a tile.
   std::function<void(int, int)> on_progress;
