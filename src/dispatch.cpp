@@ -1,6 +1,5 @@
-// The one dispatch point: which packet widths this CPU and its OS run, and their kernels.
+// The one dispatch point: which packet kernels this CPU and its OS run.
 #include <cstdlib>
-#include <cstring>
 #include <xsimd/config/xsimd_arch.hpp>
 
 #include "lancer/packet/api.hpp"
@@ -9,77 +8,91 @@ namespace lancer::packet {
 
 namespace {
 
+enum class Isa { sse4_2, avx2, avx512f };
+
 // __builtin_cpu_supports reads CPUID and, for AVX and AVX-512, whether the OS saves their
 // registers (XCR0), which xsimd 8's own detection does not check. Under valgrind, which has no
 // AVX-512, CPUID reports none and we fall back to AVX2.
-bool cpu_runs(int width) {
+bool cpu_runs(Isa isa) {
   __builtin_cpu_init();
-  switch (width) {
-    case 4:
+  switch (isa) {
+    case Isa::sse4_2:
       return __builtin_cpu_supports("sse4.2");
-    case 8:
+    case Isa::avx2:
       return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    case 16:
+    case Isa::avx512f:
       return __builtin_cpu_supports("avx512f");
-    default:
-      return false;
   }
+  return false;
 }
 
-template <class Arch>
-Kernels make(int width) {
-  return Kernels{width, Arch::name(),
-                 [](const PreparedScene<float>& s, Image& im, int r0, int r1, RayCounts& c) {
-                   render_rows(Arch{}, s, im, r0, r1, c);
-                 },
-                 [](const PreparedScene<float>& s, float* t, int r0, int r1, RayCounts& c) {
-                   primary_rows(Arch{}, s, t, r0, r1, c);
-                 },
-                 [](const PreparedScene<float>& s, const bool* v, const float* rays, float* t,
-                    float* id, bool* hit) { closest_hit_packet(Arch{}, s, v, rays, t, id, hit); }};
+// LANCER_MAX_WIDTH caps the float width offered (4 or 8), to run a narrower ISA's path as a CPU
+// without the wider one would.
+bool allowed(Isa isa) {
+  static const int cap = [] {
+    const char* v = std::getenv("LANCER_MAX_WIDTH");
+    return v && *v ? std::atoi(v) : 16;
+  }();
+  const int float_width = isa == Isa::sse4_2 ? 4 : isa == Isa::avx2 ? 8 : 16;
+  return float_width <= cap && cpu_runs(isa);
 }
 
-// LANCER_MAX_WIDTH caps the widths offered, to try a narrower ISA's path as a CPU without the
-// wider one would run it.
-int max_width_from_env() {
-  const char* v = std::getenv("LANCER_MAX_WIDTH");
-  if (!v || !*v) return 16;
-  return std::atoi(v);
+// Float lanes 4, 8, 16 and double lanes 2, 4, 8 map onto the same three ISAs.
+bool isa_of(int lanes, bool dbl, Isa& isa) {
+  const int base = dbl ? 2 : 4;
+  if (lanes == base) return isa = Isa::sse4_2, true;
+  if (lanes == 2 * base) return isa = Isa::avx2, true;
+  if (lanes == 4 * base) return isa = Isa::avx512f, true;
+  return false;
 }
 
 }  // namespace
 
-const Kernels* kernels_for(int width) {
-  static const Kernels k4 = make<xsimd::sse4_2>(4);
-  static const Kernels k8 = make<xsimd::avx2>(8);
-  static const Kernels k16 = make<xsimd::avx512f>(16);
-  static const int cap = max_width_from_env();
-  if (width > cap || !cpu_runs(width)) return nullptr;
-  switch (width) {
-    case 4:
-      return &k4;
-    case 8:
-      return &k8;
-    case 16:
-      return &k16;
-    default:
-      return nullptr;
-  }
+const KernelTable<float>* float_kernels(int width, Precision precision) {
+  static const KernelTable<float> exact[] = {table<xsimd::sse4_2, float, ExactMode>(),
+                                             table<xsimd::avx2, float, ExactMode>(),
+                                             table<xsimd::avx512f, float, ExactMode>()};
+  static const KernelTable<float> fast[] = {table<xsimd::sse4_2, float, FastMode>(),
+                                            table<xsimd::fma3<xsimd::avx2>, float, FastMode>(),
+                                            table<xsimd::avx512f, float, FastMode>()};
+  Isa isa;
+  if (!isa_of(width, false, isa) || !allowed(isa)) return nullptr;
+  if (precision == Precision::exact) return &exact[static_cast<int>(isa)];
+  if (precision == Precision::fast) return &fast[static_cast<int>(isa)];
+  return nullptr;
 }
 
-std::vector<int> supported_widths() {
+const KernelTable<double>* double_kernels(int width) {
+  static const KernelTable<double> dbl[] = {table<xsimd::sse4_2, double, ExactMode>(),
+                                            table<xsimd::avx2, double, ExactMode>(),
+                                            table<xsimd::avx512f, double, ExactMode>()};
+  Isa isa;
+  if (!isa_of(width, true, isa) || !allowed(isa)) return nullptr;
+  return &dbl[static_cast<int>(isa)];
+}
+
+std::vector<int> supported_widths(Precision precision) {
   std::vector<int> w;
+  if (precision == Precision::dbl) {
+    for (int width : {8, 4, 2})
+      if (double_kernels(width)) w.push_back(width);
+    w.push_back(1);
+    return w;
+  }
   for (int width : {16, 8, 4})
-    if (kernels_for(width)) w.push_back(width);
-  w.push_back(1);
+    if (float_kernels(width, precision == Precision::fast ? Precision::fast : Precision::exact))
+      w.push_back(width);
+  if (precision != Precision::fast) w.push_back(1);  // fast mode runs on packets only
   return w;
 }
 
-std::string isa_name(int width) {
+std::string isa_name(int width, Precision precision) {
   if (width == 1) return "scalar";
-  const Kernels* k = kernels_for(width);
-  if (k) return k->isa;
-  return width == 4 ? "sse4.2" : width == 8 ? "avx2" : width == 16 ? "avx512f" : "unknown";
+  Isa isa;
+  if (!isa_of(width, precision == Precision::dbl, isa)) return "none";
+  if (isa == Isa::sse4_2) return "sse4.2";
+  if (isa == Isa::avx2) return precision == Precision::fast ? "fma3<avx2>" : "avx2";
+  return "avx512f";
 }
 
 }  // namespace lancer::packet

@@ -224,8 +224,8 @@ void render_rows_recorded(const PreparedScene<T>& s, Image& image, int row_begin
 }
 
 template <class T>
-void primary_rows(const PreparedScene<T>& s, float* t_out, int row_begin, int row_end,
-                  RayCounts& counts) {
+void primary_rows(const PreparedScene<T>& s, float* t_out, float* id_out, int row_begin,
+                  int row_end, RayCounts& counts) {
   const PreparedCamera<T>& cam = s.camera;
   for (int j = row_begin; j < row_end; ++j) {
     for (int i = 0; i < cam.nx; ++i) {
@@ -236,7 +236,9 @@ void primary_rows(const PreparedScene<T>& s, float* t_out, int row_begin, int ro
           camera_ray(cam, screen_x(cam, T(i), cam.sub_offset[a]),
                      screen_y(cam, T(j), cam.sub_offset[b]), origin, dir);
           ++counts.camera;
-          sum = sum + closest_hit(s, origin, dir).t;
+          const Hit<T> hit = closest_hit(s, origin, dir);
+          sum = sum + hit.t;
+          if (id_out && a == 0 && b == 0) id_out[std::size_t(j) * cam.nx + i] = float(hit.id);
         }
       }
       t_out[std::size_t(j) * cam.nx + i] = static_cast<float>(sum);
@@ -250,8 +252,10 @@ template void render_rows_recorded<float>(const PreparedScene<float>&, Image&, i
                                           RayCounts&, PathLog&);
 template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
                                            RayCounts&, PathLog&);
-template void primary_rows<float>(const PreparedScene<float>&, float*, int, int, RayCounts&);
-template void primary_rows<double>(const PreparedScene<double>&, float*, int, int, RayCounts&);
+template void primary_rows<float>(const PreparedScene<float>&, float*, float*, int, int,
+                                  RayCounts&);
+template void primary_rows<double>(const PreparedScene<double>&, float*, float*, int, int,
+                                   RayCounts&);
 template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
                                        const Vec3<float>&);
 template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 #include "lancer/error.hpp"
@@ -17,32 +18,88 @@
 
 namespace lancer {
 
-const char* to_string(Precision p) { return p == Precision::exact ? "exact" : "double"; }
+const char* to_string(Precision p) {
+  switch (p) {
+    case Precision::exact:
+      return "exact";
+    case Precision::dbl:
+      return "double";
+    case Precision::fast:
+      return "fast";
+    case Precision::automatic:
+      return "auto";
+  }
+  return "?";
+}
 
 Precision parse_precision(const std::string& text, const std::string& option) {
   if (text == "exact") return Precision::exact;
   if (text == "double") return Precision::dbl;
-  throw InputError(option + ": must be exact or double, not '" + text + "'");
+  if (text == "fast") return Precision::fast;
+  if (text == "auto") return Precision::automatic;
+  throw InputError(option + ": must be exact, double, fast or auto, not '" + text + "'");
 }
 
 int hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
 
 int resolve_width(int requested, Precision precision, const std::string& option) {
-  if (precision == Precision::dbl) {
-    // Double precision runs on the reference only, for now.
-    if (requested > 1)
-      throw InputError(option + ": double precision runs at width 1 only (got " +
-                       std::to_string(requested) + ")");
-    return 1;
+  LANCER_CHECK(precision != Precision::automatic);
+  const std::vector<int> widths = packet::supported_widths(precision);
+  if (requested == 0) return widths.front();
+  if (std::find(widths.begin(), widths.end(), requested) != widths.end()) return requested;
+  const std::string w = std::to_string(requested);
+  if (requested == 1)  // only fast mode lacks width 1
+    throw InputError(option + ": fast precision runs on packets only (width 4, 8 or 16)");
+  const bool dbl = precision == Precision::dbl;
+  const std::string isa = packet::isa_name(requested, precision);
+  if (isa == "none")
+    throw InputError(option + ": " + to_string(precision) + " precision takes width auto, 1, " +
+                     (dbl ? "2, 4 or 8" : "4, 8 or 16") + ", not " + w);
+  throw InputError(option + ": width " + w + " in " + to_string(precision) + " precision needs " +
+                   isa + ", which this CPU or OS does not run");
+}
+
+// The float envelope, measured by the stability tests (tests/test_extremes.cpp, docs/precision.md):
+// robust float agrees with double on hit or miss for all but a negligible fraction of rays while
+// the smallest sphere is at least 1e-4 of the scene's extent, and its shading stays finite while
+// every intensity lies within [1e-30, 1e30].
+PrecisionChoice choose_precision(const Scene& scene) {
+  double extent = 0;
+  auto grow = [&](const Vec3<double>& p) {
+    extent = std::max({extent, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+  };
+  grow(scene.camera.position);
+  double smallest = INFINITY;
+  for (const Sphere& s : scene.spheres) {
+    grow(s.center);
+    smallest = std::min(smallest, s.radius);
   }
-  if (requested == 0) return packet::supported_widths().front();
-  if (requested == 1) return 1;
-  if (requested != 4 && requested != 8 && requested != 16)
-    throw InputError(option + ": must be auto, 1, 4, 8 or 16, not " + std::to_string(requested));
-  if (!packet::kernels_for(requested))
-    throw InputError(option + ": width " + std::to_string(requested) + " needs " +
-                     packet::isa_name(requested) + ", which this CPU or OS does not run");
-  return requested;
+  for (const Plane& p : scene.planes) grow(p.point);
+  for (const Light& l : scene.lights) {
+    grow(l.position);
+    for (double v : {l.intensity, l.ambient})
+      if (v != 0 && (v > 1e30 || v < 1e-30))
+        return {Precision::dbl, "a light's intensity lies outside float's range [1e-30, 1e30]"};
+  }
+  constexpr double kMinFeature = 1e-4;
+  char why[200];
+  if (std::isfinite(smallest) && extent > 0 && smallest < kMinFeature * extent) {
+    std::snprintf(why, sizeof why,
+                  "the smallest sphere (radius %g) is below 1e-4 of the scene's extent (%g)",
+                  smallest, extent);
+    return {Precision::dbl, why};
+  }
+  // The contract's epsilon must stay above float's resolution at the scene's extent.
+  if (scene.epsilon > 0 && scene.epsilon < extent * 0x1p-20) {
+    std::snprintf(why, sizeof why,
+                  "epsilon %g is below float's resolution at the scene's extent (%g)",
+                  scene.epsilon, extent);
+    return {Precision::dbl, why};
+  }
+  std::snprintf(why, sizeof why,
+                "the scene lies inside float's envelope (extent %g, smallest sphere %g)", extent,
+                std::isfinite(smallest) ? smallest : 0.0);
+  return {Precision::exact, why};
 }
 
 namespace {
@@ -101,51 +158,103 @@ int resolve_threads(int requested) {
   return requested == 0 ? hardware_threads() : requested;
 }
 
+// The rows renderer of a resolved precision and width: the reference at width 1, else the
+// packet kernels.
+template <class T>
+struct Rows {
+  const packet::KernelTable<T>* kernels = nullptr;
+  void render(const PreparedScene<T>& s, Image& im, int r0, int r1, RayCounts& c) const {
+    if (kernels)
+      kernels->render_rows(s, im, r0, r1, c);
+    else
+      reference::render_rows(s, im, r0, r1, c);
+  }
+  void primary(const PreparedScene<T>& s, float* t, float* id, int r0, int r1,
+               RayCounts& c) const {
+    if (kernels)
+      kernels->primary_rows(s, t, id, r0, r1, c);
+    else
+      reference::primary_rows(s, t, id, r0, r1, c);
+  }
+};
+
+Rows<float> float_rows(int width, Precision p) {
+  return {width == 1 ? nullptr : packet::float_kernels(width, p)};
+}
+Rows<double> double_rows(int width) {
+  return {width == 1 ? nullptr : packet::double_kernels(width)};
+}
+
+// Resolves auto precision and the width; fills the result's description fields.
+template <class Result>
+void resolve(const Scene& scene, const RenderOptions& opt, Result& res, Precision& precision,
+             std::string* reason) {
+  precision = opt.precision;
+  if (precision == Precision::automatic) {
+    const PrecisionChoice c = choose_precision(scene);
+    precision = c.precision;
+    if (reason) *reason = c.reason;
+  }
+  res.width = resolve_width(opt.width, precision);
+  res.threads = resolve_threads(opt.threads);
+}
+
+template <class Fn>
+double timed(Fn fn) {
+  const auto start = Clock::now();
+  fn();
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+PrimaryResult primary_impl(const Scene& scene, const RenderOptions& opt, bool ids) {
+  PrimaryResult res;
+  Precision precision;
+  resolve(scene, opt, res, precision, nullptr);
+  const std::size_t pixels = std::size_t(scene.camera.nx) * scene.camera.ny;
+  res.t.assign(pixels, 0.0f);
+  if (ids) res.id.assign(pixels, -1.0f);
+  float* id = ids ? res.id.data() : nullptr;
+  auto run = [&](const auto& prepared, const auto& rows) {
+    res.seconds = timed([&] {
+      res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
+        rows.primary(prepared, res.t.data(), id, r0, r1, c);
+      });
+    });
+  };
+  if (precision == Precision::dbl)
+    run(prepare_for<double>(scene, opt), double_rows(res.width));
+  else
+    run(prepare_for<float>(scene, opt), float_rows(res.width, precision));
+  return res;
+}
+
 }  // namespace
 
 RenderResult render(const Scene& scene, const RenderOptions& opt) {
   RenderResult res;
-  res.precision = opt.precision;
-  res.width = resolve_width(opt.width, opt.precision);
-  res.threads = resolve_threads(opt.threads);
-  res.isa = packet::isa_name(res.width);
+  resolve(scene, opt, res, res.precision, &res.precision_reason);
+  res.isa = packet::isa_name(res.width, res.precision);
   res.image = Image(scene.camera.nx, scene.camera.ny);
-  const auto start = Clock::now();
-  if (opt.precision == Precision::dbl) {
-    const auto prepared = prepare_for<double>(scene, opt);
-    res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
-      reference::render_rows(prepared, res.image, r0, r1, c);
+  auto run = [&](const auto& prepared, const auto& rows) {
+    res.seconds = timed([&] {
+      res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
+        rows.render(prepared, res.image, r0, r1, c);
+      });
     });
-  } else {
-    const auto prepared = prepare_for<float>(scene, opt);
-    const packet::Kernels* k = res.width == 1 ? nullptr : packet::kernels_for(res.width);
-    res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
-      if (k)
-        k->render_rows(prepared, res.image, r0, r1, c);
-      else
-        reference::render_rows(prepared, res.image, r0, r1, c);
-    });
-  }
-  res.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  };
+  if (res.precision == Precision::dbl)
+    run(prepare_for<double>(scene, opt), double_rows(res.width));
+  else
+    run(prepare_for<float>(scene, opt), float_rows(res.width, res.precision));
   return res;
 }
 
 PrimaryResult render_primary(const Scene& scene, const RenderOptions& opt) {
-  PrimaryResult res;
-  res.width = resolve_width(opt.width, opt.precision);
-  res.threads = resolve_threads(opt.threads);
-  res.t.assign(std::size_t(scene.camera.nx) * scene.camera.ny, 0.0f);
-  const auto prepared = prepare_for<float>(scene, opt);
-  const packet::Kernels* k = res.width == 1 ? nullptr : packet::kernels_for(res.width);
-  const auto start = Clock::now();
-  res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
-    if (k)
-      k->primary_rows(prepared, res.t.data(), r0, r1, c);
-    else
-      reference::primary_rows(prepared, res.t.data(), r0, r1, c);
-  });
-  res.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  return res;
+  return primary_impl(scene, opt, false);
+}
+
+PrimaryResult render_primary_with_ids(const Scene& scene, const RenderOptions& opt) {
+  return primary_impl(scene, opt, true);
 }
 
 }  // namespace lancer

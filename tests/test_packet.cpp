@@ -29,8 +29,9 @@ struct Outcome {
   bool same_rays;
 };
 
-Outcome compare_to_reference(const Scene& s, int width) {
+Outcome compare_to_reference(const Scene& s, int width, Precision p = Precision::exact) {
   RenderOptions ref_opt, opt;
+  ref_opt.precision = opt.precision = p;
   ref_opt.width = 1;
   ref_opt.threads = opt.threads = 1;
   opt.width = width;
@@ -39,8 +40,8 @@ Outcome compare_to_reference(const Scene& s, int width) {
   return {bit_diff(r.image, ref.image), r.rays == ref.rays};
 }
 
-void expect_identical(const Scene& s, int width) {
-  const Outcome o = compare_to_reference(s, width);
+void expect_identical(const Scene& s, int width, Precision p = Precision::exact) {
+  const Outcome o = compare_to_reference(s, width, p);
   EXPECT_TRUE(o.diff.identical()) << "width " << width << ": " << o.diff.differing_pixels
                                   << " pixels differ, up to " << o.diff.max_ulps
                                   << " ulps, first at (" << o.diff.first_i << ", "
@@ -60,6 +61,23 @@ TEST(PacketIdentity, EveryShippedSceneAtEveryWidth) {
       SCOPED_TRACE(path);
       expect_identical(s, width);
     }
+  }
+}
+
+// Packets of doubles against the double reference, likewise bit for bit.
+TEST(PacketIdentity, DoublePacketsEveryShippedSceneAndRandomScenes) {
+  std::vector<int> widths;
+  for (int w : packet::supported_widths(Precision::dbl))
+    if (w > 1) widths.push_back(w);
+  for (const std::string& path : testing::shipped_scenes()) {
+    SCOPED_TRACE(path);
+    for (int width : widths) expect_identical(load_scene(path), width, Precision::dbl);
+  }
+  for (int seed = 1; seed <= 60; ++seed) {
+    SCOPED_TRACE(::testing::Message() << "random_scene seed " << seed);
+    const Scene s = parse_scene(testing::random_scene(seed).dump(), "random");
+    for (int width : widths) expect_identical(s, width, Precision::dbl);
+    if (HasFailure()) return;
   }
 }
 

@@ -13,6 +13,44 @@
 
 namespace lancer {
 
+// The arithmetic of the formulas below, as a policy: ExactMath is the contract's, correctly
+// rounded operation by operation; the packets' fast mode substitutes FastMath (packet/kernel.hpp).
+struct ExactMath {
+  template <class T>
+  static T dot(const Vec3<T>& a, const Vec3<T>& b) {
+    return lancer::dot(a, b);
+  }
+  template <class T>
+  static T div(const T& a, const T& b) {
+    return a / b;
+  }
+  template <class T>
+  static Vec3<T> div(const Vec3<T>& v, const T& s) {
+    return v / s;
+  }
+  template <class T>
+  static T length(const Vec3<T>& v) {
+    return lancer::length(v);
+  }
+  template <class T>
+  static Vec3<T> normalize(const Vec3<T>& v) {
+    return lancer::normalize(v);
+  }
+  // a - b s, component by component.
+  template <class T>
+  static Vec3<T> sub_scaled(const Vec3<T>& a, const Vec3<T>& b, const T& s) {
+    return a - b * s;
+  }
+  template <class T>
+  static Vec3<T> along(const Vec3<T>& o, const Vec3<T>& d, const T& t) {
+    return lancer::along(o, d, t);
+  }
+  template <class T>
+  static Vec3<T> reflect(const Vec3<T>& d, const Vec3<T>& n) {
+    return lancer::reflect(d, n);
+  }
+};
+
 inline float select(bool m, float a, float b) { return m ? a : b; }
 inline double select(bool m, double a, double b) { return m ? a : b; }
 inline bool any(bool m) { return m; }
@@ -51,17 +89,17 @@ struct SphereDisc {
   T b, disc;
 };
 
-template <class T>
+template <class Math = ExactMath, class T>
 inline SphereDisc<T> sphere_disc(const Vec3<T>& f, const Vec3<T>& d, const T& r2) {
-  const T b = dot(f, d);
-  const Vec3<T> perp = f - d * b;
-  return {b, r2 - dot(perp, perp)};
+  const T b = Math::dot(f, d);
+  const Vec3<T> perp = Math::sub_scaled(f, d, b);
+  return {b, r2 - Math::dot(perp, perp)};
 }
 
 // c = |f|^2 - r^2: the product of the two roots.
-template <class T>
+template <class Math = ExactMath, class T>
 inline T sphere_c(const Vec3<T>& f, const T& r2) {
-  return dot(f, f) - r2;
+  return Math::dot(f, f) - r2;
 }
 
 // The two roots, near <= far, given disc >= 0. q = -b - sign(b) sqrt(disc) avoids cancellation;
@@ -71,12 +109,12 @@ struct SphereRoots {
   T near_t, far_t;
 };
 
-template <class T>
+template <class Math = ExactMath, class T>
 inline SphereRoots<T> sphere_roots(const SphereDisc<T>& sd, const T& c) {
   using std::sqrt;
   const T s = sqrt(sd.disc);
   const T q = select(sd.b < T(0), s - sd.b, -(sd.b + s));
-  const T t0 = c / q;
+  const T t0 = Math::div(c, q);
   return {select(t0 < q, t0, q), select(t0 < q, q, t0)};
 }
 
@@ -146,7 +184,7 @@ inline Vec3<T> on_screen(const PreparedCamera<S>& c, const T& x, const T& y) {
 }
 
 // Camera ray through screen point (x, y): pinhole from the eye, orthographic along -w.
-template <class T, class S>
+template <class Math = ExactMath, class T, class S>
 inline void camera_ray(const PreparedCamera<S>& c, const T& x, const T& y, Vec3<T>& origin,
                        Vec3<T>& dir) {
   const Vec3<T> s = on_screen(c, x, y);
@@ -155,7 +193,7 @@ inline void camera_ray(const PreparedCamera<S>& c, const T& x, const T& y, Vec3<
     dir = Vec3<T>::from(-c.w);
   } else {
     origin = Vec3<T>::from(c.position);
-    dir = normalize(s - Vec3<T>::from(c.w) * T(c.distance));
+    dir = Math::normalize(s - Vec3<T>::from(c.w) * T(c.distance));
   }
 }
 

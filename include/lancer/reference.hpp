@@ -43,11 +43,12 @@ template <class T>
 void render_rows_recorded(const PreparedScene<T>& scene, Image& image, int row_begin,
                           int row_end, RayCounts& counts, PathLog& log);
 
-// Primary rays only: the distance to the closest hit of each camera ray (infinity on a miss),
-// for sample 0 of each pixel of rows [row_begin, row_end), into t_out[j * nx + i].
+// Primary rays only: per pixel of rows [row_begin, row_end), the sum over its samples of the
+// distance to the closest hit (infinity on a miss) into t_out[j * nx + i], and, if id_out is not
+// null, the object id first hit by sample (0, 0) (-1 for none).
 template <class T>
-void primary_rows(const PreparedScene<T>& scene, float* t_out, int row_begin, int row_end,
-                  RayCounts& counts);
+void primary_rows(const PreparedScene<T>& scene, float* t_out, float* id_out, int row_begin,
+                  int row_end, RayCounts& counts);
 
 // The closest hit of one ray: its object id and distance, or id -1.
 template <class T>
@@ -65,9 +66,9 @@ extern template void render_rows_recorded<float>(const PreparedScene<float>&, Im
                                                  RayCounts&, PathLog&);
 extern template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
                                                   RayCounts&, PathLog&);
-extern template void primary_rows<float>(const PreparedScene<float>&, float*, int, int,
+extern template void primary_rows<float>(const PreparedScene<float>&, float*, float*, int, int,
                                          RayCounts&);
-extern template void primary_rows<double>(const PreparedScene<double>&, float*, int, int,
+extern template void primary_rows<double>(const PreparedScene<double>&, float*, float*, int, int,
                                           RayCounts&);
 extern template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
                                               const Vec3<float>&);

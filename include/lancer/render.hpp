@@ -6,15 +6,18 @@
 #include <string>
 
 #include "lancer/image.hpp"
+#include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/stats.hpp"
 
 namespace lancer {
 
-enum class Precision { exact, dbl };
-const char* to_string(Precision p);
-// Parses "exact" / "double"; throws InputError naming `option`.
-Precision parse_precision(const std::string& text, const std::string& option);
+// What `auto` picks for a scene, and why, in a sentence.
+struct PrecisionChoice {
+  Precision precision;
+  std::string reason;
+};
+PrecisionChoice choose_precision(const Scene& scene);
 
 struct RenderOptions {
   int width = 0;  // 0: the widest this machine runs (auto); 1: the reference
@@ -35,17 +38,19 @@ struct RenderResult {
   int width = 1;
   int threads = 1;
   std::string isa;
-  Precision precision = Precision::exact;
+  Precision precision = Precision::exact;  // as resolved: never automatic
+  std::string precision_reason;            // why, when automatic chose it
 };
 
-// Throws InputError if the options ask for something this machine cannot do (an unsupported
-// width, double precision on packets).
+// Throws InputError if the options ask for something this machine cannot do (a width this CPU
+// lacks, fast mode at width 1).
 RenderResult render(const Scene& scene, const RenderOptions& options);
 
 // Camera rays and closest hit only (lancer bench's `primary` mode): per pixel the sum of the
 // hit distances of its samples.
 struct PrimaryResult {
   std::vector<float> t;
+  std::vector<float> id;  // object first hit by each pixel's first sample, -1 for none
   RayCounts rays;
   double seconds = 0;
   int width = 1;
@@ -53,8 +58,12 @@ struct PrimaryResult {
 };
 PrimaryResult render_primary(const Scene& scene, const RenderOptions& options);
 
-// The width `requested` resolves to (0 = auto), or InputError naming `option`.
+// The width `requested` resolves to (0 = auto) for a precision (not automatic), or InputError
+// naming `option`.
 int resolve_width(int requested, Precision precision, const std::string& option = "--width");
+
+// Primary mode with the closest-hit ids too (for lancer trade's hit mismatch); slower.
+PrimaryResult render_primary_with_ids(const Scene& scene, const RenderOptions& options);
 
 int hardware_threads();
 

@@ -10,7 +10,7 @@ namespace lancer::cli {
 
 namespace {
 struct RenderArgs {
-  std::string scene, output, width = "auto", precision = "exact";
+  std::string scene, output, width = "auto", precision = "auto";
   int threads = 0;
   SceneOverrides overrides;
 };
@@ -32,6 +32,8 @@ void run_render(const RenderArgs& a) {
               scene.supersample * scene.supersample, scene.supersample > 1 ? "s" : "");
   std::printf("  engine   width %d (%s), %s precision, %d thread%s\n", r.width, r.isa.c_str(),
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "");
+  if (!r.precision_reason.empty())
+    std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
   std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
               (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.total());
@@ -48,10 +50,13 @@ void add_render(CLI::App& app) {
                   "Output image; format from the extension: .png .exr .tif .jpg .ppm .pfm ...")
       ->required();
   cmd->add_option("--width", args->width,
-                  "Lanes per packet: auto (widest this CPU runs), 1 (scalar reference), 4, 8, 16")
+                  "Lanes per packet: auto (widest this CPU runs), 1 (scalar reference), 4, 8, 16 "
+                  "(float) or 2, 4, 8 (double)")
       ->capture_default_str();
   cmd->add_option("--precision", args->precision,
-                  "exact (IEEE float, bit-identical at every width) or double (width 1)")
+                  "auto (exact where the scene lies in float's envelope, else double), exact "
+                  "(IEEE float, bit-identical at every width), double, or fast (FMA and refined "
+                  "approximate reciprocals, packets only)")
       ->capture_default_str();
   cmd->add_option("--threads", args->threads, "Threads (0 = all cores)")->capture_default_str();
   cmd->add_option("--supersample", args->overrides.supersample,

@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "lancer/error.hpp"
 #include "lancer/compare.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/render.hpp"
@@ -13,6 +14,7 @@ namespace {
 struct ValidateArgs {
   std::string scene;
   std::vector<std::string> widths;
+  std::string precision = "exact";
   int threads = 0;
   SceneOverrides overrides;
 };
@@ -21,25 +23,30 @@ struct ValidateArgs {
 void run_validate(const ValidateArgs& a, int& status) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
+  const Precision precision = parse_precision(a.precision, "--precision");
+  if (precision != Precision::exact && precision != Precision::dbl)
+    throw InputError("--precision: validate compares exact or double renders, not " + a.precision);
   std::vector<int> widths;
   if (a.widths.empty()) {
-    for (int w : packet::supported_widths())
+    for (int w : packet::supported_widths(precision))
       if (w > 1) widths.push_back(w);
   } else {
-    widths = parse_width_list(a.widths, "--width");
+    widths = parse_width_list(a.widths, "--width", precision);
   }
   RenderOptions ref_opt;
   ref_opt.width = 1;
+  ref_opt.precision = precision;
   ref_opt.threads = a.threads;
   const RenderResult ref = render(scene, ref_opt);
-  std::printf("lancer validate: %s, %d x %d, exact precision, reference = width 1\n",
-              a.scene.c_str(), scene.camera.nx, scene.camera.ny);
+  std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n",
+              a.scene.c_str(), scene.camera.nx, scene.camera.ny, to_string(precision));
   std::printf("  %-6s %-8s %10s %10s  %s\n", "width", "isa", "differing", "max ulps",
               "first differing pixel");
   bool all_identical = true;
   for (int w : widths) {
     RenderOptions opt;
     opt.width = w;
+    opt.precision = precision;
     opt.threads = a.threads;
     const RenderResult r = render(scene, opt);
     const BitDiff d = bit_diff(r.image, ref.image);
@@ -64,6 +71,8 @@ void add_validate(CLI::App& app) {
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_option("--width", args->widths,
                   "Widths to check, e.g. 4,8,16 (default: every width this CPU runs)");
+  cmd->add_option("--precision", args->precision, "exact or double: the packets of that precision "
+                  "against the reference of that precision")->capture_default_str();
   cmd->add_option("--threads", args->threads, "Threads (0 = all cores)");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");

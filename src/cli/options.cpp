@@ -40,21 +40,21 @@ std::vector<std::string> split_commas(const std::vector<std::string>& items) {
 int parse_width(const std::string& text, const std::string& option) {
   if (text == "auto") return 0;
   const int w = parse_int(text, option);
-  if (w != 1 && w != 4 && w != 8 && w != 16)
-    throw InputError(option + ": must be auto, 1, 4, 8 or 16, not " + text);
+  if (w != 1 && w != 2 && w != 4 && w != 8 && w != 16)
+    throw InputError(option + ": must be auto, 1, 2, 4, 8 or 16, not " + text);
   return w;
 }
 
 std::vector<int> parse_width_list(const std::vector<std::string>& items,
-                                  const std::string& option) {
+                                  const std::string& option, Precision precision) {
   std::vector<int> out;
   for (const std::string& part : split_commas(items)) {
     if (part == "all") {
-      for (int w : packet::supported_widths()) out.push_back(w);
+      for (int w : packet::supported_widths(precision)) out.push_back(w);
       continue;
     }
     const int w = parse_width(part, option);
-    out.push_back(resolve_width(w, Precision::exact, option));
+    out.push_back(resolve_width(w, precision, option));
   }
   if (out.empty()) throw InputError(option + ": no width given");
   return out;

@@ -12,7 +12,8 @@ namespace lancer::cli {
 // "auto" -> 0, else a whole number; throws InputError naming `option`.
 int parse_width(const std::string& text, const std::string& option);
 // "1,4,16" or "all" (every width this machine runs, widest first).
-std::vector<int> parse_width_list(const std::vector<std::string>& items, const std::string& option);
+std::vector<int> parse_width_list(const std::vector<std::string>& items, const std::string& option,
+                                  Precision precision = Precision::exact);
 std::vector<int> parse_int_list(const std::vector<std::string>& items, const std::string& option,
                                 int min_value);
 

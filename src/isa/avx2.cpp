@@ -1,14 +1,12 @@
-// Packet kernels for AVX2 (with FMA available but never contracted: -ffp-contract=off): explicit instantiations only. This file alone is built with
-// this ISA's flags (see src/CMakeLists.txt); the dispatcher decides at run time whether to call it.
+// Packet kernels for AVX2: explicit instantiations only. This file alone is built with
+// -mavx2 -mfma (src/CMakeLists.txt). Exact mode never fuses (-ffp-contract=off); fast mode runs
+// on xsimd's fma3<avx2>, the only AVX2 arch whose xsimd::fma is fused.
 #include "lancer/packet/kernel.hpp"
 
 namespace lancer::packet {
 
-template void render_rows<xsimd::avx2>(xsimd::avx2, const PreparedScene<float>&, Image&, int,
-                                        int, RayCounts&);
-template void primary_rows<xsimd::avx2>(xsimd::avx2, const PreparedScene<float>&, float*, int,
-                                         int, RayCounts&);
-template void closest_hit_packet<xsimd::avx2>(xsimd::avx2, const PreparedScene<float>&,
-                                               const bool*, const float*, float*, float*, bool*);
+template KernelTable<float> table<xsimd::avx2, float, ExactMode>();
+template KernelTable<double> table<xsimd::avx2, double, ExactMode>();
+template KernelTable<float> table<xsimd::fma3<xsimd::avx2>, float, FastMode>();
 
 }  // namespace lancer::packet

@@ -1,14 +1,12 @@
 // Packet kernels for SSE4.2: explicit instantiations only. This file alone is built with
-// this ISA's flags (see src/CMakeLists.txt); the dispatcher decides at run time whether to call it.
+// -msse4.2 (src/CMakeLists.txt); the dispatcher calls it only on CPUs that run SSE4.2.
+// SSE4.2 has no FMA: the fast mode here gains only the approximate reciprocals.
 #include "lancer/packet/kernel.hpp"
 
 namespace lancer::packet {
 
-template void render_rows<xsimd::sse4_2>(xsimd::sse4_2, const PreparedScene<float>&, Image&, int,
-                                        int, RayCounts&);
-template void primary_rows<xsimd::sse4_2>(xsimd::sse4_2, const PreparedScene<float>&, float*, int,
-                                         int, RayCounts&);
-template void closest_hit_packet<xsimd::sse4_2>(xsimd::sse4_2, const PreparedScene<float>&,
-                                               const bool*, const float*, float*, float*, bool*);
+template KernelTable<float> table<xsimd::sse4_2, float, ExactMode>();
+template KernelTable<double> table<xsimd::sse4_2, double, ExactMode>();
+template KernelTable<float> table<xsimd::sse4_2, float, FastMode>();
 
 }  // namespace lancer::packet

@@ -1,57 +1,60 @@
 // The packet path's entry points, declared without any SIMD type so that code built for the
-// baseline ISA can call them. Each is defined in packet/kernel.hpp and instantiated only in
-// src/isa/<isa>.cpp, which alone is built with that ISA's flags.
+// baseline ISA can call them. The kernels are defined in packet/kernel.hpp and instantiated only
+// in src/isa/<isa>.cpp, which alone is built with that ISA's flags.
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "lancer/image.hpp"
+#include "lancer/precision.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/stats.hpp"
 
 namespace lancer::packet {
 
-// Whole render of rows [row_begin, row_end), bit-identical to reference::render_rows in float.
-template <class Arch>
-void render_rows(Arch, const PreparedScene<float>& scene, Image& image, int row_begin,
-                 int row_end, RayCounts& counts);
+// Arithmetic modes of a kernel: ExactMode computes exactly what the reference computes; FastMode
+// fuses multiply-adds and refines approximate reciprocals (float only).
+struct ExactMode {};
+struct FastMode {};
 
-// Camera rays and closest hit only; output as reference::primary_rows.
-template <class Arch>
-void primary_rows(Arch, const PreparedScene<float>& scene, float* t_out, int row_begin,
-                  int row_end, RayCounts& counts);
-
-// One packet through the closest-hit kernel, for tests: rays in SoA arrays of `width` lanes
-// (origin xyz then direction xyz, each `width` floats), lanes with valid[k] false must come back
-// untouched in t and id. Returns the lanes hit, as bools in hit_out.
-template <class Arch>
-void closest_hit_packet(Arch, const PreparedScene<float>& scene, const bool* valid,
-                        const float* rays, float* t, float* id, bool* hit_out);
-
-// One width's kernels: a row of function pointers filled by the dispatcher.
-struct Kernels {
-  int width;        // float lanes
-  const char* isa;  // "sse4.2", "avx2", "avx512f"
-  void (*render_rows)(const PreparedScene<float>&, Image&, int, int, RayCounts&);
-  void (*primary_rows)(const PreparedScene<float>&, float*, int, int, RayCounts&);
-  void (*closest_hit_packet)(const PreparedScene<float>&, const bool*, const float*, float*,
-                             float*, bool*);
+// One kernel instantiation's entry points.
+template <class Real>
+struct KernelTable {
+  int width;        // lanes of Real per packet
+  const char* isa;  // "sse4.2", "avx2", "avx512f" (fast AVX2 reports "fma3<avx2>")
+  // Whole render of rows [row_begin, row_end); in exact mode bit-identical to
+  // reference::render_rows.
+  void (*render_rows)(const PreparedScene<Real>&, Image&, int row_begin, int row_end,
+                      RayCounts&);
+  // Camera rays and closest hit only, as reference::primary_rows.
+  void (*primary_rows)(const PreparedScene<Real>&, float* t_out, float* id_out, int row_begin,
+                       int row_end, RayCounts&);
+  // One packet through the closest-hit kernel, for tests: rays in SoA arrays of `width` lanes
+  // (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
+  // t and id. hit_out gets the lanes hit.
+  void (*closest_hit_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
+                             Real* t, Real* id, bool* hit_out);
 };
 
-// The kernels of a packet width (4, 8 or 16) if this CPU and OS run them, else nullptr.
-const Kernels* kernels_for(int width);
+// Defined in packet/kernel.hpp; instantiated per ISA in src/isa/*.cpp.
+template <class Arch, class Real, class Mode>
+KernelTable<Real> table();
 
-// Widths this machine runs, widest first; 1 (the reference) is always last.
-std::vector<int> supported_widths();
+// The kernels of a precision (exact, dbl or fast) at a width in lanes, if this CPU and OS run
+// them, else nullptr. Float widths are 4, 8, 16; double widths 2, 4, 8.
+const KernelTable<float>* float_kernels(int width, Precision precision);
+const KernelTable<double>* double_kernels(int width);
 
-// Every width lancer knows, whether or not this machine runs it.
-inline const std::vector<int>& known_widths() {
-  static const std::vector<int> w{1, 4, 8, 16};
-  return w;
-}
+// Exact float kernels, the ones validate proves identical to the reference.
+using Kernels = KernelTable<float>;
+inline const Kernels* kernels_for(int width) { return float_kernels(width, Precision::exact); }
 
-// The ISA name of a width on this machine ("scalar" for 1).
-std::string isa_name(int width);
+// Packet widths of a precision this machine runs, widest first, then 1 where the reference
+// runs that precision (exact, double).
+std::vector<int> supported_widths(Precision precision = Precision::exact);
+
+// The ISA name of a width for a precision ("scalar" for 1), whether or not this machine runs it.
+std::string isa_name(int width, Precision precision = Precision::exact);
 
 }  // namespace lancer::packet

@@ -1,10 +1,11 @@
-// The packet kernels, one source for every width: Kernel<Arch> works on W = batch<float,Arch>
-// lanes at once, structure-of-arrays. Include only from src/isa/*.cpp (built with that ISA's
-// flags) and instantiate explicitly there.
+// The packet kernels, one source for every width and precision: Kernel<Arch, Real, Mode> works
+// on the lanes of one xsimd::batch<Real, Arch> at once, structure-of-arrays. Include only from
+// src/isa/*.cpp (built with that ISA's flags) and instantiate there through table<>().
 //
 // Conventions (after Embree's intersectors): a kernel takes a `valid` mask, narrows it test by
 // test, and never writes a lane outside it. Kernels are noexcept; they report through masks.
-// Exact mode: every formula comes from formulas.hpp, as in the reference, in the same order.
+// Exact mode: every formula comes from formulas.hpp with ExactMath, as in the reference, in the
+// same order, so every lane computes the reference's bits.
 #pragma once
 
 #include <array>
@@ -12,6 +13,7 @@
 #include <limits>
 #include <type_traits>
 #include <vector>
+#include <immintrin.h>  // every ISA's register types, for bits()
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/formulas.hpp"
@@ -19,16 +21,66 @@
 
 namespace lancer::packet {
 
+// Fast arithmetic for float batches: fused multiply-adds, and reciprocals / reciprocal square
+// roots from the hardware's approximations (12 bits on SSE/AVX, 14 on AVX-512) refined by one
+// Newton step to about 22 bits. Which of these pay is measured by `lancer trade`.
 template <class Arch>
+struct FastMath {
+  using B = xsimd::batch<float, Arch>;
+  static constexpr bool kAvx512 = std::is_same_v<Arch, xsimd::avx512f>;
+
+  static B approx_rcp(const B& x) noexcept {
+    if constexpr (kAvx512)
+      return _mm512_rcp14_ps(x);  // xsimd's avx512 reciprocal is an exact division
+    else
+      return xsimd::reciprocal(x);
+  }
+  static B approx_rsqrt(const B& x) noexcept {
+    if constexpr (kAvx512)
+      return _mm512_rsqrt14_ps(x);  // xsimd 8.1's rsqrt does not compile for avx512f
+    else
+      return xsimd::rsqrt(x);
+  }
+  // One Newton-Raphson step each: r' = r (2 - x r), y' = y (1.5 - x/2 y^2).
+  static B rcp(const B& x) noexcept {
+    const B r = approx_rcp(x);
+    return xsimd::fma(r, xsimd::fnma(x, r, B(1.0f)), r);
+  }
+  static B rsqrt(const B& x) noexcept {
+    const B y = approx_rsqrt(x);
+    return y * xsimd::fnma(B(0.5f) * x * y, y, B(1.5f));
+  }
+
+  static B dot(const Vec3<B>& a, const Vec3<B>& b) noexcept {
+    return xsimd::fma(a.z, b.z, xsimd::fma(a.y, b.y, a.x * b.x));
+  }
+  static B div(const B& a, const B& b) noexcept { return a * rcp(b); }
+  static Vec3<B> div(const Vec3<B>& v, const B& s) noexcept { return v * rcp(s); }
+  static B length(const Vec3<B>& v) noexcept { return xsimd::sqrt(dot(v, v)); }
+  static Vec3<B> normalize(const Vec3<B>& v) noexcept { return v * rsqrt(dot(v, v)); }
+  static Vec3<B> sub_scaled(const Vec3<B>& a, const Vec3<B>& b, const B& s) noexcept {
+    return {xsimd::fnma(b.x, s, a.x), xsimd::fnma(b.y, s, a.y), xsimd::fnma(b.z, s, a.z)};
+  }
+  static Vec3<B> along(const Vec3<B>& o, const Vec3<B>& d, const B& t) noexcept {
+    return {xsimd::fma(t, d.x, o.x), xsimd::fma(t, d.y, o.y), xsimd::fma(t, d.z, o.z)};
+  }
+  static Vec3<B> reflect(const Vec3<B>& d, const Vec3<B>& n) noexcept {
+    return sub_scaled(d, n, B(2.0f) * dot(d, n));
+  }
+};
+
+template <class Arch, class Real, class Mode>
 struct Kernel {
-  using T = float;
+  using T = Real;
   using B = xsimd::batch<T, Arch>;
   using M = xsimd::batch_bool<T, Arch>;
-  using I = xsimd::batch<std::int32_t, Arch>;
   using V = Vec3<B>;
+  using Mth = std::conditional_t<std::is_same_v<Mode, FastMode>, FastMath<Arch>, ExactMath>;
   static constexpr int W = static_cast<int>(B::size);
   using Scene = PreparedScene<T>;
   static_assert(W <= kMaxLanes, "camera tables are padded for kMaxLanes lanes");
+  static_assert(std::is_same_v<Mode, ExactMode> || std::is_same_v<T, float>,
+                "fast mode is for float");
 
   static B iota() noexcept {
     alignas(64) T v[W];
@@ -39,13 +91,18 @@ struct Kernel {
   // The mask as one bit per lane. xsimd 8.1 has no mask(), so per ISA: AVX-512 masks already
   // are bits; SSE and AVX masks are vectors whose sign bits movemask collects.
   static unsigned bits(const M& m) noexcept {
-    const auto r = static_cast<typename M::register_type>(m);
-    if constexpr (std::is_same_v<Arch, xsimd::avx512f>)
-      return static_cast<unsigned>(r);
-    else if constexpr (W == 8)
-      return static_cast<unsigned>(_mm256_movemask_ps(r));
-    else
+    using R = typename M::register_type;
+    const R r = static_cast<R>(m);
+    if constexpr (std::is_same_v<R, __m128>)
       return static_cast<unsigned>(_mm_movemask_ps(r));
+    else if constexpr (std::is_same_v<R, __m128d>)
+      return static_cast<unsigned>(_mm_movemask_pd(r));
+    else if constexpr (std::is_same_v<R, __m256>)
+      return static_cast<unsigned>(_mm256_movemask_ps(r));
+    else if constexpr (std::is_same_v<R, __m256d>)
+      return static_cast<unsigned>(_mm256_movemask_pd(r));
+    else
+      return static_cast<unsigned>(r);  // AVX-512: __mmask16 / __mmask8
   }
 
   // Active lanes of a mask.
@@ -53,10 +110,22 @@ struct Kernel {
     return static_cast<std::uint64_t>(__builtin_popcount(bits(m)));
   }
 
-  // Object ids are carried as floats (exact below 2^24) so that they blend with the same masks
-  // as the distances; converted to integers only to gather.
-  static B gather(const std::vector<T>& field, const I& index) noexcept {
-    return B::gather(field.data(), index);
+  // field[id] per lane. Object ids travel as Real (exact below 2^24) so that they blend with
+  // the same masks as the distances. Float gathers in hardware; double (whose 64-bit index
+  // conversion needs AVX-512DQ in xsimd 8.1) lane by lane.
+  static B gather(const std::vector<T>& field, const B& id) noexcept {
+    if constexpr (std::is_same_v<T, float>) {
+      return B::gather(field.data(), xsimd::batch_cast<std::int32_t>(id));
+    } else {
+      alignas(64) T ids[W], out[W];
+      id.store_aligned(ids);
+      for (int k = 0; k < W; ++k) out[k] = field[static_cast<std::size_t>(ids[k])];
+      return B::load_aligned(out);
+    }
+  }
+
+  static V select3(const M& m, const V& a, const V& b) noexcept {
+    return {xsimd::select(m, a.x, b.x), xsimd::select(m, a.y, b.y), xsimd::select(m, a.z, b.z)};
   }
 
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
@@ -71,11 +140,11 @@ struct Kernel {
         const B r2(s.sphere_r2[i]);
         const V f = kFromEye ? V{B(s.eye.fx[i]), B(s.eye.fy[i]), B(s.eye.fz[i])}
                              : o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
-        const SphereDisc<B> sd = sphere_disc(f, d, r2);
+        const SphereDisc<B> sd = sphere_disc<Mth>(f, d, r2);
         M m = valid & (sd.disc >= B(0));
         if (!xsimd::any(m)) continue;
-        const B c = kFromEye ? B(s.eye.c[i]) : sphere_c(f, r2);
-        const B t = sphere_first_root(sphere_roots(sd, c), eps);
+        const B c = kFromEye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
+        const B t = sphere_first_root(sphere_roots<Mth>(sd, c), eps);
         m = m & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
         best_id = xsimd::select(m, B(T(i)), best_id);
@@ -84,8 +153,10 @@ struct Kernel {
     if (s.features.planes) {
       for (int k = 0; k < s.num_planes; ++k) {
         const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
-        const B denom = dot(d, n);
-        const B t = dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n) / denom;
+        const B denom = Mth::dot(d, n);
+        const B t =
+            Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n),
+                     denom);
         const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
         best_id = xsimd::select(m, B(T(s.num_spheres + k)), best_id);
@@ -102,18 +173,19 @@ struct Kernel {
     for (int i = 0; i < s.num_spheres; ++i) {
       const V f = p - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
       const B r2(s.sphere_r2[i]);
-      const SphereDisc<B> sd = sphere_disc(f, l, r2);
+      const SphereDisc<B> sd = sphere_disc<Mth>(f, l, r2);
       M m = pending & (sd.disc >= B(0));
       if (!xsimd::any(m)) continue;
-      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      const B t = sphere_first_root(sphere_roots<Mth>(sd, sphere_c<Mth>(f, r2)), eps);
       m = m & (t > eps) & (t < dist);
       pending = pending & ~m;
       if (!xsimd::any(pending)) return valid;
     }
     for (int k = 0; k < s.num_planes; ++k) {
       const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
-      const B denom = dot(l, n);
-      const B t = dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n) / denom;
+      const B denom = Mth::dot(l, n);
+      const B t = Mth::div(
+          Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n), denom);
       const M m = pending & (denom != B(0)) & (t > eps) & (t < dist);
       pending = pending & ~m;
       if (!xsimd::any(pending)) return valid;
@@ -140,9 +212,9 @@ struct Kernel {
 
   // One bounce level of a packet: what the recursion of the reference keeps on its stack.
   struct Level {
-    B r, g, b;      // local colour (or background/environment where the ray missed)
-    B reflect;      // the hit material's reflection coefficient
-    M reflected;    // lanes that went on to a reflected ray
+    B r, g, b;    // local colour (or background/environment where the ray missed)
+    B reflect;    // the hit material's reflection coefficient
+    M reflected;  // lanes that went on to a reflected ray
   };
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
@@ -159,29 +231,20 @@ struct Kernel {
     out.reflected = M(false);
     if (!xsimd::any(hit)) return out.reflected;
 
-    const V p = along(o, d, best_t);
-    const I id = xsimd::batch_cast<std::int32_t>(xsimd::select(hit, best_id, B(0)));
+    const V p = Mth::along(o, d, best_t);
+    const B id = xsimd::select(hit, best_id, B(0));
     V n{B(0), B(0), B(0)};
     if (s.features.spheres) {
-      const I sid = xsimd::min(id, I(s.num_spheres - 1));
-      const B r = gather(s.sphere_r, sid);
-      n = V{(p.x - gather(s.sphere_cx, sid)) / r, (p.y - gather(s.sphere_cy, sid)) / r,
-            (p.z - gather(s.sphere_cz, sid)) / r};
+      const B sid = xsimd::min(id, B(T(s.num_spheres - 1)));
+      const V c{gather(s.sphere_cx, sid), gather(s.sphere_cy, sid), gather(s.sphere_cz, sid)};
+      n = Mth::div(p - c, gather(s.sphere_r, sid));
     }
     if (s.features.planes) {
-      const I pid = xsimd::max(id - I(s.num_spheres), I(0));
+      const B pid = xsimd::max(id - B(T(s.num_spheres)), B(0));
       const V pn{gather(s.plane_nx, pid), gather(s.plane_ny, pid), gather(s.plane_nz, pid)};
-      if (s.features.spheres) {
-        const M on_sphere = best_id < B(T(s.num_spheres));
-        n = V{xsimd::select(on_sphere, n.x, pn.x), xsimd::select(on_sphere, n.y, pn.y),
-              xsimd::select(on_sphere, n.z, pn.z)};
-      } else {
-        n = pn;
-      }
+      n = s.features.spheres ? select3(best_id < B(T(s.num_spheres)), n, pn) : pn;
     }
-    const M flip = dot(n, d) > B(0);
-    n = V{xsimd::select(flip, -n.x, n.x), xsimd::select(flip, -n.y, n.y),
-          xsimd::select(flip, -n.z, n.z)};
+    n = select3(Mth::dot(n, d) > B(0), -n, n);
     const V view = -d;
 
     const B ka = gather(s.mat_ka, id), kd = gather(s.mat_kd, id);
@@ -195,23 +258,23 @@ struct Kernel {
     for (int k = 0; k < s.num_lights; ++k) {
       ambient = ambient + ka * B(s.light_ambient[k]);
       const V to_light = V{B(s.light_x[k]), B(s.light_y[k]), B(s.light_z[k])} - p;
-      const B dist = length(to_light);
+      const B dist = Mth::length(to_light);
       const M lit = hit & (dist > B(0));
       counts.shadow += count(lit);
       if (!xsimd::any(lit)) continue;
-      const V l = to_light / dist;
-      const V from = offset_origin<B, T>(p, n, dot(l, n), o, best_t);
+      const V l = Mth::div(to_light, dist);
+      const V from = offset_origin<B, T>(p, n, Mth::dot(l, n), o, best_t);
       const M unblocked = lit & ~occluded(s, lit, from, l, dist);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
-      diffuse = xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(dot(n, l)),
-                              diffuse);
+      diffuse = xsimd::select(
+          unblocked, diffuse + (kd * intensity) * positive_part(Mth::dot(n, l)), diffuse);
       if (s.features.specular) {
         const V half = l + view;
-        const B half_len = length(half);
+        const B half_len = Mth::length(half);
         const M m = unblocked & (half_len > B(0));
-        const V h = half / half_len;
-        const B term = (ks * intensity) * power(s, dot(n, h), shininess, shininess_int);
+        const V h = Mth::div(half, half_len);
+        const B term = (ks * intensity) * power(s, Mth::dot(n, h), shininess, shininess_int);
         specular = xsimd::select(m, specular + term, specular);
       }
     }
@@ -225,12 +288,10 @@ struct Kernel {
     out.reflected = hit & (out.reflect > B(0));
     if (xsimd::any(out.reflected)) {
       counts.reflected += count(out.reflected);
-      const V r = normalize(reflect(d, n));
-      const V from = offset_origin<B, T>(p, n, dot(r, n), o, best_t);
-      o = V{xsimd::select(out.reflected, from.x, o.x), xsimd::select(out.reflected, from.y, o.y),
-            xsimd::select(out.reflected, from.z, o.z)};
-      d = V{xsimd::select(out.reflected, r.x, d.x), xsimd::select(out.reflected, r.y, d.y),
-            xsimd::select(out.reflected, r.z, d.z)};
+      const V r = Mth::normalize(Mth::reflect(d, n));
+      const V from = offset_origin<B, T>(p, n, Mth::dot(r, n), o, best_t);
+      o = select3(out.reflected, from, o);
+      d = select3(out.reflected, r, d);
     }
     return out.reflected;
   }
@@ -261,7 +322,14 @@ struct Kernel {
     const PreparedCamera<T>& cam = s.camera;
     const B x = B::load_unaligned(&cam.screen_x[std::size_t(a) * cam.nx + i0]);
     const B y(cam.screen_y[std::size_t(b) * cam.ny + j]);
-    camera_ray(cam, x, y, o, d);
+    camera_ray<Mth>(cam, x, y, o, d);
+  }
+
+  // Stores the first `lanes` lanes of v at dst.
+  static void store_lanes(const B& v, float* dst, int lanes) noexcept {
+    alignas(64) T tmp[W];
+    v.store_aligned(tmp);
+    for (int k = 0; k < lanes; ++k) dst[k] = static_cast<float>(tmp[k]);
   }
 
   static void render_rows(const Scene& s, Image& image, int row_begin, int row_end,
@@ -291,22 +359,23 @@ struct Kernel {
         (sb / samples).store_aligned(out[2]);
         for (int k = 0; k < lanes; ++k) {
           float* px = image.pixel(i0 + k, j);
-          px[0] = out[0][k], px[1] = out[1][k], px[2] = out[2][k];
+          px[0] = static_cast<float>(out[0][k]);
+          px[1] = static_cast<float>(out[1][k]);
+          px[2] = static_cast<float>(out[2][k]);
         }
       }
     }
   }
 
-  static void primary_rows(const Scene& s, float* t_out, int row_begin, int row_end,
-                           RayCounts& counts) noexcept {
+  static void primary_rows(const Scene& s, float* t_out, float* id_out, int row_begin,
+                           int row_end, RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
-    alignas(64) T out[W];
     for (int j = row_begin; j < row_end; ++j) {
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
         const int lanes = std::min(W, cam.nx - i0);
         const M valid = lane < B(T(lanes));
-        B sum(0);
+        B sum(0), first_id(T(-1));
         for (int b = 0; b < cam.samples; ++b) {
           for (int a = 0; a < cam.samples; ++a) {
             V o, d;
@@ -318,21 +387,26 @@ struct Kernel {
             else
               closest_hit<true>(s, valid, o, d, t, id);
             sum = sum + t;
+            if (a == 0 && b == 0) first_id = id;
           }
         }
-        float* row = t_out + std::size_t(j) * cam.nx + i0;
-        if (lanes == W) {
-          sum.store_unaligned(row);
+        const std::size_t at = std::size_t(j) * cam.nx + i0;
+        if constexpr (std::is_same_v<T, float>) {
+          if (lanes == W) {
+            sum.store_unaligned(t_out + at);
+          } else {
+            store_lanes(sum, t_out + at, lanes);
+          }
         } else {
-          sum.store_aligned(out);
-          for (int k = 0; k < lanes; ++k) row[k] = out[k];
+          store_lanes(sum, t_out + at, lanes);
         }
+        if (id_out) store_lanes(first_id, id_out + at, lanes);
       }
     }
   }
 
-  static void closest_hit_packet(const Scene& s, const bool* valid, const float* rays, float* t,
-                                 float* id, bool* hit_out) noexcept {
+  static void closest_hit_packet(const Scene& s, const bool* valid, const T* rays, T* t, T* id,
+                                 bool* hit_out) noexcept {
     const M v = M::load_unaligned(valid);
     const V o{B::load_unaligned(rays), B::load_unaligned(rays + W),
               B::load_unaligned(rays + 2 * W)};
@@ -347,22 +421,10 @@ struct Kernel {
   }
 };
 
-template <class Arch>
-void render_rows(Arch, const PreparedScene<float>& scene, Image& image, int row_begin,
-                 int row_end, RayCounts& counts) {
-  Kernel<Arch>::render_rows(scene, image, row_begin, row_end, counts);
-}
-
-template <class Arch>
-void primary_rows(Arch, const PreparedScene<float>& scene, float* t_out, int row_begin,
-                  int row_end, RayCounts& counts) {
-  Kernel<Arch>::primary_rows(scene, t_out, row_begin, row_end, counts);
-}
-
-template <class Arch>
-void closest_hit_packet(Arch, const PreparedScene<float>& scene, const bool* valid,
-                        const float* rays, float* t, float* id, bool* hit_out) {
-  Kernel<Arch>::closest_hit_packet(scene, valid, rays, t, id, hit_out);
+template <class Arch, class Real, class Mode>
+KernelTable<Real> table() {
+  using K = Kernel<Arch, Real, Mode>;
+  return {K::W, Arch::name(), &K::render_rows, &K::primary_rows, &K::closest_hit_packet};
 }
 
 }  // namespace lancer::packet
