@@ -111,6 +111,11 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.light_intensity.push_back(T(l.intensity));
     p.light_ambient.push_back(T(l.ambient));
   }
+  // Packets look per-object fields up a whole register at a time: pad with zeros.
+  for (auto* field : {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.plane_nx,
+                      &p.plane_ny, &p.plane_nz, &p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd,
+                      &p.mat_ks, &p.mat_shininess, &p.mat_reflect, &p.mat_shininess_int})
+    if (field->size() < std::size_t(kMaxLanes)) field->resize(kMaxLanes, T(0));
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;
   p.features.lights = p.num_lights > 0;

@@ -57,6 +57,7 @@ struct PreparedScene {
   std::vector<T> plane_px, plane_py, plane_pz, plane_nx, plane_ny, plane_nz;
 
   // Material of each object, by object id, structure-of-arrays (one gather per field).
+  // Per-object vectors are padded with zeros to at least kMaxLanes entries: use the counts.
   std::vector<T> mat_r, mat_g, mat_b, mat_ka, mat_kd, mat_ks, mat_shininess, mat_reflect;
   // 1 where the shininess is a whole number that power_int() raises to exactly, else 0.
   std::vector<T> mat_shininess_int;

@@ -67,6 +67,36 @@ struct FastMath {
   static Vec3<B> reflect(const Vec3<B>& d, const Vec3<B>& n) noexcept {
     return sub_scaled(d, n, B(2.0f) * dot(d, n));
   }
+
+  // c^e for c in [0, 1] and e >= 0 as 2^(e log2 c), each by a short polynomial (least-squares
+  // fits on [0, 1): 2e-6 absolute in log2(1+m)/m, 1e-7 in 2^f): a fixed dozen operations where
+  // binary powering loops log2(e) times. 0^e is 0 (e > 0) and c^0 is 1, as std::pow.
+  static B pow01(const B& c, const B& e) noexcept {
+    using I = xsimd::batch<std::int32_t, Arch>;
+    const I bits = xsimd::bitwise_cast<I>(c);
+    const B exponent = xsimd::batch_cast<float>((bits >> 23) - I(127));
+    const B m = xsimd::bitwise_cast<B>((bits & I(0x007fffff)) | I(0x3f800000)) - B(1.0f);
+    B g = B(0.0204903372f);
+    g = xsimd::fma(g, m, B(-0.0960662224f));
+    g = xsimd::fma(g, m, B(0.215588502f));
+    g = xsimd::fma(g, m, B(-0.339247757f));
+    g = xsimd::fma(g, m, B(0.477705927f));
+    g = xsimd::fma(g, m, B(-0.721162734f));
+    g = xsimd::fma(g, m, B(1.44269326f));
+    const B log2c = xsimd::fma(g, m, exponent);
+    const B y = xsimd::max(e * log2c, B(-126.0f));
+    const B yi = xsimd::floor(y);
+    const B f = y - yi;
+    B q = B(0.00189510704f);
+    q = xsimd::fma(q, f, B(0.00894621529f));
+    q = xsimd::fma(q, f, B(0.0558632821f));
+    q = xsimd::fma(q, f, B(0.24014077f));
+    q = xsimd::fma(q, f, B(0.69315462f));
+    q = xsimd::fma(q, f, B(0.999999896f));
+    const I scaled = xsimd::bitwise_cast<I>(q) + (xsimd::batch_cast<std::int32_t>(yi) << 23);
+    const B result = xsimd::bitwise_cast<B>(scaled);
+    return xsimd::select(e == B(0.0f), B(1.0f), xsimd::select(c > B(0.0f), result, B(0.0f)));
+  }
 };
 
 template <class Arch, class Real, class Mode>
@@ -75,7 +105,8 @@ struct Kernel {
   using B = xsimd::batch<T, Arch>;
   using M = xsimd::batch_bool<T, Arch>;
   using V = Vec3<B>;
-  using Mth = std::conditional_t<std::is_same_v<Mode, FastMode>, FastMath<Arch>, ExactMath>;
+  static constexpr bool kFast = std::is_same_v<Mode, FastMode>;
+  using Mth = std::conditional_t<kFast, FastMath<Arch>, ExactMath>;
   static constexpr int W = static_cast<int>(B::size);
   using Scene = PreparedScene<T>;
   static_assert(W <= kMaxLanes, "camera tables are padded for kMaxLanes lanes");
@@ -110,18 +141,30 @@ struct Kernel {
     return static_cast<std::uint64_t>(__builtin_popcount(bits(m)));
   }
 
-  // field[id] per lane. Object ids travel as Real (exact below 2^24) so that they blend with
-  // the same masks as the distances. Float gathers in hardware; double (whose 64-bit index
-  // conversion needs AVX-512DQ in xsimd 8.1) lane by lane.
-  static B gather(const std::vector<T>& field, const B& id) noexcept {
-    if constexpr (std::is_same_v<T, float>) {
-      return B::gather(field.data(), xsimd::batch_cast<std::int32_t>(id));
+  // field[id] per lane, for a field of n entries (padded to kMaxLanes by prepare()). Object ids
+  // travel as Real (exact below 2^24) so that they blend with the same masks as the distances.
+  // Up to W entries the field fits one register and one permute looks every lane up; beyond,
+  // a hardware gather. (xsimd 8.1's B::gather falls back to inserting lane by lane here.)
+  // SSE has neither, and double ids would need AVX-512DQ to convert: lane by lane.
+  static B gather(const std::vector<T>& field, const B& id, int n) noexcept {
+    if constexpr (std::is_same_v<T, float> && W == 16) {
+      const __m512i index = _mm512_cvttps_epi32(id);
+      if (n <= 16) return _mm512_permutexvar_ps(index, _mm512_loadu_ps(field.data()));
+      return _mm512_i32gather_ps(index, field.data(), 4);
+    } else if constexpr (std::is_same_v<T, float> && W == 8) {
+      const __m256i index = _mm256_cvttps_epi32(id);
+      if (n <= 8) return _mm256_permutevar8x32_ps(_mm256_loadu_ps(field.data()), index);
+      return _mm256_i32gather_ps(field.data(), index, 4);
     } else {
       alignas(64) T ids[W], out[W];
       id.store_aligned(ids);
       for (int k = 0; k < W; ++k) out[k] = field[static_cast<std::size_t>(ids[k])];
       return B::load_aligned(out);
     }
+  }
+  // A field of every object (materials).
+  static B gather(const Scene& s, const std::vector<T>& field, const B& id) noexcept {
+    return gather(field, id, s.num_objects());
   }
 
   static V select3(const M& m, const V& a, const V& b) noexcept {
@@ -197,6 +240,7 @@ struct Kernel {
   // for the rare fractional ones, exactly as the reference does for that material.
   static B power(const Scene& s, const B& cos_nh, const B& shininess,
                  const B& shininess_int) noexcept {
+    if constexpr (kFast) return Mth::pow01(positive_part(cos_nh), shininess);
     const M whole = shininess_int != B(0);
     B p = specular_power(cos_nh, xsimd::select(whole, shininess, B(0)));
     if (!s.features.fractional_shininess || xsimd::all(whole)) return p;
@@ -236,23 +280,27 @@ struct Kernel {
     V n{B(0), B(0), B(0)};
     if (s.features.spheres) {
       const B sid = xsimd::min(id, B(T(s.num_spheres - 1)));
-      const V c{gather(s.sphere_cx, sid), gather(s.sphere_cy, sid), gather(s.sphere_cz, sid)};
-      n = Mth::div(p - c, gather(s.sphere_r, sid));
+      const int ns = s.num_spheres;
+      const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
+                gather(s.sphere_cz, sid, ns)};
+      n = Mth::div(p - c, gather(s.sphere_r, sid, ns));
     }
     if (s.features.planes) {
       const B pid = xsimd::max(id - B(T(s.num_spheres)), B(0));
-      const V pn{gather(s.plane_nx, pid), gather(s.plane_ny, pid), gather(s.plane_nz, pid)};
+      const int np = s.num_planes;
+      const V pn{gather(s.plane_nx, pid, np), gather(s.plane_ny, pid, np),
+                 gather(s.plane_nz, pid, np)};
       n = s.features.spheres ? select3(best_id < B(T(s.num_spheres)), n, pn) : pn;
     }
     n = select3(Mth::dot(n, d) > B(0), -n, n);
     const V view = -d;
 
-    const B ka = gather(s.mat_ka, id), kd = gather(s.mat_kd, id);
+    const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);
     if (s.features.specular) {
-      ks = gather(s.mat_ks, id);
-      shininess = gather(s.mat_shininess, id);
-      shininess_int = gather(s.mat_shininess_int, id);
+      ks = gather(s, s.mat_ks, id);
+      shininess = gather(s, s.mat_shininess, id);
+      shininess_int = gather(s, s.mat_shininess_int, id);
     }
     B ambient(0), diffuse(0), specular(0);
     for (int k = 0; k < s.num_lights; ++k) {
@@ -263,12 +311,16 @@ struct Kernel {
       counts.shadow += count(lit);
       if (!xsimd::any(lit)) continue;
       const V l = Mth::div(to_light, dist);
-      const V from = offset_origin<B, T>(p, n, Mth::dot(l, n), o, best_t);
-      const M unblocked = lit & ~occluded(s, lit, from, l, dist);
+      const B cos_nl = Mth::dot(l, n);
+      const V from = offset_origin<B, T>(p, n, cos_nl, o, best_t);
+      // Fast mode: a light behind the surface is blocked by the surface itself (the offset
+      // origin lies on the viewer's side), so its shadow ray is answered without tracing.
+      const M traced = kFast ? lit & (cos_nl > B(0)) : lit;
+      const M unblocked = traced & ~occluded(s, traced, from, l, dist);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
       diffuse = xsimd::select(
-          unblocked, diffuse + (kd * intensity) * positive_part(Mth::dot(n, l)), diffuse);
+          unblocked, diffuse + (kd * intensity) * positive_part(cos_nl), diffuse);
       if (s.features.specular) {
         const V half = l + view;
         const B half_len = Mth::length(half);
@@ -279,12 +331,12 @@ struct Kernel {
       }
     }
     const B shade_k = (ambient + diffuse) + specular;
-    out.r = xsimd::select(hit, gather(s.mat_r, id) * shade_k, out.r);
-    out.g = xsimd::select(hit, gather(s.mat_g, id) * shade_k, out.g);
-    out.b = xsimd::select(hit, gather(s.mat_b, id) * shade_k, out.b);
+    out.r = xsimd::select(hit, gather(s, s.mat_r, id) * shade_k, out.r);
+    out.g = xsimd::select(hit, gather(s, s.mat_g, id) * shade_k, out.g);
+    out.b = xsimd::select(hit, gather(s, s.mat_b, id) * shade_k, out.b);
 
     if (!s.features.reflection || depth >= s.max_depth) return out.reflected;
-    out.reflect = gather(s.mat_reflect, id);
+    out.reflect = gather(s, s.mat_reflect, id);
     out.reflected = hit & (out.reflect > B(0));
     if (xsimd::any(out.reflected)) {
       counts.reflected += count(out.reflected);

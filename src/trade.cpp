@@ -1,0 +1,77 @@
+#include "lancer/trade.hpp"
+
+#include "lancer/bench.hpp"
+#include "lancer/packet/api.hpp"
+#include "lancer/plot.hpp"
+#include "lancer/render.hpp"
+
+namespace lancer {
+
+std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
+  RenderOptions truth_opt;
+  truth_opt.precision = Precision::dbl;
+  truth_opt.width = 1;
+  truth_opt.threads = opt.threads;
+  const Image truth = render(scene, truth_opt).image;
+  const std::vector<float> truth_ids = render_primary_with_ids(scene, truth_opt).id;
+
+  std::vector<TradeRow> rows;
+  std::vector<RenderOptions> configs;
+  for (Precision p : opt.precisions)
+    for (int width : packet::supported_widths(p)) {
+      TradeRow r;
+      r.precision = p, r.width = width, r.isa = packet::isa_name(width, p);
+      rows.push_back(r);
+      RenderOptions ro;
+      ro.precision = p, ro.width = width, ro.threads = opt.threads;
+      configs.push_back(ro);
+    }
+
+  // Errors: one render of each.
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const Image im = render(scene, configs[k]).image;
+    const ErrorStats raw = error_stats(im, truth, 1.0 / 255.0, /*as_displayed=*/false);
+    const ErrorStats shown = error_stats(im, truth, 1.0 / 255.0, /*as_displayed=*/true);
+    rows[k].max_abs_diff = raw.max_abs;
+    rows[k].psnr_db = shown.psnr_db;
+    rows[k].off_pixel_frac = shown.off_fraction;
+    const std::vector<float> ids = render_primary_with_ids(scene, configs[k]).id;
+    std::size_t mismatched = 0;
+    for (std::size_t i = 0; i < ids.size(); ++i) mismatched += ids[i] != truth_ids[i];
+    rows[k].hit_mismatch_frac = ids.empty() ? 0 : double(mismatched) / double(ids.size());
+  }
+
+  // Speed: configurations interleaved within each repeat, each timed run at least min_seconds.
+  std::vector<std::vector<double>> rates(rows.size());
+  for (int rep = -1; rep < opt.repeat; ++rep) {
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      double seconds = 0;
+      std::uint64_t rays = 0;
+      do {
+        const RenderResult r = render(scene, configs[k]);
+        seconds += r.seconds, rays += r.rays.total();
+      } while (rep >= 0 && seconds < opt.min_seconds);
+      if (rep >= 0) rates[k].push_back(rays / seconds * 1e-6);
+    }
+  }
+  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].mrays_per_s = median(rates[k]);
+  return rows;
+}
+
+void write_trade_plot(const std::vector<TradeRow>& rows, const std::string& scene_name,
+                      const std::string& path) {
+  std::vector<double> x, y;
+  std::string legend;
+  for (const TradeRow& r : rows) {
+    x.push_back(r.mrays_per_s);
+    y.push_back(100.0 * r.off_pixel_frac);
+  }
+  plot::ScatterOptions o;
+  o.x_label = "Mrays/s (full render, 1 thread)";
+  o.y_label = "% pixels off > 1/255 vs double";
+  o.title = "lancer trade: " + scene_name;
+  plot::Drawing d = plot::scatter_plot(x, y, o);
+  plot::write_drawing(d, path);
+}
+
+}  // namespace lancer
