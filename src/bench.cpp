@@ -42,6 +42,7 @@ std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& opt) {
         if (std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
           r.engine = "embree";
           r.isa = "embree";
+          r.precision = "float";  // Embree's own single-precision arithmetic
           rows.push_back(r);
           times.emplace_back();
         }

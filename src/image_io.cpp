@@ -45,11 +45,12 @@ void set_pending(const std::string& path) {
 }
 void clear_pending() { g_has_pending = false; }
 
-// A fresh temporary file beside `target`, so that the final rename stays on one file system.
-std::string make_temp_beside(const std::string& target) {
+// A fresh temporary file beside `target`, so that the final rename stays on one file system:
+// `.<name>.lancer-XXXXXX` (`.<name>.lancer-probe-XXXXXX` for the writability probe).
+std::string make_temp_beside(const std::string& target, const char* kind = "lancer-") {
   fs::path t(target);
   fs::path dir = t.parent_path().empty() ? fs::path(".") : t.parent_path();
-  std::string pattern = (dir / ("." + t.filename().string() + ".lancer-XXXXXX")).string();
+  std::string pattern = (dir / ("." + t.filename().string() + "." + kind + "XXXXXX")).string();
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
   int fd = mkstemp(buf.data());
@@ -105,6 +106,10 @@ void remove_pending_outputs() noexcept {
 
 void check_output_path(const std::string& path, const std::string& scene_path) {
   if (path.empty()) throw InputError("-o: output path is empty");
+  std::error_code ec;
+  // First, so that `-o scene.json` says what is wrong rather than that .json is no image format.
+  if (!scene_path.empty() && fs::exists(path, ec) && fs::equivalent(path, scene_path, ec))
+    throw InputError(path + ": would overwrite the scene file");
   const std::string ext = lower_extension(path);
   if (ext.empty()) throw InputError(path + ": no extension to choose an image format from");
   if (ext != ".pfm") {
@@ -113,14 +118,16 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
   }
   fs::path p(path);
   fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-  std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(path + ": folder " + dir.string() + " does not exist");
   if (access(dir.c_str(), W_OK) != 0) throw InputError(path + ": folder " + dir.string() + " is not writable");
   if (fs::is_directory(p, ec)) throw InputError(path + ": is a folder");
   if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
     throw InputError(path + ": exists and is not writable");
-  if (!scene_path.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
-    throw InputError(path + ": would overwrite the scene file");
+  // access() is no answer for root, who passes it for /proc, /sys or a read-only mount: create the
+  // file the write will create (and remove it), so that the failure comes before the render.
+  const std::string probe = make_temp_beside(path, "lancer-probe-");
+  set_pending(probe);
+  remove_pending_outputs();
 }
 
 void write_image(const Image& image, const std::string& path) {

@@ -233,7 +233,7 @@ struct EmbreeScene::Impl {
     b->upper_x = hi[0], b->upper_y = hi[1], b->upper_z = hi[2];
   }
 
-  // t of ray i against plane k by lancer's formula, or NaN-free "no hit" as a negative value.
+  // Whether ray i hits plane k within (tnear, tfar), by lancer's formula; t is set when it does.
   static bool plane_t(const PreparedScene<float>& s, unsigned k, RTCRayN* ray, unsigned N,
                       unsigned i, float& t) {
     const Vec3<float> n{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
@@ -445,6 +445,7 @@ struct EmbreeScene::Impl {
     RTCHitN* hit = RTCRayHitN_HitN(rhn, W);
     RTCRayN* sray = reinterpret_cast<RTCRayN*>(&shadow);
     Vec3<float> o[W], d[W], p[W], n[W];
+    float t[W];
     int id[W];
     for (int j = r0; j < r1; ++j) {
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
@@ -474,7 +475,8 @@ struct EmbreeScene::Impl {
                 if (id[k] < 0) continue;
                 any_hit = true;
                 // The hit point and the normal facing the ray, as lancer computes them.
-                p[k] = along(o[k], d[k], RTCRayN_tfar(ray, W, k));
+                t[k] = RTCRayN_tfar(ray, W, k);
+                p[k] = along(o[k], d[k], t[k]);
                 const int m = id[k];
                 if (m < s.num_spheres) {
                   const float r = s.sphere_r[m];
@@ -506,7 +508,12 @@ struct EmbreeScene::Impl {
                       dist = 1.0f;
                     }
                   }
-                  set_ray<W>(sray, k, id[k] >= 0 ? p[k] : o[0], dir, s.epsilon, dist);
+                  // Leaving the surface as lancer does: offset along the normal (formulas.hpp).
+                  const Vec3<float> from =
+                      id[k] >= 0
+                          ? offset_origin<float, float>(p[k], n[k], dot(dir, n[k]), o[k], t[k])
+                          : o[0];
+                  set_ray<W>(sray, k, from, dir, s.epsilon, dist);
                 }
                 counts.shadow += nlit;
                 if (nlit) Api<W>::occluded(lit, scene, &ctx, shadow);
@@ -520,7 +527,7 @@ struct EmbreeScene::Impl {
                 any_reflected = true;
                 ++counts.reflected;
                 d[k] = normalize(reflect(d[k], n[k]));
-                o[k] = p[k];
+                o[k] = offset_origin<float, float>(p[k], n[k], dot(d[k], n[k]), o[k], t[k]);
               }
               if (!any_reflected) break;
             }

@@ -405,8 +405,10 @@ void check_text_path(const std::string& path, const std::string& option,
   const std::string where = option + " " + path;
   if (path.empty()) throw InputError(option + ": output path is empty");
   fs::path p(path);
-  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
   std::error_code ec;
+  if (!scene_path.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
+    throw InputError(where + ": would overwrite the scene file");
+  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
   if (!fs::is_directory(dir, ec))
     throw InputError(where + ": folder " + dir.string() + " does not exist");
   if (access(dir.c_str(), W_OK) != 0)
@@ -414,8 +416,17 @@ void check_text_path(const std::string& path, const std::string& option,
   if (fs::is_directory(p, ec)) throw InputError(where + ": is a folder");
   if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
     throw InputError(where + ": exists and is not writable");
-  if (!scene_path.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
-    throw InputError(where + ": would overwrite the scene file");
+  // access() says yes to root on a read-only mount: create the temporary file the write will
+  // create, and remove it, so that the failure comes before any work.
+  std::string pattern = (dir / ("." + p.filename().string() + ".lancer-probe-XXXXXX")).string();
+  std::vector<char> name(pattern.begin(), pattern.end());
+  name.push_back('\0');
+  const int fd = mkstemp(name.data());
+  if (fd < 0)
+    throw InputError(where + ": cannot create a file in " + dir.string() + ": " +
+                     std::strerror(errno));
+  close(fd);
+  unlink(name.data());
 }
 
 void check_drawing_path(const std::string& path, const std::string& option,

@@ -29,7 +29,9 @@ PreparedScene<T> prepare(const Scene& scene) {
   Vec3<double> u, v, w;
   camera_basis(c, u, v, w);
   pc.orthographic = c.type == CameraType::orthographic;
-  pc.position = Vec3<T>::from(c.position);
+  p.world_origin = c.position;
+  const Vec3<double> shift = c.position;
+  pc.position = Vec3<T>{T(0), T(0), T(0)};
   pc.u = Vec3<T>::from(u);
   pc.v = Vec3<T>::from(v);
   pc.w = Vec3<T>::from(w);
@@ -78,9 +80,10 @@ PreparedScene<T> prepare(const Scene& scene) {
 
   p.num_spheres = static_cast<int>(scene.spheres.size());
   for (const Sphere& s : scene.spheres) {
-    p.sphere_cx.push_back(T(s.center.x));
-    p.sphere_cy.push_back(T(s.center.y));
-    p.sphere_cz.push_back(T(s.center.z));
+    const Vec3<double> center = s.center - shift;
+    p.sphere_cx.push_back(T(center.x));
+    p.sphere_cy.push_back(T(center.y));
+    p.sphere_cz.push_back(T(center.z));
     p.sphere_r.push_back(T(s.radius));
     p.sphere_r2.push_back(T(s.radius) * T(s.radius));
     if (!pc.orthographic) {
@@ -95,9 +98,10 @@ PreparedScene<T> prepare(const Scene& scene) {
   p.num_planes = static_cast<int>(scene.planes.size());
   for (const Plane& pl : scene.planes) {
     const Vec3<double> n = normalize(pl.normal);
-    p.plane_px.push_back(T(pl.point.x));
-    p.plane_py.push_back(T(pl.point.y));
-    p.plane_pz.push_back(T(pl.point.z));
+    const Vec3<double> point = pl.point - shift;
+    p.plane_px.push_back(T(point.x));
+    p.plane_py.push_back(T(point.y));
+    p.plane_pz.push_back(T(point.z));
     p.plane_nx.push_back(T(n.x));
     p.plane_ny.push_back(T(n.y));
     p.plane_nz.push_back(T(n.z));
@@ -105,9 +109,10 @@ PreparedScene<T> prepare(const Scene& scene) {
   }
   p.num_lights = static_cast<int>(scene.lights.size());
   for (const Light& l : scene.lights) {
-    p.light_x.push_back(T(l.position.x));
-    p.light_y.push_back(T(l.position.y));
-    p.light_z.push_back(T(l.position.z));
+    const Vec3<double> position = l.position - shift;
+    p.light_x.push_back(T(position.x));
+    p.light_y.push_back(T(position.y));
+    p.light_z.push_back(T(position.z));
     p.light_intensity.push_back(T(l.intensity));
     p.light_ambient.push_back(T(l.ambient));
   }

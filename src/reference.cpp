@@ -123,15 +123,19 @@ class Tracer {
   }
 
   // The path log's records: off the normal render's way, out of line.
+  // A point of the prepared (camera-relative) frame in world coordinates.
+  Vec3<double> to_world(const Vec3<T>& a) const {
+    return Vec3<double>{double(a.x), double(a.y), double(a.z)} + s_.world_origin;
+  }
   static Vec3<double> to_double(const Vec3<T>& a) {
     return {double(a.x), double(a.y), double(a.z)};
   }
   void log_ray(const Vec3<T>& origin, const Vec3<T>& dir, int depth, const Hit<T>& hit) {
     PathLog::Segment seg;
     seg.kind = depth == 0 ? PathLog::Segment::camera : PathLog::Segment::reflected;
-    seg.from = to_double(origin);
+    seg.from = to_world(origin);
     seg.hit = hit.id >= 0;
-    seg.to = seg.hit ? to_double(along(origin, dir, hit.t))
+    seg.to = seg.hit ? to_world(along(origin, dir, hit.t))
                      : along(seg.from, to_double(dir), log_->miss_length);
     seg.depth = depth;
     seg.pixel = pixel_;
@@ -142,8 +146,8 @@ class Tracer {
   void log_light(const Vec3<T>& p, int k, int depth, bool shadowed) {
     PathLog::Segment seg;
     seg.kind = PathLog::Segment::light;
-    seg.from = to_double(p);
-    seg.to = {double(s_.light_x[k]), double(s_.light_y[k]), double(s_.light_z[k])};
+    seg.from = to_world(p);
+    seg.to = to_world(Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]});
     seg.hit = shadowed;
     seg.depth = depth;
     seg.pixel = pixel_;

@@ -60,15 +60,17 @@ int resolve_width(int requested, Precision precision, const std::string& option)
 }
 
 // The float envelope, measured by the stability tests (tests/test_extremes.cpp, docs/precision.md):
-// robust float agrees with double on hit or miss for all but a negligible fraction of rays while
-// the smallest sphere is at least 1e-4 of the scene's extent, and its shading stays finite while
-// every intensity lies within [1e-30, 1e30].
+// in camera-relative coordinates, float renders within a fraction of a percent of double while
+// the smallest sphere is at least 1e-4 of the scene's extent seen from the camera and epsilon is
+// above float's spacing there, and its shading stays finite while every intensity lies within
+// [1e-30, 1e30].
 PrecisionChoice choose_precision(const Scene& scene) {
+  // Extent from the camera: prepare() computes relative to it.
   double extent = 0;
-  auto grow = [&](const Vec3<double>& p) {
+  auto grow = [&](const Vec3<double>& world) {
+    const Vec3<double> p = world - scene.camera.position;
     extent = std::max({extent, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
   };
-  grow(scene.camera.position);
   double smallest = INFINITY;
   for (const Sphere& s : scene.spheres) {
     grow(s.center);

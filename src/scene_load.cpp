@@ -42,12 +42,11 @@ constexpr double kMaxShininess = 1e6;
 
 // A key or name taken from the file, made fit for a one-line message: control characters escaped
 // (a key may hold "\n"), and very long ones cut (on a UTF-8 character boundary).
-std::string printable(const std::string& s) {
-  constexpr std::size_t kMaxShown = 64;
+std::string printable(const std::string& s, std::size_t max_shown = 64) {
   std::string out;
   for (std::size_t i = 0; i < s.size(); ++i) {
     const unsigned char ch = static_cast<unsigned char>(s[i]);
-    if (i >= kMaxShown && (ch & 0xC0) != 0x80) {
+    if (i >= max_shown && (ch & 0xC0) != 0x80) {
       out += "...";
       break;
     }
@@ -283,27 +282,81 @@ std::size_t line_of(const std::string& text, std::size_t byte) {
   return line;
 }
 
+// nlohmann's own DOM builder, refusing documents nested deeper than kMaxJsonDepth as it reads them
+// (its parser is iterative, so this bounds memory, not the stack). Not json::parse with a
+// callback: that DOM builder rescans the enclosing array for discarded values after every
+// object, quadratic in the length of an array of objects (a million spheres took minutes).
+class DepthLimitedDom {
+ public:
+  using number_integer_t = json::number_integer_t;
+  using number_unsigned_t = json::number_unsigned_t;
+  using number_float_t = json::number_float_t;
+  using string_t = json::string_t;
+  using binary_t = json::binary_t;
+
+  DepthLimitedDom(json& result, const std::string& name) : dom_(result, true), name_(name) {}
+
+  bool null() { return dom_.null(); }
+  bool boolean(bool v) { return dom_.boolean(v); }
+  bool number_integer(number_integer_t v) { return dom_.number_integer(v); }
+  bool number_unsigned(number_unsigned_t v) { return dom_.number_unsigned(v); }
+  bool number_float(number_float_t v, const string_t& text) { return dom_.number_float(v, text); }
+  bool string(string_t& v) { return dom_.string(v); }
+  bool binary(binary_t& v) { return dom_.binary(v); }
+  bool key(string_t& v) { return dom_.key(v); }
+  bool start_object(std::size_t n) {
+    enter();
+    return dom_.start_object(n);
+  }
+  bool end_object() {
+    --depth_;
+    return dom_.end_object();
+  }
+  bool start_array(std::size_t n) {
+    enter();
+    return dom_.start_array(n);
+  }
+  bool end_array() {
+    --depth_;
+    return dom_.end_array();
+  }
+  template <class Exception>
+  bool parse_error(std::size_t position, const std::string& token, const Exception& e) {
+    return dom_.parse_error(position, token, e);  // throws e
+  }
+
+ private:
+  void enter() {
+    if (depth_ >= kMaxJsonDepth)
+      fail(name_, "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    ++depth_;
+  }
+
+  nlohmann::detail::json_sax_dom_parser<json> dom_;
+  const std::string& name_;
+  int depth_ = 0;
+};
+
 json parse_json(const std::string& text, const std::string& name) {
   if (text.size() > kMaxSceneBytes) fail(name, "file larger than 1 GiB");
-  json::parser_callback_t limit_depth = [&](int depth, json::parse_event_t, json&) {
-    if (depth > kMaxJsonDepth)
-      fail(name, "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
-    return true;
-  };
   try {
-    return json::parse(text, limit_depth, /*allow_exceptions=*/true, /*ignore_comments=*/false);
+    json doc;
+    DepthLimitedDom dom(doc, name);
+    json::sax_parse(text, &dom, json::input_format_t::json, /*strict=*/true,
+                    /*ignore_comments=*/false);
+    return doc;
   } catch (const json::parse_error& e) {
     // e.what() reads "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
     std::string what = e.what();
     auto colon = what.find(": ");
     std::string detail = colon == std::string::npos ? what : what.substr(colon + 2);
     fail(name + ":" + std::to_string(line_of(text, e.byte == 0 ? 0 : e.byte - 1)),
-         "syntax error: " + detail);
+         "syntax error: " + printable(detail, 200));
   } catch (const json::out_of_range& e) {
     // A literal such as 1e999: the parser reports no position, so quote the number instead.
     std::string what = e.what();
     auto bracket = what.find("] ");
-    fail(name, (bracket == std::string::npos ? what : what.substr(bracket + 2)) +
+    fail(name, printable(bracket == std::string::npos ? what : what.substr(bracket + 2), 80) +
                    " (numbers must be finite)");
   }
 }

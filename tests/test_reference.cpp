@@ -205,7 +205,8 @@ TYPED_TEST(ReferenceTest, PrimaryMissSeesTheBackground) {
 // Intersections, through the reference's closest-hit.
 template <class T>
 reference::Hit<T> hit_of(const json& objects, Vec3<T> origin, Vec3<T> dir, double eps = 1e-4) {
-  json j{{"camera", one_pixel_camera({0, 0, 10}, {0, 0, -1})},
+  // The camera at the world's origin: prepared coordinates are camera-relative.
+  json j{{"camera", one_pixel_camera({0, 0, 0}, {0, 0, -1})},
          {"epsilon", eps},
          {"objects", objects}};
   const auto p = prepare<T>(parse_scene(j.dump(), "t"));

@@ -41,8 +41,12 @@ struct EyeSphere {
   std::vector<T> fx, fy, fz, c;
 };
 
+// Coordinates are relative to the camera's position (world_origin): subtracted in double before
+// rounding to T, so that a scene far from the world's origin keeps T's full precision near the
+// eye, where float's spacing would otherwise grow with the coordinates (see docs/precision.md).
 template <class T>
 struct PreparedScene {
+  Vec3<double> world_origin{0, 0, 0};
   PreparedCamera<T> camera;
   Features features;
   T background[3], environment[3];

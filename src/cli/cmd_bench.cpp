@@ -71,7 +71,8 @@ std::vector<PeakRow> measure_peaks(int repeat) {
 void add_flops(const Scene& scene, const std::vector<PeakRow>& peaks,
                std::vector<BenchRow>& rows) {
   for (BenchRow& r : rows) {
-    if (r.engine != "lancer" || r.mode != "primary") continue;
+    // The counts are those of exact mode's arithmetic.
+    if (r.engine != "lancer" || r.mode != "primary" || r.precision != "exact") continue;
     const PrimaryFlops f = primary_flops(scene, r.width);
     const double rays_per_s = r.mrays_per_s() * 1e6;
     r.gflops = rays_per_s * f.per_ray * 1e-9;

@@ -30,8 +30,9 @@ void run_flux(const FluxArgs& a) {
   if (!a.diagram.empty()) plot::check_drawing_path(a.diagram, "--diagram", a.scene);
   for (const Output& p : outputs)
     for (const Output& q : outputs)
-      if (&p < &q && !p.path.empty() && std::filesystem::absolute(p.path).lexically_normal() ==
-                                            std::filesystem::absolute(q.path).lexically_normal())
+      if (&p < &q && !p.path.empty() && !q.path.empty() &&
+          std::filesystem::absolute(p.path).lexically_normal() ==
+              std::filesystem::absolute(q.path).lexically_normal())
         throw InputError(std::string(q.option) + " " + q.path + ": same file as " + p.option);
   if (a.size < 100 || a.size > 8192) throw InputError("--size: must be from 100 to 8192");
 

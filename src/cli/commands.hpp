@@ -9,6 +9,7 @@ namespace lancer::cli {
 void add_render(CLI::App& app);
 void add_validate(CLI::App& app);
 void add_bench(CLI::App& app);
+void add_trade(CLI::App& app);
 void add_flux(CLI::App& app);
 
 }  // namespace lancer::cli

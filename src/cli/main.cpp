@@ -21,6 +21,7 @@ extern "C" void on_signal(int sig) {
 int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::signal(SIGHUP, on_signal);  // the terminal went away
 
   CLI::App app{
       "lancer: a Whitted ray tracer built to be measured.\n"
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
   lancer::cli::add_render(app);
   lancer::cli::add_validate(app);
   lancer::cli::add_bench(app);
+  lancer::cli::add_trade(app);
   lancer::cli::add_flux(app);
 
   try {

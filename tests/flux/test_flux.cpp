@@ -43,14 +43,14 @@ void write_file(const std::string& path, const std::string& text) {
   out << text;
 }
 
-struct Run {
+struct Ran {
   int status = -1;
   std::string out, err;
 };
 // Runs a shell command, capturing stdout and stderr.
-Run run(const std::string& command) {
+Ran run(const std::string& command) {
   const std::string err_path = ::testing::TempDir() + "/flux_test_stderr.txt";
-  Run r;
+  Ran r;
   std::FILE* p = popen((command + " 2>" + err_path).c_str(), "r");
   if (!p) return r;
   char buf[4096];
@@ -92,7 +92,7 @@ std::string temp_dir(const std::string& name) {
 // (a) The flux of scenes/flux2d.json against the oracle.
 
 TEST(FluxProfile, AgreesWithOracle) {
-  const Run oracle = run(std::string(LANCER_ORACLE) + " " + kFluxScene + " --flux");
+  const Ran oracle = run(std::string(LANCER_ORACLE) + " " + kFluxScene + " --flux");
   ASSERT_EQ(oracle.status, 0) << oracle.err;
   const Csv want = parse_csv(oracle.out);
   ASSERT_EQ(want.x.size(), 100u);
@@ -114,12 +114,12 @@ TEST(FluxProfile, AgreesWithOracle) {
 
 TEST(FluxProfile, CliPrintsTheProfile) {
   const flux::Profile p = flux::flux_profile(flux::load_flux_scene(kFluxScene).scene);
-  const Run r = run(std::string(LANCER_CLI) + " flux " + kFluxScene);
+  const Ran r = run(std::string(LANCER_CLI) + " flux " + kFluxScene);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, flux::profile_csv(p));
 
   const std::string dir = temp_dir("csv");
-  const Run w = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --csv " + dir + "/f.csv");
+  const Ran w = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --csv " + dir + "/f.csv");
   ASSERT_EQ(w.status, 0) << w.err;
   EXPECT_EQ(read_file(dir + "/f.csv"), flux::profile_csv(p));
   const Csv c = parse_csv(read_file(dir + "/f.csv"));
@@ -320,9 +320,191 @@ TEST(RayPlane, Flux2dIsTheZPlane) {
 }
 
 TEST(RayPlane, RefusesWhatLeavesThePlane) {
+  auto refused = [](json j, const std::string& place) {
+    const std::string why = refusal(j);
+    EXPECT_EQ(why.rfind(place + ":", 0), 0u) << "wanted " << place << ", got: " << why;
+  };
   json j = flux2d();
   j["objects"][1]["center"][2] = 0.5;
-  EXPECT.find("objects[1].center"), std::string::npos);
+  refused(j, "objects[1].center");
+  j = flux2d();
+  j["lights"][2]["position"] = {0.5, 0.5, -1};
+  refused(j, "lights[2].position");
+  j = flux2d();
+  j["objects"].push_back({{"type", "plane"}, {"point", {0, 9, 0}}, {"normal", {0, 1, 0.1}}});
+  refused(j, "objects[4].normal");
+  // A plane whose normal lies in the plane of the rays is fine: it crosses it in a line.
+  j = flux2d();
+  j["objects"].push_back({{"type", "plane"}, {"point", {0, 9, 3}}, {"normal", {0, -1, 0}}});
+  EXPECT_EQ(refusal(j), "");
+  // The camera: tilted so the rays leave z = 0 (its plane misses the sphere centres).
+  j = flux2d();
+  j["camera"]["direction"] = {0, 1, 0.2};
+  refused(j, "objects[0].center");
+  j = flux2d();
+  j["camera"]["type"] = "pinhole";
+  j["camera"]["distance"] = 1;
+  refused(j, "camera.type");
+  j = flux2d();
+  j["camera"]["resolution"] = {100, 2};
+  refused(j, "camera.resolution");
+  j = flux2d();
+  j["supersample"] = 2;
+  refused(j, "supersample");
+  // Within the tolerance (1e-9 of the scene's size): rounding, not a tilt.
+  j = flux2d();
+  j["objects"][1]["center"][2] = 1e-12;
+  j["lights"][0]["position"][2] = -1e-12;
+  EXPECT_EQ(refusal(j), "");
+  // Off by more: refused.
+  j["objects"][1]["center"][2] = 1e-6;
+  refused(j, "objects[1].center");
+}
+
+TEST(RayPlane, CliRefusesWithStatus2AndNoFile) {
+  const std::string dir = temp_dir("refuse");
+  json j = flux2d();
+  j["objects"][2]["center"][2] = 0.25;
+  write_file(dir + "/tilted.json", j.dump());
+  const Ran r = run(std::string(LANCER_CLI) + " flux " + dir + "/tilted.json --plot " + dir +
+                    "/p.png --diagram " + dir + "/d.svg --csv " + dir + "/f.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("objects[2].center"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  for (const char* f : {"/p.png", "/d.svg", "/f.csv"}) EXPECT_FALSE(fs::exists(dir + f)) << f;
+
+  j = flux2d();
+  j["camera"]["resolution"] = {100, 3};
+  write_file(dir + "/rows.json", j.dump());
+  const Ran rows = run(std::string(LANCER_CLI) + " flux " + dir + "/rows.json");
+  EXPECT_EQ(rows.status, 2);
+  EXPECT_NE(rows.err.find("camera.resolution"), std::string::npos) << rows.err;
+}
+
+// ---------------------------------------------------------------------------------------------
+// (d) Recording changes nothing: the same bits and counts as render_rows.
+
+template <class T>
+void expect_recorder_changes_nothing(const Scene& scene, int row_begin, int row_end) {
+  const PreparedScene<T> p = prepare<T>(scene);
+  Image plain(scene.camera.nx, scene.camera.ny), recorded(scene.camera.nx, scene.camera.ny);
+  RayCounts plain_counts, recorded_counts;
+  reference::PathLog log;
+  reference::render_rows(p, plain, row_begin, row_end, plain_counts);
+  reference::render_rows_recorded(p, recorded, row_begin, row_end, recorded_counts, log);
+  ASSERT_EQ(plain.rgb.size(), recorded.rgb.size());
+  EXPECT_EQ(std::memcmp(plain.rgb.data(), recorded.rgb.data(), plain.rgb.size() * sizeof(float)),
+            0);
+  EXPECT_TRUE(plain_counts == recorded_counts);
+  // One segment per camera, reflected and light ray.
+  EXPECT_EQ(log.segments.size(), recorded_counts.total());
+}
+
+TEST(PathLog, RecorderChangesNothing) {
+  for (const char* name :
+       {"flux2d", "lorenzi-diffuse", "lorenzi-shadows", "lorenzi-reflections"}) {
+    SCOPED_TRACE(name);
+    const Scene s = load_scene(kSource + "/scenes/" + name + ".json");
+    const int r0 = s.camera.ny / 2, r1 = std::min(s.camera.ny, r0 + 3);
+    expect_recorder_changes_nothing<float>(s, r0, r1);
+    expect_recorder_changes_nothing<double>(s, r0, r1);
+  }
+  // And the recorded flux scene is the profile's render.
+  const flux::FluxScene fs = flux::load_flux_scene(kFluxScene);
+  const flux::Paths paths = flux::record_paths(fs.scene, flux::ray_plane(fs.scene, fs.names));
+  const flux::Profile profile = flux::flux_profile(fs.scene);
+  for (int i = 0; i < fs.scene.camera.nx; ++i) {
+    const float* px = paths.image.pixel(i, 0);
+    EXPECT_EQ((double(px[0]) + double(px[1]) + double(px[2])) / 3, profile.flux[i]);
+  }
+  EXPECT_TRUE(paths.rays == profile.rays);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Figures.
+
+TEST(Plot, NiceTicks) {
+  const plot::Ticks t = plot::nice_ticks(-0.5, 10.5, 7);
+  EXPECT_EQ(t.values, (std::vector<double>{0, 2, 4, 6, 8, 10}));
+  EXPECT_EQ(t.decimals, 0);
+  const plot::Ticks f = plot::nice_ticks(-0.07, 1.47, 6);
+  ASSERT_FALSE(f.values.empty());
+  EXPECT_NEAR(f.values.front(), 0, 1e-12);
+  EXPECT_NEAR(f.values.back(), 1.4, 1e-12);
+  EXPECT_EQ(f.decimals, 1);
+}
+
+TEST(Plot, ClipSegment) {
+  double ax = -5, ay = 5, bx = 15, by = 5;
+  ASSERT_TRUE(plot::clip_segment(ax, ay, bx, by, 0, 0, 10, 10));
+  EXPECT_DOUBLE_EQ(ax, 0);
+  EXPECT_DOUBLE_EQ(bx, 10);
+  ax = -5, ay = 20, bx = 15, by = 20;
+  EXPECT_FALSE(plot::clip_segment(ax, ay, bx, by, 0, 0, 10, 10));
+}
+
+TEST(Plot, RasterizesLinesCirclesAndText) {
+  plot::Drawing d;
+  d.width = 40, d.height = 30;
+  d.lines.push_back({5, 10.5, 35, 10.5, plot::kRed, 3});
+  d.circles.push_back({20, 22, 4, plot::kBlue, 0});
+  d.texts.push_back({1, 1, "1", plot::Align::start, plot::Align::start, 1, false, plot::kBlack});
+  const Image im = plot::rasterize(d);
+  ASSERT_EQ(im.nx, 40);
+  ASSERT_EQ(im.ny, 30);
+  const float* on_line = im.pixel(20, 10);
+  EXPECT_NEAR(on_line[0], 0.85, 1e-6);
+  EXPECT_NEAR(on_line[1], 0, 1e-6);
+  const float* off = im.pixel(20, 5);
+  EXPECT_NEAR(off[0], 1, 1e-6);  // white background
+  const float* in_disc = im.pixel(20, 22);
+  EXPECT_NEAR(in_disc[2], 0.9, 1e-6);
+  // The glyph '1' has its stem in column 2 at rows 1..5: pixel (3, 3) from the origin (1, 1).
+  EXPECT_NEAR(im.pixel(3, 3)[0], 0, 1e-6);
+  EXPECT_NEAR(im.pixel(1, 4)[0], 1, 1e-6);
+}
+
+TEST(Figures, CliWritesPlotAndDiagram) {
+  const std::string dir = temp_dir("figures");
+  const Ran r = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir +
+                    "/plot.png --diagram " + dir + "/diagram.png");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Image plot_im = read_image(dir + "/plot.png");
+  EXPECT_EQ(plot_im.nx, 700);
+  EXPECT_EQ(plot_im.ny, 500);
+  const Image diag = read_image(dir + "/diagram.png");
+  EXPECT_EQ(std::max(diag.nx, diag.ny), 800);
+
+  const Ran s = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir +
+                    "/plot.svg --diagram " + dir + "/diagram.svg");
+  ASSERT_EQ(s.status, 0) << s.err;
+  const std::string svg = read_file(dir + "/diagram.svg");
+  EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  // As many blue lines as light rays that reached their light, four sphere circles, three
+  // light rings.
+  const flux::FluxScene fs = flux::load_flux_scene(kFluxScene);
+  const flux::Paths paths = flux::record_paths(fs.scene, flux::ray_plane(fs.scene, fs.names));
+  int reached = 0;
+  for (const Segment& seg : paths.log.segments) reached += seg.kind == Segment::light && !seg.hit;
+  auto occurrences = [&](const std::string& text, const std::string& what) {
+    int n = 0;
+    for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(occurrences(svg, "<line") - occurrences(svg, "stroke=\"#d90000\"") - 1, reached);
+  EXPECT_EQ(occurrences(svg, "<circle"), 7);
+  // The plot: one point per ray.
+  const std::string plot_svg = read_file(dir + "/plot.svg");
+  EXPECT_EQ(occurrences(plot_svg, "<circle"), 100);
+  EXPECT_NE(plot_svg.find(">position x<"), std::string::npos);
+  EXPECT_NE(plot_svg.find(">flux<"), std::string::npos);
+
+  // A bad extension is refused before any work.
+  const Ran bad = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir +
+                      "/plot.nope");
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("--plot"), std::string::npos) << bad.err;
 }
 
 }  // namespace

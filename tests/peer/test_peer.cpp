@@ -3,6 +3,7 @@
 // differently), and its full-render ray traffic must count the rays lancer's render counts.
 // Also: the peak kernels and flop counts, and the CLI's --peer / --peak.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "lancer/error.hpp"
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/peak.hpp"
@@ -200,13 +202,13 @@ TEST(Peak, PrimaryFlopsFollowTheCounts) {
 
 // ---- the CLI -------------------------------------------------------------------------------
 
-struct Run {
+struct CliRun {
   int status = -1;
   std::string out;
 };
 
-Run run(const std::string& args) {
-  Run r;
+CliRun run(const std::string& args) {
+  CliRun r;
   const std::string cmd = std::string(LANCER_CLI) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
@@ -221,13 +223,13 @@ Run run(const std::string& args) {
 const std::string kFlux = std::string(LANCER_SOURCE_DIR) + "/scenes/flux2d.json";
 
 TEST(BenchCli, UnknownPeerIsAnInputError) {
-  const Run r = run("bench " + kFlux + " --peer nonesuch --repeat 1");
+  const CliRun r = run("bench " + kFlux + " --peer nonesuch --repeat 1");
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("--peer"), std::string::npos) << r.out;
 }
 
 TEST(BenchCli, PeerEmbreeAddsRowsOrSaysItIsMissing) {
-  const Run r = run("bench " + kFlux + " --peer embree --repeat 1 --json");
+  const CliRun r = run("bench " + kFlux + " --peer embree --repeat 1 --json");
   if (!peer::embree_available()) {
     EXPECT_EQ(r.status, 2) << r.out;
     EXPECT_NE(r.out.find("--peer embree"), std::string::npos) << r.out;
@@ -247,7 +249,7 @@ TEST(BenchCli, PeerEmbreeAddsRowsOrSaysItIsMissing) {
 }
 
 TEST(BenchCli, PeakAddsPeaksAndFlopsToPrimaryRows) {
-  const Run r = run("bench " + kFlux + " --peak --repeat 1 --json --mode primary --width 1");
+  const CliRun r = run("bench " + kFlux + " --peak --repeat 1 --json --mode primary --width 1");
   ASSERT_EQ(r.status, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   ASSERT_TRUE(j.contains("peak"));

@@ -1,0 +1,76 @@
+// Google Benchmark cases for the Embree peer (include/lancer/peer.hpp), beside lancer's own:
+//   primary/<scene>/w<width>/embree   camera rays, rtcIntersect<width>
+//   full/<scene>/w<width>/embree      every ray of lancer's render (camera, shadow, mirror), no
+//                                     shading: rtcIntersect<width> + rtcOccluded<width>
+// items/s is rays per second, single thread, as in lancer's cases; the label is "embree".
+// Embree's scene (its BVH) is built on a case's first run, outside the timed loop.
+// LANCER_EMBREE_PLANES=quad models planes as large quads instead of exact user geometry.
+//
+//   build/bench/lancer_bench --benchmark_filter='primary/lorenzi-reflections'
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lancer/packet/api.hpp"
+#include "lancer/peer.hpp"
+#include "lancer/scene.hpp"
+
+namespace {
+
+using namespace lancer;
+
+struct EmbreeCase {
+  Scene scene;
+  std::unique_ptr<peer::EmbreeScene> embree;  // built on first use
+
+  const peer::EmbreeScene& get() {
+    if (!embree)
+      embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
+    return *embree;
+  }
+};
+
+void embree_primary(benchmark::State& state, EmbreeCase* c, int width) {
+  const peer::EmbreeScene& e = c->get();
+  std::uint64_t rays = 0;
+  for (auto _ : state) {
+    const PrimaryResult r = e.primary(width, 1);
+    benchmark::DoNotOptimize(r.t.data());
+    rays += r.rays.total();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(rays));
+  state.SetLabel("embree");
+}
+
+void embree_full(benchmark::State& state, EmbreeCase* c, int width) {
+  const peer::EmbreeScene& e = c->get();
+  std::uint64_t rays = 0;
+  for (auto _ : state) {
+    const peer::EmbreeScene::RaysResult r = e.trace_all(width, 1);
+    rays += r.rays.total();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(rays));
+  state.SetLabel("embree");
+}
+
+}  // namespace
+
+// Registers the Embree cases of one scene file; nothing when lancer was built without Embree.
+void register_embree_benchmarks(const std::string& scene_path) {
+  if (!peer::embree_available()) return;
+  static std::vector<std::unique_ptr<EmbreeCase>> cases;
+  cases.push_back(std::make_unique<EmbreeCase>(EmbreeCase{load_scene(scene_path), nullptr}));
+  EmbreeCase* c = cases.back().get();
+  const std::string name = std::filesystem::path(scene_path).stem().string();
+  for (int width : peer::embree_widths(packet::supported_widths())) {
+    const std::string w = "/w" + std::to_string(width);
+    benchmark::RegisterBenchmark(("primary/" + name + w + "/embree").c_str(), embree_primary, c,
+                                 width)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("full/" + name + w + "/embree").c_str(), embree_full, c, width)
+        ->Unit(benchmark::kMillisecond);
+  }
+}

@@ -1,0 +1,235 @@
+// Stability at the extremes: each precision against double, on scenes built to break float.
+// Reported as the fraction of camera rays whose first hit (or miss) differs from the double
+// reference's and the fraction of pixels off by more than 1/255 as displayed. No pixel of any
+// valid scene may be NaN or infinite. The table these tests print is docs/precision.md's.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "lancer/compare.hpp"
+#include "lancer/formulas.hpp"
+#include "lancer/packet/api.hpp"
+#include "support/test_util.hpp"
+
+namespace lancer {
+namespace {
+
+using nlohmann::json;
+
+struct Measure {
+  double hit_mismatch = 0, off = 0;
+  bool finite = true;
+};
+
+bool all_finite(const Image& im) {
+  for (float v : im.rgb)
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+Measure measure(const Scene& s, Precision p, int width) {
+  RenderOptions truth, test;
+  truth.precision = Precision::dbl, truth.width = 1;
+  test.precision = p, test.width = width;
+  const Image a = render(s, test).image, b = render(s, truth).image;
+  const auto ia = render_primary_with_ids(s, test).id, ib = render_primary_with_ids(s, truth).id;
+  std::size_t differ = 0;
+  for (std::size_t k = 0; k < ia.size(); ++k) differ += ia[k] != ib[k];
+  Measure m;
+  m.hit_mismatch = double(differ) / double(ia.size());
+  m.off = error_stats(a, b, 1.0 / 255.0).off_fraction;
+  m.finite = all_finite(a) && all_finite(b);
+  return m;
+}
+
+// Prints one row of the table and checks finiteness for every precision at its widest width.
+void report(const std::string& name, const Scene& s, double max_exact_off = 1.0,
+            double max_auto_off = 1.0) {
+  std::printf("| %-34s |", name.c_str());
+  for (Precision p : {Precision::exact, Precision::fast, Precision::automatic}) {
+    const int width = p == Precision::automatic ? 0 : packet::supported_widths(p).front();
+    const Measure m = measure(s, p, width);
+    std::printf(" %7.3f%% %7.3f%% |", 100 * m.hit_mismatch, 100 * m.off);
+    EXPECT_TRUE(m.finite) << name << ": NaN or infinity in a pixel, precision " << to_string(p);
+    if (p == Precision::exact) EXPECT_LE(m.off, max_exact_off) << name;
+    if (p == Precision::automatic) EXPECT_LE(m.off, max_auto_off) << name;
+  }
+  std::printf(" %s\n", to_string(choose_precision(s).precision));
+}
+
+void table_header() {
+  std::printf("| %-34s | %-17s | %-17s | %-17s | auto picks\n", "case (hit differs, pixels off)",
+              "exact", "fast", "auto");
+}
+
+Scene from(const json& j) { return parse_scene(j.dump(), "extreme"); }
+
+json camera(json pos, json dir, double d, double half, int n = 64) {
+  return {{"type", "pinhole"}, {"position", pos},        {"direction", dir},
+          {"distance", d},     {"resolution", {n, n}},   {"bounds", {-half, half, -half, half}}};
+}
+
+json lit(json j, double intensity = 1) {
+  j["lights"] = {{{"position", {10, 20, 30}}, {"intensity", intensity}, {"ambient", 0.2}}};
+  return j;
+}
+
+json sphere(json c, double r, json material = json::object()) {
+  json o = {{"type", "sphere"}, {"center", c}, {"radius", r}};
+  if (!material.empty()) o["material"] = material;
+  return o;
+}
+
+// Tiny spheres far away: radius / distance from 1e-2 to 1e-6, framed to fill the image.
+TEST(Extremes, TinySpheresFarAway) {
+  table_header();
+  for (double ratio : {1e-2, 1e-3, 1e-4, 1e-5, 1e-6}) {
+    const double dist = 100.0, r = ratio * dist;
+    json j = lit({{"camera", camera({0, 0, 0}, {0, 0, -1}, 1, 2.5 * ratio)},
+                  {"epsilon", 1e-4 * r},
+                  {"objects", {sphere({0.3 * r, 0, -dist}, r, {{"ks", 1}})}}});
+    char name[64];
+    std::snprintf(name, sizeof name, "sphere r/dist %g", ratio);
+    report(name, from(j), ratio >= 1e-4 ? 0.01 : 1.0, 0.005);
+  }
+}
+
+TEST(Extremes, HugeSphereAsGround) {
+  json j = lit({{"camera", camera({0, 1, 5}, {0, -0.3, -1}, 1, 1)},
+                {"objects",
+                 {sphere({0, -1e6, 0}, 1e6, {{"color", {0.8, 0.6, 0.5}}}),
+                  sphere({0, 0.5, -3}, 0.5, {{"ks", 1}, {"reflect", 0.3}})}},
+                {"max_depth", 2}});
+  report("ground sphere r 1e6", from(j), 0.01, 0.005);
+}
+
+// The shadows scene moved away from the origin: float's spacing grows with the coordinates.
+TEST(Extremes, TranslatedScenes) {
+  for (double offset : {1e3, 1e4, 1e5, 1e6}) {
+    json j = json::parse(std::ifstream(testing::source_path("scenes/lorenzi-shadows.json")));
+    auto move = [&](json& v) { v[0] = v[0].get<double>() + offset; };
+    move(j["camera"]["position"]);
+    for (auto& l : j["lights"]) move(l["position"]);
+    for (auto& o : j["objects"]) move(o.contains("center") ? o["center"] : o["point"]);
+    j["camera"]["resolution"] = {150, 100};
+    char name[64];
+    std::snprintf(name, sizeof name, "lorenzi-shadows moved by %g", offset);
+    report(name, from(j), offset <= 1e3 ? 0.01 : 1.0, 0.005);
+  }
+}
+
+// Rays tangent to a sphere: an orthographic strip of rays across its silhouette, 1e-3 wide.
+TEST(Extremes, GrazingRays) {
+  json j = lit({{"camera",
+                 {{"type", "orthographic"},
+                  {"position", {0, 0, 10}},
+                  {"direction", {0, 0, -1}},
+                  {"resolution", {200, 4}},
+                  {"bounds", {1 - 1e-3, 1 + 1e-3, -1e-4, 1e-4}}}},
+                {"objects", {sphere({0, 0, 0}, 1, {{"ks", 0.5}})}}});
+  report("grazing rays (disc ~ 0)", from(j));
+}
+
+TEST(Extremes, RaysParallelToPlanes) {
+  // The eye lies in the plane y = 0; rays through the middle row run along it.
+  json j = lit({{"camera", camera({0, 0, 0}, {0, 0, -1}, 1, 1, 63)},
+                {"objects",
+                 {{{"type", "plane"}, {"point", {0, 0, 0}}, {"normal", {0, 1, 0}}},
+                  sphere({0, 0.2, -4}, 0.5)}}});
+  report("eye in a plane, parallel rays", from(j));
+}
+
+TEST(Extremes, RayOriginsOnSurfaces) {
+  // The eye on a sphere's surface, looking out through it, and on a plane.
+  json j = lit({{"camera", camera({0, 0, 1}, {0, 0, 1}, 1, 1)},
+                {"objects",
+                 {sphere({0, 0, 0}, 1), sphere({0, 0, 4}, 1, {{"ks", 1}}),
+                  {{"type", "plane"}, {"point", {0, -1, 0}}, {"normal", {0, 1, 0}}}}}});
+  report("eye on a sphere's surface", from(j));
+}
+
+TEST(Extremes, ShininessExtremes) {
+  for (double shininess : {0.0, 1.0, 1e4}) {
+    json j = lit({{"camera", camera({0, 0, 5}, {0, 0, -1}, 5, 2)},
+                  {"objects", {sphere({0, 0, 0}, 1, {{"ks", 1}, {"shininess", shininess}})}}});
+    char name[64];
+    std::snprintf(name, sizeof name, "shininess %g", shininess);
+    report(name, from(j), 0.01, 0.005);
+  }
+}
+
+TEST(Extremes, IntensityExtremes) {
+  for (double intensity : {1e-30, 1e30}) {
+    json j = lit({{"camera", camera({0, 0, 5}, {0, 0, -1}, 5, 2)},
+                  {"objects", {sphere({0, 0, 0}, 1, {{"ks", 1}})}}},
+                 intensity);
+    char name[64];
+    std::snprintf(name, sizeof name, "intensity %g", intensity);
+    report(name, from(j), 1.0, 0.005);
+  }
+}
+
+TEST(Extremes, DeepReflectionBetweenParallelMirrors) {
+  const json mirror = {{"ka", 0.05}, {"kd", 0.2}, {"reflect", 0.95}};
+  json j = lit({{"camera", camera({0, 0, 0}, {0.1, 0, -1}, 1, 0.5)},
+                {"max_depth", 64},
+                {"objects",
+                 {{{"type", "plane"}, {"point", {0, 0, -5}}, {"normal", {0, 0, 1}}, {"material", mirror}},
+                  {{"type", "plane"}, {"point", {0, 0, 5}}, {"normal", {0, 0, -1}}, {"material", mirror}},
+                  sphere({1, 0, -2}, 0.5)}}});
+  report("max_depth 64, parallel mirrors", from(j), 0.01, 0.005);
+}
+
+// Ray/sphere classification, robust (Ray Tracing Gems ch. 7) against the naive quadratic, both in
+// float, against double, on the same float rays. Rays aim at random points of a disc 1.5 times the
+// sphere's size seen from the origin, so about 44% hit and many pass near the silhouette.
+struct Classified {
+  double robust_agree, naive_agree;
+};
+
+Classified classify(double ratio, int rays, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const double dist = 1.0, r = ratio * dist;
+  const Vec3<float> c{0.0f, 0.0f, float(-dist)};
+  const float r2 = float(r) * float(r);
+  int robust_ok = 0, naive_ok = 0;
+  for (int k = 0; k < rays; ++k) {
+    double x, y;
+    do x = u(rng), y = u(rng);
+    while (x * x + y * y > 1);
+    const Vec3<float> d = normalize(Vec3<float>{float(1.5 * r * x), float(1.5 * r * y), float(-dist)});
+    // Truth: the same float ray and sphere, in double.
+    const Vec3<double> dd{d.x, d.y, d.z}, fd{-double(c.x), -double(c.y), -double(c.z)};
+    const double bd = dot(fd, dd);
+    const Vec3<double> perp = fd - dd * bd;
+    const bool truth = double(r2) - dot(perp, perp) >= 0;
+    // Robust float.
+    const Vec3<float> f = -c;
+    const bool robust = sphere_disc(f, d, r2).disc >= 0.0f;
+    // Naive float: b^2 - c with c = |f|^2 - r^2.
+    const float b = dot(f, d), cc = dot(f, f) - r2;
+    const bool naive = b * b - cc >= 0.0f;
+    robust_ok += robust == truth;
+    naive_ok += naive == truth;
+  }
+  return {double(robust_ok) / rays, double(naive_ok) / rays};
+}
+
+TEST(Extremes, RobustSphereTestAgainstNaive) {
+  std::printf("| radius/distance | robust float agrees | naive float agrees |\n");
+  for (double ratio : {1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6}) {
+    const Classified c = classify(ratio, 200000, 42);
+    std::printf("| %15g | %18.4f%% | %17.4f%% |\n", ratio, 100 * c.robust_agree,
+                100 * c.naive_agree);
+    if (ratio >= 1e-4) EXPECT_GE(c.robust_agree, 0.9999) << "ratio " << ratio;
+    if (ratio <= 1e-3) EXPECT_LT(c.naive_agree, c.robust_agree) << "ratio " << ratio;
+  }
+}
+
+}  // namespace
+}  // namespace lancer
