@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "lancer/packet/api.hpp"
+#include "lancer/profile.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 
@@ -46,6 +47,17 @@ void primary(benchmark::State& state, const Scene* scene, int width) {
   state.SetLabel(packet::isa_name(width));
 }
 
+// The profiled kernels (lancer profile): what instrumentation would cost if render used them.
+void profiled(benchmark::State& state, const Scene* scene, int width) {
+  std::uint64_t rays = 0;
+  for (auto _ : state) {
+    const ProfileResult r = profile_render(*scene, width);
+    rays += r.camera_rays + r.shadow_rays + r.reflected_rays;
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(rays));
+  state.SetLabel(packet::isa_name(width) + " profiled");
+}
+
 }  // namespace
 
 #ifdef LANCER_WITH_EMBREE_BENCH
@@ -71,6 +83,9 @@ int main(int argc, char** argv) {
       // The same render computing every term: the difference is what pruning saves.
       benchmark::RegisterBenchmark(("full_everything/" + name + w).c_str(), full, s, width, true)
           ->Unit(benchmark::kMillisecond);
+      if (width > 1)
+        benchmark::RegisterBenchmark(("full_profiled/" + name + w).c_str(), profiled, s, width)
+            ->Unit(benchmark::kMillisecond);
     }
 #ifdef LANCER_WITH_EMBREE_BENCH
     register_embree_benchmarks(path);

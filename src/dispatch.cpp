@@ -62,6 +62,15 @@ const KernelTable<float>* float_kernels(int width, Precision precision) {
   return nullptr;
 }
 
+const KernelTable<float>* profiled_kernels(int width) {
+  static const KernelTable<float> profiled[] = {table<xsimd::sse4_2, float, ProfiledMode>(),
+                                                table<xsimd::avx2, float, ProfiledMode>(),
+                                                table<xsimd::avx512f, float, ProfiledMode>()};
+  Isa isa;
+  if (!isa_of(width, false, isa) || !allowed(isa)) return nullptr;
+  return &profiled[static_cast<int>(isa)];
+}
+
 const KernelTable<double>* double_kernels(int width) {
   static const KernelTable<double> dbl[] = {table<xsimd::sse4_2, double, ExactMode>(),
                                             table<xsimd::avx2, double, ExactMode>(),

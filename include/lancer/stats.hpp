@@ -4,9 +4,12 @@
 
 namespace lancer {
 
+struct StageProfile;
+
 // Rays traced, by kind. Every path counts the same rays, so counts are compared in tests.
 struct RayCounts {
   std::uint64_t camera = 0, shadow = 0, reflected = 0;
+  StageProfile* profile = nullptr;  // filled by profiled kernels only; not summed
 
   std::uint64_t total() const { return camera + shadow + reflected; }
   RayCounts& operator+=(const RayCounts& o) {

@@ -10,6 +10,7 @@ void add_render(CLI::App& app);
 void add_validate(CLI::App& app);
 void add_bench(CLI::App& app);
 void add_trade(CLI::App& app);
+void add_profile(CLI::App& app);
 void add_flux(CLI::App& app);
 
 }  // namespace lancer::cli

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   lancer::cli::add_validate(app);
   lancer::cli::add_bench(app);
   lancer::cli::add_trade(app);
+  lancer::cli::add_profile(app);
   lancer::cli::add_flux(app);
 
   try {

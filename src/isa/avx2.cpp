@@ -6,6 +6,7 @@
 namespace lancer::packet {
 
 template KernelTable<float> table<xsimd::avx2, float, ExactMode>();
+template KernelTable<float> table<xsimd::avx2, float, ProfiledMode>();
 template KernelTable<double> table<xsimd::avx2, double, ExactMode>();
 template KernelTable<float> table<xsimd::fma3<xsimd::avx2>, float, FastMode>();
 

@@ -5,6 +5,7 @@
 namespace lancer::packet {
 
 template KernelTable<float> table<xsimd::avx512f, float, ExactMode>();
+template KernelTable<float> table<xsimd::avx512f, float, ProfiledMode>();
 template KernelTable<double> table<xsimd::avx512f, double, ExactMode>();
 template KernelTable<float> table<xsimd::avx512f, float, FastMode>();
 

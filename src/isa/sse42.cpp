@@ -6,6 +6,7 @@
 namespace lancer::packet {
 
 template KernelTable<float> table<xsimd::sse4_2, float, ExactMode>();
+template KernelTable<float> table<xsimd::sse4_2, float, ProfiledMode>();
 template KernelTable<double> table<xsimd::sse4_2, double, ExactMode>();
 template KernelTable<float> table<xsimd::sse4_2, float, FastMode>();
 

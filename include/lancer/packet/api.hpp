@@ -17,6 +17,8 @@ namespace lancer::packet {
 // fuses multiply-adds and refines approximate reciprocals (float only).
 struct ExactMode {};
 struct FastMode {};
+// Exact arithmetic plus per-stage timing and counters (lancer profile); never used to render.
+struct ProfiledMode {};
 
 // One kernel instantiation's entry points.
 template <class Real>
@@ -45,6 +47,9 @@ KernelTable<Real> table();
 // them, else nullptr. Float widths are 4, 8, 16; double widths 2, 4, 8.
 const KernelTable<float>* float_kernels(int width, Precision precision);
 const KernelTable<double>* double_kernels(int width);
+
+// Profiled exact float kernels, for lancer profile.
+const KernelTable<float>* profiled_kernels(int width);
 
 // Exact float kernels, the ones validate proves identical to the reference.
 using Kernels = KernelTable<float>;

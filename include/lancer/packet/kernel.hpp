@@ -18,6 +18,7 @@
 
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/profile.hpp"
 
 namespace lancer::packet {
 
@@ -106,12 +107,35 @@ struct Kernel {
   using M = xsimd::batch_bool<T, Arch>;
   using V = Vec3<B>;
   static constexpr bool kFast = std::is_same_v<Mode, FastMode>;
+  static constexpr bool kProfile = std::is_same_v<Mode, ProfiledMode>;
   using Mth = std::conditional_t<kFast, FastMath<Arch>, ExactMath>;
   static constexpr int W = static_cast<int>(B::size);
   using Scene = PreparedScene<T>;
   static_assert(W <= kMaxLanes, "camera tables are padded for kMaxLanes lanes");
   static_assert(std::is_same_v<Mode, ExactMode> || std::is_same_v<T, float>,
-                "fast mode is for float");
+                "fast and profiled modes are for float");
+
+  // Profiling (ProfiledMode only; compiled out of every other instantiation). The laps form one
+  // chain: each charges the cycles since the previous lap to a stage, so the stages cover the
+  // kernel's whole time between them.
+  static void lap(RayCounts& c, int stage) noexcept {
+    if constexpr (kProfile) {
+      const std::uint64_t now = __rdtsc();
+      c.profile->cycles[stage] += now - c.profile->last_tsc;
+      c.profile->last_tsc = now;
+    }
+  }
+  static void occupancy(RayCounts& c, int stage, const M& m) noexcept {
+    if constexpr (kProfile) {
+      const int n = static_cast<int>(count(m));
+      c.profile->packets[stage] += 1;
+      c.profile->active_lanes[stage] += n;
+      c.profile->histogram[stage][n] += 1;
+    }
+  }
+  static void tests(RayCounts& c, const M& m, bool sphere) noexcept {
+    if constexpr (kProfile) (sphere ? c.profile->sphere_tests : c.profile->plane_tests) += count(m);
+  }
 
   static B iota() noexcept {
     alignas(64) T v[W];
@@ -175,11 +199,12 @@ struct Kernel {
   // hit is found; returns the lanes whose t is now finite (hit by something).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
   template <bool kFromEye = false>
-  static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t,
-                       B& best_id) noexcept {
+  static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, B& best_id,
+                       RayCounts& counts) noexcept {
     const B eps(s.epsilon);
     if (s.features.spheres) {
       for (int i = 0; i < s.num_spheres; ++i) {
+        tests(counts, valid, true);
         const B r2(s.sphere_r2[i]);
         const V f = kFromEye ? V{B(s.eye.fx[i]), B(s.eye.fy[i]), B(s.eye.fz[i])}
                              : o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
@@ -195,6 +220,7 @@ struct Kernel {
     }
     if (s.features.planes) {
       for (int k = 0; k < s.num_planes; ++k) {
+        tests(counts, valid, false);
         const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
         const B denom = Mth::dot(d, n);
         const B t =
@@ -210,10 +236,12 @@ struct Kernel {
 
   // Any-hit for shadow rays from p along unit l: the lanes of `valid` blocked before `dist`.
   // Stops as soon as every lane of `valid` is blocked.
-  static M occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist) noexcept {
+  static M occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
+                    RayCounts& counts) noexcept {
     const B eps(s.epsilon);
     M pending = valid;
     for (int i = 0; i < s.num_spheres; ++i) {
+      tests(counts, pending, true);
       const V f = p - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
       const B r2(s.sphere_r2[i]);
       const SphereDisc<B> sd = sphere_disc<Mth>(f, l, r2);
@@ -225,6 +253,7 @@ struct Kernel {
       if (!xsimd::any(pending)) return valid;
     }
     for (int k = 0; k < s.num_planes; ++k) {
+      tests(counts, pending, false);
       const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
       const B denom = Mth::dot(l, n);
       const B t = Mth::div(
@@ -267,13 +296,17 @@ struct Kernel {
                  RayCounts& counts) noexcept {
     B best_t(std::numeric_limits<T>::infinity());
     B best_id(T(-1));
+    const int stage = depth == 0 ? kPrimaryIntersection : kReflection;
+    occupancy(counts, stage, active);
     const M hit = depth == 0 && !s.camera.orthographic
-                      ? closest_hit<true>(s, active, o, d, best_t, best_id)
-                      : closest_hit(s, active, o, d, best_t, best_id);
+                      ? closest_hit<true>(s, active, o, d, best_t, best_id, counts)
+                      : closest_hit(s, active, o, d, best_t, best_id, counts);
+    lap(counts, stage);
     const T* miss_color = depth == 0 ? s.background : s.environment;
     out.r = B(miss_color[0]), out.g = B(miss_color[1]), out.b = B(miss_color[2]);
     out.reflected = M(false);
     if (!xsimd::any(hit)) return out.reflected;
+    occupancy(counts, kShading, hit);
 
     const V p = Mth::along(o, d, best_t);
     const B id = xsimd::select(hit, best_id, B(0));
@@ -316,7 +349,10 @@ struct Kernel {
       // Fast mode: a light behind the surface is blocked by the surface itself (the offset
       // origin lies on the viewer's side), so its shadow ray is answered without tracing.
       const M traced = kFast ? lit & (cos_nl > B(0)) : lit;
-      const M unblocked = traced & ~occluded(s, traced, from, l, dist);
+      lap(counts, kShading);
+      occupancy(counts, kShadowRays, traced);
+      const M unblocked = traced & ~occluded(s, traced, from, l, dist, counts);
+      lap(counts, kShadowRays);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
       diffuse = xsimd::select(
@@ -335,7 +371,10 @@ struct Kernel {
     out.g = xsimd::select(hit, gather(s, s.mat_g, id) * shade_k, out.g);
     out.b = xsimd::select(hit, gather(s, s.mat_b, id) * shade_k, out.b);
 
-    if (!s.features.reflection || depth >= s.max_depth) return out.reflected;
+    if (!s.features.reflection || depth >= s.max_depth) {
+      lap(counts, kShading);
+      return out.reflected;
+    }
     out.reflect = gather(s, s.mat_reflect, id);
     out.reflected = hit & (out.reflect > B(0));
     if (xsimd::any(out.reflected)) {
@@ -345,6 +384,7 @@ struct Kernel {
       o = select3(out.reflected, from, o);
       d = select3(out.reflected, r, d);
     }
+    lap(counts, kShading);
     return out.reflected;
   }
 
@@ -391,6 +431,7 @@ struct Kernel {
     const B samples = B(T(cam.samples * cam.samples));
     std::vector<Level> levels(static_cast<std::size_t>(s.max_depth) + 1);
     alignas(64) T out[3][W];
+    if constexpr (kProfile) counts.profile->last_tsc = __rdtsc();
     for (int j = row_begin; j < row_end; ++j) {
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
         const int lanes = std::min(W, cam.nx - i0);
@@ -399,8 +440,11 @@ struct Kernel {
         for (int b = 0; b < cam.samples; ++b) {
           for (int a = 0; a < cam.samples; ++a) {
             V o, d;
+            lap(counts, kOutput);
             camera_packet(s, i0, j, a, b, o, d);
             counts.camera += lanes;
+            occupancy(counts, kRayGeneration, valid);
+            lap(counts, kRayGeneration);
             B r, g, bl;
             radiance(s, valid, o, d, levels, r, g, bl, counts);
             sr = sr + r, sg = sg + g, sb = sb + bl;
@@ -417,6 +461,7 @@ struct Kernel {
         }
       }
     }
+    lap(counts, kOutput);
   }
 
   static void primary_rows(const Scene& s, float* t_out, float* id_out, int row_begin,
@@ -435,9 +480,9 @@ struct Kernel {
             counts.camera += lanes;
             B t(std::numeric_limits<T>::infinity()), id(T(-1));
             if (cam.orthographic)
-              closest_hit(s, valid, o, d, t, id);
+              closest_hit(s, valid, o, d, t, id, counts);
             else
-              closest_hit<true>(s, valid, o, d, t, id);
+              closest_hit<true>(s, valid, o, d, t, id, counts);
             sum = sum + t;
             if (a == 0 && b == 0) first_id = id;
           }
@@ -465,7 +510,8 @@ struct Kernel {
     const V d{B::load_unaligned(rays + 3 * W), B::load_unaligned(rays + 4 * W),
               B::load_unaligned(rays + 5 * W)};
     B bt = B::load_unaligned(t), bid = B::load_unaligned(id);
-    const M hit = closest_hit(s, v, o, d, bt, bid);
+    RayCounts unused;
+    const M hit = closest_hit(s, v, o, d, bt, bid, unused);
     bt.store_unaligned(t);
     bid.store_unaligned(id);
     const unsigned hb = bits(hit);

@@ -1,0 +1,58 @@
+// Where a packet render's time goes: per stage, TSC cycles, rays, intersection tests and how full
+// the lanes were. Filled only by the profiled kernel instantiation (ProfiledMode): render and
+// bench run kernels compiled without any of it.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "lancer/scene.hpp"
+
+namespace lancer {
+
+enum Stage : int {
+  kRayGeneration,
+  kPrimaryIntersection,
+  kShading,
+  kShadowRays,
+  kReflection,
+  kOutput,
+  kStageCount
+};
+const char* stage_name(int stage);
+
+inline constexpr int kMaxHistogramLanes = 16;
+
+struct StageProfile {
+  std::array<std::uint64_t, kStageCount> cycles{};
+  std::array<std::uint64_t, kStageCount> packets{};       // packets through the stage
+  std::array<std::uint64_t, kStageCount> active_lanes{};  // lanes active in them
+  // packets by how many lanes were active, 0 .. 16
+  std::array<std::array<std::uint64_t, kMaxHistogramLanes + 1>, kStageCount> histogram{};
+  std::uint64_t sphere_tests = 0, plane_tests = 0;  // ray-object tests, lanes counted one by one
+  std::uint64_t last_tsc = 0;                       // the chain of laps; see Kernel::lap
+};
+
+struct ProfileResult {
+  struct StageRow {
+    std::string name;
+    double seconds = 0;
+    std::uint64_t rays = 0;  // rays of the kind the stage handles
+    double lane_occupancy = 0;  // mean active lanes / width over its packets
+    std::vector<std::uint64_t> histogram;  // packets by active lanes
+  };
+  int width = 0;
+  std::string isa;
+  double total_seconds = 0;
+  std::uint64_t camera_rays = 0, shadow_rays = 0, reflected_rays = 0;
+  double tests_per_ray = 0;  // ray-object intersection tests per ray, all kinds
+  std::vector<StageRow> stages;
+};
+
+// Renders once, single-threaded, with the profiled exact kernels of `width` (4, 8 or 16; 0 for
+// the widest). Throws InputError for a width this machine does not run.
+ProfileResult profile_render(const Scene& scene, int width);
+
+}  // namespace lancer

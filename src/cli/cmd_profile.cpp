@@ -1,0 +1,80 @@
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "lancer/profile.hpp"
+#include "options.hpp"
+
+namespace lancer::cli {
+
+namespace {
+struct ProfileArgs {
+  std::string scene, width = "auto";
+  bool json = false;
+  SceneOverrides overrides;
+};
+
+void run_profile(const ProfileArgs& a) {
+  Scene scene = load_scene(a.scene);
+  apply_overrides(scene, a.overrides);
+  const ProfileResult r = profile_render(scene, parse_width(a.width, "--width"));
+  double staged = 0;
+  for (const auto& st : r.stages) staged += st.seconds;
+  if (a.json) {
+    nlohmann::json out;
+    out["scene"] = a.scene;
+    out["width"] = r.width;
+    out["isa"] = r.isa;
+    out["total_seconds"] = r.total_seconds;
+    out["rays"] = {{"camera", r.camera_rays},
+                   {"shadow", r.shadow_rays},
+                   {"reflected", r.reflected_rays}};
+    out["tests_per_ray"] = r.tests_per_ray;
+    out["stages"] = nlohmann::json::array();
+    for (const auto& st : r.stages)
+      out["stages"].push_back({{"name", st.name},
+                               {"seconds", st.seconds},
+                               {"rays", st.rays},
+                               {"lane_occupancy", st.lane_occupancy},
+                               {"lane_histogram", st.histogram}});
+    std::printf("%s\n", out.dump(2).c_str());
+    return;
+  }
+  std::printf("lancer profile: %s, width %d (%s), exact precision, 1 thread\n", a.scene.c_str(),
+              r.width, r.isa.c_str());
+  std::printf("  rays: %llu camera, %llu shadow, %llu reflected; %.2f ray-object tests per ray\n",
+              (unsigned long long)r.camera_rays, (unsigned long long)r.shadow_rays,
+              (unsigned long long)r.reflected_rays, r.tests_per_ray);
+  std::printf("  %-22s %10s %7s %12s %10s  %s\n", "stage", "seconds", "share", "rays",
+              "occupancy", "packets by active lanes (0..W)");
+  for (const auto& st : r.stages) {
+    std::string hist;
+    for (std::uint64_t h : st.histogram) hist += std::to_string(h) + " ";
+    char occ[16] = "-";
+    if (!hist.empty() && st.lane_occupancy > 0)
+      std::snprintf(occ, sizeof occ, "%.1f%%", 100 * st.lane_occupancy);
+    else
+      hist = "-";
+    std::printf("  %-22s %10.5f %6.1f%% %12llu %10s  %s\n", st.name.c_str(), st.seconds,
+                r.total_seconds > 0 ? 100 * st.seconds / r.total_seconds : 0.0,
+                (unsigned long long)st.rays, occ, hist.c_str());
+  }
+  std::printf("  %-22s %10.5f %6.1f%%   (stages add up to %.1f%% of the total)\n", "total",
+              r.total_seconds, 100.0, r.total_seconds > 0 ? 100 * staged / r.total_seconds : 0);
+}
+}  // namespace
+
+void add_profile(CLI::App& app) {
+  auto args = std::make_shared<ProfileArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "profile", "Where the time goes: per stage time, rays, tests per ray and lane occupancy");
+  cmd->add_option("scene", args->scene, "Scene file")->required();
+  cmd->add_option("--width", args->width, "auto (widest), 4, 8 or 16")->capture_default_str();
+  cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
+  cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
+  cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
+  cmd->callback([args] { run_profile(*args); });
+}
+
+}  // namespace lancer::cli

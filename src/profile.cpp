@@ -1,0 +1,63 @@
+#include "lancer/profile.hpp"
+
+#include <chrono>
+
+#include "lancer/error.hpp"
+#include "lancer/packet/api.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/render.hpp"
+
+namespace lancer {
+
+const char* stage_name(int stage) {
+  static const char* const names[kStageCount] = {
+      "ray generation", "primary intersection", "shading", "shadow rays", "reflection",
+      "output"};
+  return stage >= 0 && stage < kStageCount ? names[stage] : "?";
+}
+
+ProfileResult profile_render(const Scene& scene, int width) {
+  ProfileResult res;
+  res.width = resolve_width(width, Precision::exact);
+  if (res.width == 1)
+    throw InputError("--width: profile instruments the packet kernels: width 4, 8 or 16");
+  const packet::KernelTable<float>* k = packet::profiled_kernels(res.width);
+  LANCER_CHECK(k != nullptr);
+  res.isa = k->isa;
+  const PreparedScene<float> prepared = prepare<float>(scene);
+  Image image(scene.camera.nx, scene.camera.ny);
+  StageProfile prof;
+  RayCounts counts;
+  counts.profile = &prof;
+
+  // The TSC's rate, from the same run: cycles and seconds of the whole render.
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::uint64_t c0 = __builtin_ia32_rdtsc();
+  k->render_rows(prepared, image, 0, scene.camera.ny, counts);
+  const std::uint64_t c1 = __builtin_ia32_rdtsc();
+  res.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds_per_cycle = c1 > c0 ? res.total_seconds / double(c1 - c0) : 0;
+
+  res.camera_rays = counts.camera;
+  res.shadow_rays = counts.shadow;
+  res.reflected_rays = counts.reflected;
+  const std::uint64_t rays = counts.total();
+  res.tests_per_ray = rays ? double(prof.sphere_tests + prof.plane_tests) / double(rays) : 0;
+  const std::uint64_t stage_rays[kStageCount] = {counts.camera, counts.camera, counts.camera,
+                                                 counts.shadow, counts.reflected, counts.camera};
+  for (int st = 0; st < kStageCount; ++st) {
+    ProfileResult::StageRow row;
+    row.name = stage_name(st);
+    row.seconds = double(prof.cycles[st]) * seconds_per_cycle;
+    row.rays = stage_rays[st];
+    row.lane_occupancy = prof.packets[st] ? double(prof.active_lanes[st]) /
+                                                (double(prof.packets[st]) * res.width)
+                                          : 0;
+    row.histogram.assign(prof.histogram[st].begin(),
+                         prof.histogram[st].begin() + res.width + 1);
+    res.stages.push_back(row);
+  }
+  return res;
+}
+
+}  // namespace lancer
