@@ -40,8 +40,7 @@ BitDiff bit_diff(const Image& a, const Image& b) {
   return d;
 }
 
-ErrorStats error_stats(const Image& test, const Image& truth, double threshold,
-                       bool as_displayed) {
+ErrorStats error_stats(const Image& test, const Image& truth, double threshold, bool as_displayed) {
   LANCER_CHECK_OP(test.nx, ==, truth.nx);
   LANCER_CHECK_OP(test.ny, ==, truth.ny);
   ErrorStats e;

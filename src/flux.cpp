@@ -109,15 +109,15 @@ RayPlane ray_plane(const Scene& scene, const ObjectNames& names) {
   for (std::size_t k = 0; k < scene.spheres.size(); ++k) {
     const double off = dot(scene.spheres[k].center - plane.origin, plane.normal);
     if (!(std::abs(off) <= plane.tolerance))
-      throw InputError(names.spheres.at(k) + ".center: " + show(scene.spheres[k].center) +
-                       " is " + show(std::abs(off)) + where + need);
+      throw InputError(names.spheres.at(k) + ".center: " + show(scene.spheres[k].center) + " is " +
+                       show(std::abs(off)) + where + need);
   }
   for (std::size_t k = 0; k < scene.lights.size(); ++k) {
     const double off = dot(scene.lights[k].position - plane.origin, plane.normal);
     if (!(std::abs(off) <= plane.tolerance))
-      throw InputError("lights[" + std::to_string(k) + "].position: " +
-                       show(scene.lights[k].position) + " is " + show(std::abs(off)) + where +
-                       need);
+      throw InputError("lights[" + std::to_string(k) +
+                       "].position: " + show(scene.lights[k].position) + " is " +
+                       show(std::abs(off)) + where + need);
   }
   for (std::size_t k = 0; k < scene.planes.size(); ++k) {
     const Vec3<double> n = normalize(scene.planes[k].normal);
@@ -258,12 +258,11 @@ plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference
     // The circle the sphere cuts from the plane (its centre is in the plane within tolerance).
     const double off = dot(s.center - plane.origin, plane.normal);
     const double r = std::sqrt(std::max(0.0, s.radius * s.radius - off * off));
-    d.circles.push_back(Circle{X(plane.a(s.center)), Y(plane.b(s.center)), r * scale,
-                               plot::kBlack, 2});
+    d.circles.push_back(
+        Circle{X(plane.a(s.center)), Y(plane.b(s.center)), r * scale, plot::kBlack, 2});
   }
   for (const Light& l : scene.lights)
-    d.circles.push_back(
-        Circle{X(plane.a(l.position)), Y(plane.b(l.position)), 6, plot::kBlue, 2});
+    d.circles.push_back(Circle{X(plane.a(l.position)), Y(plane.b(l.position)), 6, plot::kBlue, 2});
   return d;
 }
 

@@ -126,7 +126,11 @@ constexpr int kGlyphW = 5, kGlyphH = 7, kAdvance = 6;
 class Canvas {
  public:
   Canvas(int width, int height, int ss, Color bg)
-      : w_(width), h_(height), ss_(ss), W_(width * ss), H_(height * ss),
+      : w_(width),
+        h_(height),
+        ss_(ss),
+        W_(width * ss),
+        H_(height * ss),
         buf_(std::size_t(W_) * H_ * 3) {
     for (std::size_t k = 0; k < buf_.size(); k += 3) {
       buf_[k] = float(bg.r);
@@ -224,7 +228,9 @@ class Canvas {
     const double s = t.scale;
     const double along = text_width(t.text, t.scale), across = text_height(t.scale);
     const double a0 = t.halign == Align::start ? 0 : t.halign == Align::middle ? along / 2 : along;
-    const double c0 = t.valign == Align::start ? 0 : t.valign == Align::middle ? across / 2 : across;
+    const double c0 = t.valign == Align::start    ? 0
+                      : t.valign == Align::middle ? across / 2
+                                                  : across;
     for (std::size_t k = 0; k < t.text.size(); ++k) {
       const Glyph& g = glyph(t.text[k]);
       for (int row = 0; row < kGlyphH; ++row)
@@ -279,11 +285,20 @@ std::string xml_escape(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -366,9 +381,10 @@ std::string to_svg(const Drawing& d) {
   }
   for (const Circle& c : d.circles) {
     if (c.stroke > 0)
-      std::snprintf(buf, sizeof buf,
-                    "<circle cx=\"%.2f\" cy=\"%.2f\" r=\"%.2f\" stroke=\"%s\" stroke-width=\"%g\"/>\n",
-                    c.cx, c.cy, c.r, svg_color(c.color).c_str(), c.stroke);
+      std::snprintf(
+          buf, sizeof buf,
+          "<circle cx=\"%.2f\" cy=\"%.2f\" r=\"%.2f\" stroke=\"%s\" stroke-width=\"%g\"/>\n", c.cx,
+          c.cy, c.r, svg_color(c.color).c_str(), c.stroke);
     else
       std::snprintf(buf, sizeof buf, "<circle cx=\"%.2f\" cy=\"%.2f\" r=\"%.2f\" fill=\"%s\"/>\n",
                     c.cx, c.cy, c.r, svg_color(c.color).c_str());
@@ -378,9 +394,12 @@ std::string to_svg(const Drawing& d) {
   for (const Text& t : d.texts) {
     // Glyph boxes are cap height, so the baseline is the box's bottom.
     const double across = text_height(t.scale);
-    const double c0 = t.valign == Align::start ? 0 : t.valign == Align::middle ? across / 2 : across;
-    const char* anchor =
-        t.halign == Align::start ? "start" : t.halign == Align::middle ? "middle" : "end";
+    const double c0 = t.valign == Align::start    ? 0
+                      : t.valign == Align::middle ? across / 2
+                                                  : across;
+    const char* anchor = t.halign == Align::start    ? "start"
+                         : t.halign == Align::middle ? "middle"
+                                                     : "end";
     std::string transform;
     double bx = t.x, by = t.y + across - c0;
     if (t.vertical) {
@@ -543,14 +562,14 @@ Drawing scatter_plot(const std::vector<double>& x, const std::vector<double>& y,
   for (double v : xt.values) {
     const double p = px(v);
     d.lines.push_back({p, y1, p, y1 + tick, kBlack, 1});
-    d.texts.push_back({p, y1 + tick + gap, format_tick(v, xt.decimals), Align::middle,
-                       Align::start, fs, false, kBlack});
+    d.texts.push_back({p, y1 + tick + gap, format_tick(v, xt.decimals), Align::middle, Align::start,
+                       fs, false, kBlack});
   }
   for (double v : yt.values) {
     const double p = py(v);
     d.lines.push_back({x0 - tick, p, x0, p, kBlack, 1});
-    d.texts.push_back({x0 - tick - gap, p, format_tick(v, yt.decimals), Align::end,
-                       Align::middle, fs, false, kBlack});
+    d.texts.push_back({x0 - tick - gap, p, format_tick(v, yt.decimals), Align::end, Align::middle,
+                       fs, false, kBlack});
   }
   d.texts.push_back({(x0 + x1) / 2, y1 + tick + gap + th + 2 * gap, o.x_label, Align::middle,
                      Align::start, fs, false, kBlack});

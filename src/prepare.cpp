@@ -47,11 +47,13 @@ PreparedScene<T> prepare(const Scene& scene) {
   pc.fny = T(c.ny);
   for (int a = 0; a < pc.samples; ++a) pc.sub_offset.push_back((T(a) + T(0.5)) / T(pc.samples));
   for (int a = 0; a < pc.samples; ++a)
-    for (int i = 0; i < pc.nx; ++i) pc.screen_x.push_back(lancer::screen_x(pc, T(i), pc.sub_offset[a]));
+    for (int i = 0; i < pc.nx; ++i)
+      pc.screen_x.push_back(lancer::screen_x(pc, T(i), pc.sub_offset[a]));
   // Packets load whole batches from the last column on: pad so they stay inside the vector.
   pc.screen_x.resize(pc.screen_x.size() + kMaxLanes, T(0));
   for (int b = 0; b < pc.samples; ++b)
-    for (int j = 0; j < pc.ny; ++j) pc.screen_y.push_back(lancer::screen_y(pc, T(j), pc.sub_offset[b]));
+    for (int j = 0; j < pc.ny; ++j)
+      pc.screen_y.push_back(lancer::screen_y(pc, T(j), pc.sub_offset[b]));
 
   const Rgb& bg = scene.background;
   const Rgb& env = scene.environment;
@@ -69,7 +71,8 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.mat_ks.push_back(T(m.ks));
     p.mat_shininess.push_back(T(m.shininess));
     p.mat_reflect.push_back(T(m.reflect));
-    const bool whole = m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
+    const bool whole =
+        m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
     p.mat_shininess_int.push_back(T(whole ? 1 : 0));
     if (m.ks > 0) {
       p.features.specular = true;
@@ -87,7 +90,8 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.sphere_r.push_back(T(s.radius));
     p.sphere_r2.push_back(T(s.radius) * T(s.radius));
     if (!pc.orthographic) {
-      const Vec3<T> f = pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
+      const Vec3<T> f =
+          pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
       p.eye.fx.push_back(f.x);
       p.eye.fy.push_back(f.y);
       p.eye.fz.push_back(f.z);

@@ -11,8 +11,7 @@ namespace lancer {
 
 const char* stage_name(int stage) {
   static const char* const names[kStageCount] = {
-      "ray generation", "primary intersection", "shading", "shadow rays", "reflection",
-      "output"};
+      "ray generation", "primary intersection", "shading", "shadow rays", "reflection", "output"};
   return stage >= 0 && stage < kStageCount ? names[stage] : "?";
 }
 
@@ -43,18 +42,17 @@ ProfileResult profile_render(const Scene& scene, int width) {
   res.reflected_rays = counts.reflected;
   const std::uint64_t rays = counts.total();
   res.tests_per_ray = rays ? double(prof.sphere_tests + prof.plane_tests) / double(rays) : 0;
-  const std::uint64_t stage_rays[kStageCount] = {counts.camera, counts.camera, counts.camera,
+  const std::uint64_t stage_rays[kStageCount] = {counts.camera, counts.camera,    counts.camera,
                                                  counts.shadow, counts.reflected, counts.camera};
   for (int st = 0; st < kStageCount; ++st) {
     ProfileResult::StageRow row;
     row.name = stage_name(st);
     row.seconds = double(prof.cycles[st]) * seconds_per_cycle;
     row.rays = stage_rays[st];
-    row.lane_occupancy = prof.packets[st] ? double(prof.active_lanes[st]) /
-                                                (double(prof.packets[st]) * res.width)
-                                          : 0;
-    row.histogram.assign(prof.histogram[st].begin(),
-                         prof.histogram[st].begin() + res.width + 1);
+    row.lane_occupancy =
+        prof.packets[st] ? double(prof.active_lanes[st]) / (double(prof.packets[st]) * res.width)
+                         : 0;
+    row.histogram.assign(prof.histogram[st].begin(), prof.histogram[st].begin() + res.width + 1);
     res.stages.push_back(row);
   }
   return res;

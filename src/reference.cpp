@@ -47,8 +47,7 @@ class Tracer {
     T ambient(0), diffuse(0), specular(0);
     for (int k = 0; k < s_.num_lights; ++k) {
       ambient = ambient + s_.mat_ka[m] * s_.light_ambient[k];
-      const Vec3<T> to_light =
-          Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]} - p;
+      const Vec3<T> to_light = Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]} - p;
       const T dist = length(to_light);
       if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
       ++counts_.shadow;
@@ -252,8 +251,8 @@ void primary_rows(const PreparedScene<T>& s, float* t_out, float* id_out, int ro
 
 template void render_rows<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&);
 template void render_rows<double>(const PreparedScene<double>&, Image&, int, int, RayCounts&);
-template void render_rows_recorded<float>(const PreparedScene<float>&, Image&, int, int,
-                                          RayCounts&, PathLog&);
+template void render_rows_recorded<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&,
+                                          PathLog&);
 template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
                                            RayCounts&, PathLog&);
 template void primary_rows<float>(const PreparedScene<float>&, float*, float*, int, int,

@@ -171,8 +171,7 @@ struct Rows {
     else
       reference::render_rows(s, im, r0, r1, c);
   }
-  void primary(const PreparedScene<T>& s, float* t, float* id, int r0, int r1,
-               RayCounts& c) const {
+  void primary(const PreparedScene<T>& s, float* t, float* id, int r0, int r1, RayCounts& c) const {
     if (kernels)
       kernels->primary_rows(s, t, id, r0, r1, c);
     else

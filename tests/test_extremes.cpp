@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <cstdio>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -69,8 +69,8 @@ void table_header() {
 Scene from(const json& j) { return parse_scene(j.dump(), "extreme"); }
 
 json camera(json pos, json dir, double d, double half, int n = 64) {
-  return {{"type", "pinhole"}, {"position", pos},        {"direction", dir},
-          {"distance", d},     {"resolution", {n, n}},   {"bounds", {-half, half, -half, half}}};
+  return {{"type", "pinhole"}, {"position", pos},      {"direction", dir},
+          {"distance", d},     {"resolution", {n, n}}, {"bounds", {-half, half, -half, half}}};
 }
 
 json lit(json j, double intensity = 1) {
@@ -147,7 +147,8 @@ TEST(Extremes, RayOriginsOnSurfaces) {
   // The eye on a sphere's surface, looking out through it, and on a plane.
   json j = lit({{"camera", camera({0, 0, 1}, {0, 0, 1}, 1, 1)},
                 {"objects",
-                 {sphere({0, 0, 0}, 1), sphere({0, 0, 4}, 1, {{"ks", 1}}),
+                 {sphere({0, 0, 0}, 1),
+                  sphere({0, 0, 4}, 1, {{"ks", 1}}),
                   {{"type", "plane"}, {"point", {0, -1, 0}}, {"normal", {0, 1, 0}}}}}});
   report("eye on a sphere's surface", from(j));
 }
@@ -175,12 +176,13 @@ TEST(Extremes, IntensityExtremes) {
 
 TEST(Extremes, DeepReflectionBetweenParallelMirrors) {
   const json mirror = {{"ka", 0.05}, {"kd", 0.2}, {"reflect", 0.95}};
-  json j = lit({{"camera", camera({0, 0, 0}, {0.1, 0, -1}, 1, 0.5)},
-                {"max_depth", 64},
-                {"objects",
-                 {{{"type", "plane"}, {"point", {0, 0, -5}}, {"normal", {0, 0, 1}}, {"material", mirror}},
-                  {{"type", "plane"}, {"point", {0, 0, 5}}, {"normal", {0, 0, -1}}, {"material", mirror}},
-                  sphere({1, 0, -2}, 0.5)}}});
+  json j = lit(
+      {{"camera", camera({0, 0, 0}, {0.1, 0, -1}, 1, 0.5)},
+       {"max_depth", 64},
+       {"objects",
+        {{{"type", "plane"}, {"point", {0, 0, -5}}, {"normal", {0, 0, 1}}, {"material", mirror}},
+         {{"type", "plane"}, {"point", {0, 0, 5}}, {"normal", {0, 0, -1}}, {"material", mirror}},
+         sphere({1, 0, -2}, 0.5)}}});
   report("max_depth 64, parallel mirrors", from(j), 0.01, 0.005);
 }
 
@@ -202,7 +204,8 @@ Classified classify(double ratio, int rays, std::uint64_t seed) {
     double x, y;
     do x = u(rng), y = u(rng);
     while (x * x + y * y > 1);
-    const Vec3<float> d = normalize(Vec3<float>{float(1.5 * r * x), float(1.5 * r * y), float(-dist)});
+    const Vec3<float> d =
+        normalize(Vec3<float>{float(1.5 * r * x), float(1.5 * r * y), float(-dist)});
     // Truth: the same float ray and sphere, in double.
     const Vec3<double> dd{d.x, d.y, d.z}, fd{-double(c.x), -double(c.y), -double(c.z)};
     const double bd = dot(fd, dd);

@@ -50,8 +50,8 @@ TEST(Oracle, EveryShippedScene) {
 TEST(Oracle, SupersampledScene) {
   testing::TempDir dir;
   const std::string path = dir.file("ss.json");
-  auto j = nlohmann::json::parse(
-      std::ifstream(testing::source_path("scenes/lorenzi-shadows.json")));
+  auto j =
+      nlohmann::json::parse(std::ifstream(testing::source_path("scenes/lorenzi-shadows.json")));
   j["supersample"] = 3;
   std::ofstream(path) << j.dump();
   expect_agreement(agreement(path, dir));
@@ -90,8 +90,8 @@ TEST(Oracle, ExtremeScenes) {
   for (double offset : {1e3, 1e4, 1e5, 1e6}) {
     for (double scale : {1.0, 1e-3}) {
       for (int k = 0; k < 4; ++k, ++seed) {
-        SCOPED_TRACE(::testing::Message() << "seed " << seed << " offset " << offset
-                                          << " scale " << scale);
+        SCOPED_TRACE(::testing::Message()
+                     << "seed " << seed << " offset " << offset << " scale " << scale);
         nlohmann::json j = testing::random_scene(static_cast<std::uint64_t>(seed));
         auto move = [&](nlohmann::json& v) {
           for (int c = 0; c < 3; ++c) v[c] = v[c].get<double>() * scale + offset;
@@ -112,10 +112,10 @@ TEST(Oracle, ExtremeScenes) {
         const Scene s = load_scene(path);
         const Image truth = oracle_render(path, dir);
         const double tol = 2.0 / 255.0;
-        const ErrorStats a = error_stats(testing::render_with(s, 0, Precision::automatic, 2),
-                                         truth, tol);
-        const ErrorStats e = error_stats(testing::render_with(s, 0, Precision::exact, 2), truth,
-                                         tol);
+        const ErrorStats a =
+            error_stats(testing::render_with(s, 0, Precision::automatic, 2), truth, tol);
+        const ErrorStats e =
+            error_stats(testing::render_with(s, 0, Precision::exact, 2), truth, tol);
         pixels += std::uint64_t(s.camera.nx) * s.camera.ny;
         off_auto += a.off_pixels;
         off_exact += e.off_pixels;

@@ -44,8 +44,8 @@ void expect_identical(const Scene& s, int width, Precision p = Precision::exact)
   const Outcome o = compare_to_reference(s, width, p);
   EXPECT_TRUE(o.diff.identical()) << "width " << width << ": " << o.diff.differing_pixels
                                   << " pixels differ, up to " << o.diff.max_ulps
-                                  << " ulps, first at (" << o.diff.first_i << ", "
-                                  << o.diff.first_j << ")";
+                                  << " ulps, first at (" << o.diff.first_i << ", " << o.diff.first_j
+                                  << ")";
   EXPECT_TRUE(o.same_rays) << "width " << width << " traced other rays than the reference";
 }
 

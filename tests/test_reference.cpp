@@ -27,8 +27,8 @@ json one_pixel_camera(json position, json direction) {
 template <class T>
 std::array<double, 3> pixel_of(const json& j) {
   const Scene s = parse_scene(j.dump(), "test.json");
-  const Image im = testing::render_with(s, 1, std::is_same_v<T, float> ? Precision::exact
-                                                                       : Precision::dbl);
+  const Image im =
+      testing::render_with(s, 1, std::is_same_v<T, float> ? Precision::exact : Precision::dbl);
   return {im.rgb[0], im.rgb[1], im.rgb[2]};
 }
 
@@ -77,17 +77,16 @@ TEST(CameraBasis, FlipsSoThatVPointsUp) {
 
 TEST(CameraRays, PixelCentresFollowTheContract) {
   // 4 x 2 pixels over [-2, 2] x [-1, 1]: pixel (i, j) centre x = -2 + (i + 0.5), y = 1 - (j + .5).
-  const auto p = prepare<double>(parse_scene(
-      json{{"camera",
-            {{"type", "orthographic"},
-             {"position", {0, 0, 0}},
-             {"direction", {0, 0, -1}},
-             {"resolution", {4, 2}},
-             {"bounds", {-2, 2, -1, 1}}}},
-           {"supersample", 2},
-           {"objects", json::array()}}
-          .dump(),
-      "t"));
+  const auto p = prepare<double>(parse_scene(json{{"camera",
+                                                   {{"type", "orthographic"},
+                                                    {"position", {0, 0, 0}},
+                                                    {"direction", {0, 0, -1}},
+                                                    {"resolution", {4, 2}},
+                                                    {"bounds", {-2, 2, -1, 1}}}},
+                                                  {"supersample", 2},
+                                                  {"objects", json::array()}}
+                                                 .dump(),
+                                             "t"));
   // Sub-sample a = 1 of 2 sits at 0.75 of the pixel.
   EXPECT_DOUBLE_EQ(p.camera.screen_x[1 * 4 + 3], -2 + 3.75);
   EXPECT_DOUBLE_EQ(p.camera.screen_y[0 * 2 + 1], 1 - 1.25);
@@ -96,15 +95,15 @@ TEST(CameraRays, PixelCentresFollowTheContract) {
 json head_on_scene(double ks) {
   // The ray hits the unit sphere at P = (0, 0, 1), n = (0, 0, 1); the light at (0, 3, 5) gives
   // L - P = (0, 3, 4), l = (0, 0.6, 0.8), cos = 0.8.
-  return {{"camera", one_pixel_camera({0, 0, 10}, {0, 0, -1})},
-          {"lights", {{{"position", {0, 3, 5}}, {"intensity", 0.9}, {"ambient", 0.5}}}},
-          {"objects",
-           {{{"type", "sphere"},
-             {"center", {0, 0, 0}},
-             {"radius", 1},
-             {"material",
-              {{"color", {1, 0.5, 0.25}}, {"ka", 0.2}, {"kd", 0.7}, {"ks", ks},
-               {"shininess", 10}}}}}}};
+  return {
+      {"camera", one_pixel_camera({0, 0, 10}, {0, 0, -1})},
+      {"lights", {{{"position", {0, 3, 5}}, {"intensity", 0.9}, {"ambient", 0.5}}}},
+      {"objects",
+       {{{"type", "sphere"},
+         {"center", {0, 0, 0}},
+         {"radius", 1},
+         {"material",
+          {{"color", {1, 0.5, 0.25}}, {"ka", 0.2}, {"kd", 0.7}, {"ks", ks}, {"shininess", 10}}}}}}};
 }
 
 TYPED_TEST(ReferenceTest, SphereLitHeadOnIsAmbientPlusKdICos) {
@@ -206,9 +205,8 @@ TYPED_TEST(ReferenceTest, PrimaryMissSeesTheBackground) {
 template <class T>
 reference::Hit<T> hit_of(const json& objects, Vec3<T> origin, Vec3<T> dir, double eps = 1e-4) {
   // The camera at the world's origin: prepared coordinates are camera-relative.
-  json j{{"camera", one_pixel_camera({0, 0, 0}, {0, 0, -1})},
-         {"epsilon", eps},
-         {"objects", objects}};
+  json j{
+      {"camera", one_pixel_camera({0, 0, 0}, {0, 0, -1})}, {"epsilon", eps}, {"objects", objects}};
   const auto p = prepare<T>(parse_scene(j.dump(), "t"));
   return reference::closest_hit(p, origin, dir);
 }
@@ -230,9 +228,8 @@ TYPED_TEST(ReferenceTest, SphereBehindTheRayIsMissed) {
 
 TYPED_TEST(ReferenceTest, RayParallelToAPlaneMisses) {
   using T = TypeParam;
-  const auto h =
-      hit_of<T>({{{"type", "plane"}, {"point", {0, -1, 0}}, {"normal", {0, 1, 0}}}},
-                Vec3<T>{0, 0, 0}, Vec3<T>{1, 0, 0});
+  const auto h = hit_of<T>({{{"type", "plane"}, {"point", {0, -1, 0}}, {"normal", {0, 1, 0}}}},
+                           Vec3<T>{0, 0, 0}, Vec3<T>{1, 0, 0});
   EXPECT_EQ(h.id, -1);
 }
 

@@ -90,7 +90,10 @@ const BadCase kBadCases[] = {
      "materials.chrome.kr: unknown key"},
     {"wrong type radius", [](json& j) { j["objects"][2]["radius"] = "2"; },
      "objects[2].radius: must be a number"},
-    {"wrong type position", [](json& j) { j["camera"]["position"] = {1, 2}; },
+    {"wrong type position",
+     [](json& j) {
+       j["camera"]["position"] = {1, 2};
+     },
      "camera.position: must be an array of 3 numbers"},
     {"wrong type vector element", [](json& j) { j["objects"][0]["center"][1] = true; },
      "objects[0].center[1]: must be a number"},
@@ -108,21 +111,41 @@ const BadCase kBadCases[] = {
      "objects[2].radius: must be > 0"},
     {"negative radius", [](json& j) { j["objects"][0]["radius"] = -1; },
      "objects[0].radius: must be > 0"},
-    {"zero normal", [](json& j) { j["objects"][1]["normal"] = {0, 0, 0}; },
+    {"zero normal",
+     [](json& j) {
+       j["objects"][1]["normal"] = {0, 0, 0};
+     },
      "objects[1].normal: must not be zero"},
-    {"zero direction", [](json& j) { j["camera"]["direction"] = {0, 0, 0}; },
+    {"zero direction",
+     [](json& j) {
+       j["camera"]["direction"] = {0, 0, 0};
+     },
      "camera.direction: must not be zero"},
-    {"zero distance", [](json& j) { j["camera"]["distance"] = 0; },
-     "camera.distance: must be > 0"},
-    {"empty bounds", [](json& j) { j["camera"]["bounds"] = {1, 1, -2, 2}; },
+    {"zero distance", [](json& j) { j["camera"]["distance"] = 0; }, "camera.distance: must be > 0"},
+    {"empty bounds",
+     [](json& j) {
+       j["camera"]["bounds"] = {1, 1, -2, 2};
+     },
      "camera.bounds: xmax must be > xmin"},
-    {"inverted bounds", [](json& j) { j["camera"]["bounds"] = {-3, 3, 2, -2}; },
+    {"inverted bounds",
+     [](json& j) {
+       j["camera"]["bounds"] = {-3, 3, 2, -2};
+     },
      "camera.bounds: ymax must be > ymin"},
-    {"zero resolution", [](json& j) { j["camera"]["resolution"] = {0, 20}; },
+    {"zero resolution",
+     [](json& j) {
+       j["camera"]["resolution"] = {0, 20};
+     },
      "camera.resolution[0]: must be a positive integer"},
-    {"negative resolution", [](json& j) { j["camera"]["resolution"] = {30, -1}; },
+    {"negative resolution",
+     [](json& j) {
+       j["camera"]["resolution"] = {30, -1};
+     },
      "camera.resolution[1]: must be a positive integer"},
-    {"fractional resolution", [](json& j) { j["camera"]["resolution"] = {30.5, 20}; },
+    {"fractional resolution",
+     [](json& j) {
+       j["camera"]["resolution"] = {30.5, 20};
+     },
      "camera.resolution[0]: must be an integer"},
     {"negative max_depth", [](json& j) { j["max_depth"] = -1; }, "max_depth: must be >= 0"},
     {"supersample zero", [](json& j) { j["supersample"] = 0; }, "supersample: must be >= 1"},
@@ -132,7 +155,10 @@ const BadCase kBadCases[] = {
      "objects[1].material.kd: must be >= 0"},
     {"negative reflect", [](json& j) { j["materials"]["chrome"]["reflect"] = -1; },
      "materials.chrome.reflect: must be >= 0"},
-    {"negative color", [](json& j) { j["materials"]["chrome"]["color"] = {1, -1, 1}; },
+    {"negative color",
+     [](json& j) {
+       j["materials"]["chrome"]["color"] = {1, -1, 1};
+     },
      "materials.chrome.color: components must be >= 0"},
     {"negative intensity", [](json& j) { j["lights"][0]["intensity"] = -1; },
      "lights[0].intensity: must be >= 0"},
@@ -169,8 +195,7 @@ TEST(SceneLoad, NonFiniteNumbersAreRefused) {
   const std::string from = "\"radius\":2";
   ASSERT_NE(text.find(from), std::string::npos);
   text.replace(text.find(from), from.size(), "\"radius\":1e999");
-  EXPECT_EQ(error_of(text),
-            "s.json: number overflow parsing '1e999' (numbers must be finite)");
+  EXPECT_EQ(error_of(text), "s.json: number overflow parsing '1e999' (numbers must be finite)");
 }
 
 TEST(SceneLoad, SyntaxErrorsNameTheLine) {
@@ -228,8 +253,8 @@ TEST(SceneCli, BadOptionsExitTwoNamingTheOption) {
                {"--precision double --width 16", "--width"}};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.args);
-    const auto r = testing::run_command(testing::cli() + " render " + scene + " -o " + out + " " +
-                                        c.args);
+    const auto r =
+        testing::run_command(testing::cli() + " render " + scene + " -o " + out + " " + c.args);
     EXPECT_EQ(r.status, 2) << r.out;
     EXPECT_NE(r.out.find(c.names), std::string::npos) << r.out;
     EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;

@@ -22,9 +22,9 @@ struct BitDiff {
 BitDiff bit_diff(const Image& a, const Image& b);
 
 struct ErrorStats {
-  double max_abs = 0;          // over channels
-  double psnr_db = 0;          // against peak 1; infinity when identical
-  double off_fraction = 0;     // pixels with some channel off by more than `threshold`
+  double max_abs = 0;       // over channels
+  double psnr_db = 0;       // against peak 1; infinity when identical
+  double off_fraction = 0;  // pixels with some channel off by more than `threshold`
   std::uint64_t off_pixels = 0;
 };
 // Values are clamped to [0, 1] first when `as_displayed` (what an 8-bit file would show).

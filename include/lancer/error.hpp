@@ -37,7 +37,7 @@ std::string show_pair(const A& a, const B& b) {
 #define LANCER_CHECK(cond) \
   ((cond) ? (void)0 : ::lancer::detail::check_failed(#cond, __FILE__, __LINE__, ""))
 // Checks a relation between two values and prints both when it fails.
-#define LANCER_CHECK_OP(a, op, b)                                                    \
-  (((a)op(b)) ? (void)0                                                              \
+#define LANCER_CHECK_OP(a, op, b)                                                     \
+  (((a)op(b)) ? (void)0                                                               \
               : ::lancer::detail::check_failed(#a " " #op " " #b, __FILE__, __LINE__, \
                                                ::lancer::detail::show_pair((a), (b))))

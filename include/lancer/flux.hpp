@@ -78,8 +78,8 @@ struct Paths {
 Paths record_paths(const Scene& scene, const RayPlane& plane);
 
 struct DiagramOptions {
-  int size = 800;            // pixels along the drawing's longer side
-  bool hits_only = false;    // leave out camera and reflected rays that hit nothing
+  int size = 800;             // pixels along the drawing's longer side
+  bool hits_only = false;     // leave out camera and reflected rays that hit nothing
   bool show_blocked = false;  // draw blocked light rays too, thin and grey
 };
 

@@ -13,11 +13,11 @@ namespace lancer {
 
 // What a scene needs modelled. Decided once per scene; a path skips the work a scene lacks.
 struct Features {
-  bool spheres = false;     // any sphere
-  bool planes = false;      // any plane
-  bool lights = false;      // any light (else no shadow rays and no diffuse/specular)
-  bool specular = false;    // any material with ks > 0
-  bool reflection = false;  // max_depth > 0 and any material with reflect > 0
+  bool spheres = false;               // any sphere
+  bool planes = false;                // any plane
+  bool lights = false;                // any light (else no shadow rays and no diffuse/specular)
+  bool specular = false;              // any material with ks > 0
+  bool reflection = false;            // max_depth > 0 and any material with reflect > 0
   bool fractional_shininess = false;  // a specular material whose shininess needs std::pow
 };
 

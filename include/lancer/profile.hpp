@@ -39,8 +39,8 @@ struct ProfileResult {
   struct StageRow {
     std::string name;
     double seconds = 0;
-    std::uint64_t rays = 0;  // rays of the kind the stage handles
-    double lane_occupancy = 0;  // mean active lanes / width over its packets
+    std::uint64_t rays = 0;                // rays of the kind the stage handles
+    double lane_occupancy = 0;             // mean active lanes / width over its packets
     std::vector<std::uint64_t> histogram;  // packets by active lanes
   };
   int width = 0;

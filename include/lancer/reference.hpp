@@ -40,8 +40,8 @@ struct PathLog {
 // render_rows, appending to `log` every camera and reflected ray traced and every light ray
 // cast, in tracing order. Same image and counts as render_rows.
 template <class T>
-void render_rows_recorded(const PreparedScene<T>& scene, Image& image, int row_begin,
-                          int row_end, RayCounts& counts, PathLog& log);
+void render_rows_recorded(const PreparedScene<T>& scene, Image& image, int row_begin, int row_end,
+                          RayCounts& counts, PathLog& log);
 
 // Primary rays only: per pixel of rows [row_begin, row_end), the sum over its samples of the
 // distance to the closest hit (infinity on a miss) into t_out[j * nx + i], and, if id_out is not

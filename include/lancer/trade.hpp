@@ -15,10 +15,10 @@ struct TradeRow {
   Precision precision = Precision::exact;
   int width = 1;
   std::string isa;
-  double mrays_per_s = 0;      // full render, single thread, median of the repeats
-  double max_abs_diff = 0;     // largest |difference| of any channel, radiance unclamped
-  double psnr_db = 0;          // of the image as displayed (clamped to [0, 1]), peak 1
-  double off_pixel_frac = 0;   // pixels with a displayed channel off by more than 1/255
+  double mrays_per_s = 0;        // full render, single thread, median of the repeats
+  double max_abs_diff = 0;       // largest |difference| of any channel, radiance unclamped
+  double psnr_db = 0;            // of the image as displayed (clamped to [0, 1]), peak 1
+  double off_pixel_frac = 0;     // pixels with a displayed channel off by more than 1/255
   double hit_mismatch_frac = 0;  // camera rays whose first hit is another object (or none)
 };
 

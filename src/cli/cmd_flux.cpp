@@ -59,11 +59,12 @@ void run_flux(const FluxArgs& a) {
     o.hits_only = a.hits_only;
     o.show_blocked = a.show_blocked;
     plot::write_drawing(flux::diagram(fs.scene, plane, paths.log, o), a.diagram);
-    std::printf("lancer flux: %s -> %s (%zu ray segments: %llu camera, %llu reflected, "
-                "%llu light)\n",
-                a.scene.c_str(), a.diagram.c_str(), paths.log.segments.size(),
-                (unsigned long long)paths.rays.camera, (unsigned long long)paths.rays.reflected,
-                (unsigned long long)paths.rays.shadow);
+    std::printf(
+        "lancer flux: %s -> %s (%zu ray segments: %llu camera, %llu reflected, "
+        "%llu light)\n",
+        a.scene.c_str(), a.diagram.c_str(), paths.log.segments.size(),
+        (unsigned long long)paths.rays.camera, (unsigned long long)paths.rays.reflected,
+        (unsigned long long)paths.rays.shadow);
   }
 }
 }  // namespace

@@ -27,9 +27,8 @@ void run_profile(const ProfileArgs& a) {
     out["width"] = r.width;
     out["isa"] = r.isa;
     out["total_seconds"] = r.total_seconds;
-    out["rays"] = {{"camera", r.camera_rays},
-                   {"shadow", r.shadow_rays},
-                   {"reflected", r.reflected_rays}};
+    out["rays"] = {
+        {"camera", r.camera_rays}, {"shadow", r.shadow_rays}, {"reflected", r.reflected_rays}};
     out["tests_per_ray"] = r.tests_per_ray;
     out["stages"] = nlohmann::json::array();
     for (const auto& st : r.stages)
@@ -46,8 +45,8 @@ void run_profile(const ProfileArgs& a) {
   std::printf("  rays: %llu camera, %llu shadow, %llu reflected; %.2f ray-object tests per ray\n",
               (unsigned long long)r.camera_rays, (unsigned long long)r.shadow_rays,
               (unsigned long long)r.reflected_rays, r.tests_per_ray);
-  std::printf("  %-22s %10s %7s %12s %10s  %s\n", "stage", "seconds", "share", "rays",
-              "occupancy", "packets by active lanes (0..W)");
+  std::printf("  %-22s %10s %7s %12s %10s  %s\n", "stage", "seconds", "share", "rays", "occupancy",
+              "packets by active lanes (0..W)");
   for (const auto& st : r.stages) {
     std::string hist;
     for (std::uint64_t h : st.histogram) hist += std::to_string(h) + " ";

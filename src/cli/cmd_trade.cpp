@@ -46,14 +46,15 @@ void run_trade_cmd(const TradeArgs& a) {
                                 {"hit_mismatch_frac", r.hit_mismatch_frac}});
     std::printf("%s\n", out.dump(2).c_str());
   } else {
-    std::printf("lancer trade: %s, single thread, median of %d runs; error against double at "
-                "width 1\n",
-                a.scene.c_str(), a.repeat);
-    std::printf("  %-9s %5s %-11s %9s %12s %9s %11s %11s\n", "precision", "width", "isa",
-                "Mrays/s", "max |diff|", "PSNR dB", "off >1/255", "hit differs");
+    std::printf(
+        "lancer trade: %s, single thread, median of %d runs; error against double at "
+        "width 1\n",
+        a.scene.c_str(), a.repeat);
+    std::printf("  %-9s %5s %-11s %9s %12s %9s %11s %11s\n", "precision", "width", "isa", "Mrays/s",
+                "max |diff|", "PSNR dB", "off >1/255", "hit differs");
     for (const TradeRow& r : rows)
-      std::printf("  %-9s %5d %-11s %9.2f %12.3g %9.1f %10.4f%% %10.4f%%\n",
-                  to_string(r.precision), r.width, r.isa.c_str(), r.mrays_per_s, r.max_abs_diff,
+      std::printf("  %-9s %5d %-11s %9.2f %12.3g %9.1f %10.4f%% %10.4f%%\n", to_string(r.precision),
+                  r.width, r.isa.c_str(), r.mrays_per_s, r.max_abs_diff,
                   std::isfinite(r.psnr_db) ? r.psnr_db : INFINITY, 100 * r.off_pixel_frac,
                   100 * r.hit_mismatch_frac);
   }

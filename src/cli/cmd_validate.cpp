@@ -2,8 +2,8 @@
 #include <memory>
 
 #include "commands.hpp"
-#include "lancer/error.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/render.hpp"
 #include "options.hpp"
@@ -38,8 +38,8 @@ void run_validate(const ValidateArgs& a, int& status) {
   ref_opt.precision = precision;
   ref_opt.threads = a.threads;
   const RenderResult ref = render(scene, ref_opt);
-  std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n",
-              a.scene.c_str(), scene.camera.nx, scene.camera.ny, to_string(precision));
+  std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n", a.scene.c_str(),
+              scene.camera.nx, scene.camera.ny, to_string(precision));
   std::printf("  %-6s %-8s %10s %10s  %s\n", "width", "isa", "differing", "max ulps",
               "first differing pixel");
   bool all_identical = true;
@@ -71,8 +71,10 @@ void add_validate(CLI::App& app) {
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_option("--width", args->widths,
                   "Widths to check, e.g. 4,8,16 (default: every width this CPU runs)");
-  cmd->add_option("--precision", args->precision, "exact or double: the packets of that precision "
-                  "against the reference of that precision")->capture_default_str();
+  cmd->add_option("--precision", args->precision,
+                  "exact or double: the packets of that precision "
+                  "against the reference of that precision")
+      ->capture_default_str();
   cmd->add_option("--threads", args->threads, "Threads (0 = all cores)");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");

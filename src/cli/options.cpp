@@ -45,8 +45,8 @@ int parse_width(const std::string& text, const std::string& option) {
   return w;
 }
 
-std::vector<int> parse_width_list(const std::vector<std::string>& items,
-                                  const std::string& option, Precision precision) {
+std::vector<int> parse_width_list(const std::vector<std::string>& items, const std::string& option,
+                                  Precision precision) {
   std::vector<int> out;
   for (const std::string& part : split_commas(items)) {
     if (part == "all") {

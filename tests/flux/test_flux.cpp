@@ -239,17 +239,19 @@ TEST(PathLog, BlockedLightRaysAreNotDrawn) {
   }
   // Same flux as with the first light only.
   const Recorded one = record(row_scene());
-  for (int i = 0; i < 3; ++i) EXPECT_EQ(r.paths.image.pixel(i, 0)[0], one.paths.image.pixel(i, 0)[0]);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(r.paths.image.pixel(i, 0)[0], one.paths.image.pixel(i, 0)[0]);
 
   // The diagram: two blue light rays, not four; grey ones for the blocked only when asked.
   auto lines_of = [](const plot::Drawing& d, plot::Color c) {
     int n = 0;
-    for (const plot::Line& l : d.lines) n += l.color.r == c.r && l.color.g == c.g && l.color.b == c.b;
+    for (const plot::Line& l : d.lines)
+      n += l.color.r == c.r && l.color.g == c.g && l.color.b == c.b;
     return n;
   };
   const plot::Drawing d = flux::diagram(r.scene.scene, r.plane, r.paths.log);
   EXPECT_EQ(lines_of(d, plot::kBlue), 2);
-  EXPECT_EQ(lines_of(d, plot::kRed), 3);  // two hits and the miss, cut at the edge
+  EXPECT_EQ(lines_of(d, plot::kRed), 3);   // two hits and the miss, cut at the edge
   EXPECT_EQ(lines_of(d, plot::kGrey), 1);  // the camera's row
   flux::DiagramOptions o;
   o.show_blocked = true;
@@ -401,8 +403,7 @@ void expect_recorder_changes_nothing(const Scene& scene, int row_begin, int row_
 }
 
 TEST(PathLog, RecorderChangesNothing) {
-  for (const char* name :
-       {"flux2d", "lorenzi-diffuse", "lorenzi-shadows", "lorenzi-reflections"}) {
+  for (const char* name : {"flux2d", "lorenzi-diffuse", "lorenzi-shadows", "lorenzi-reflections"}) {
     SCOPED_TRACE(name);
     const Scene s = load_scene(kSource + "/scenes/" + name + ".json");
     const int r0 = s.camera.ny / 2, r1 = std::min(s.camera.ny, r0 + 3);
@@ -501,8 +502,8 @@ TEST(Figures, CliWritesPlotAndDiagram) {
   EXPECT_NE(plot_svg.find(">flux<"), std::string::npos);
 
   // A bad extension is refused before any work.
-  const Ran bad = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir +
-                      "/plot.nope");
+  const Ran bad =
+      run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir + "/plot.nope");
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.err.find("--plot"), std::string::npos) << bad.err;
 }

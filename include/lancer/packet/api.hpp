@@ -27,8 +27,7 @@ struct KernelTable {
   const char* isa;  // "sse4.2", "avx2", "avx512f" (fast AVX2 reports "fma3<avx2>")
   // Whole render of rows [row_begin, row_end); in exact mode bit-identical to
   // reference::render_rows.
-  void (*render_rows)(const PreparedScene<Real>&, Image&, int row_begin, int row_end,
-                      RayCounts&);
+  void (*render_rows)(const PreparedScene<Real>&, Image&, int row_begin, int row_end, RayCounts&);
   // Camera rays and closest hit only, as reference::primary_rows.
   void (*primary_rows)(const PreparedScene<Real>&, float* t_out, float* id_out, int row_begin,
                        int row_end, RayCounts&);

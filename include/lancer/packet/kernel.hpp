@@ -8,12 +8,13 @@
 // same order, so every lane computes the reference's bits.
 #pragma once
 
+#include <immintrin.h>  // every ISA's register types, for bits()
+
 #include <array>
 #include <cmath>
 #include <limits>
 #include <type_traits>
 #include <vector>
-#include <immintrin.h>  // every ISA's register types, for bits()
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/formulas.hpp"
@@ -223,9 +224,8 @@ struct Kernel {
         tests(counts, valid, false);
         const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
         const B denom = Mth::dot(d, n);
-        const B t =
-            Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n),
-                     denom);
+        const B t = Mth::div(
+            Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n), denom);
         const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
         best_id = xsimd::select(m, B(T(s.num_spheres + k)), best_id);
@@ -256,8 +256,8 @@ struct Kernel {
       tests(counts, pending, false);
       const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
       const B denom = Mth::dot(l, n);
-      const B t = Mth::div(
-          Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n), denom);
+      const B t =
+          Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n), denom);
       const M m = pending & (denom != B(0)) & (t > eps) & (t < dist);
       pending = pending & ~m;
       if (!xsimd::any(pending)) return valid;
@@ -355,8 +355,8 @@ struct Kernel {
       lap(counts, kShadowRays);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
-      diffuse = xsimd::select(
-          unblocked, diffuse + (kd * intensity) * positive_part(cos_nl), diffuse);
+      diffuse =
+          xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(cos_nl), diffuse);
       if (s.features.specular) {
         const V half = l + view;
         const B half_len = Mth::length(half);
@@ -391,8 +391,8 @@ struct Kernel {
   // The radiance of a packet of camera rays. Reflection is an iterative loop over levels with
   // an active mask; the levels are then folded from the deepest up, local + reflect * child,
   // which is the order the reference's recursion adds in (a running weight would not be).
-  static void radiance(const Scene& s, M active, V o, V d, std::vector<Level>& levels, B& r,
-                       B& g, B& b, RayCounts& counts) noexcept {
+  static void radiance(const Scene& s, M active, V o, V d, std::vector<Level>& levels, B& r, B& g,
+                       B& b, RayCounts& counts) noexcept {
     int depth = 0;
     for (;;) {
       active = shade(s, active, depth, o, d, levels[depth], counts);
@@ -464,8 +464,8 @@ struct Kernel {
     lap(counts, kOutput);
   }
 
-  static void primary_rows(const Scene& s, float* t_out, float* id_out, int row_begin,
-                           int row_end, RayCounts& counts) noexcept {
+  static void primary_rows(const Scene& s, float* t_out, float* id_out, int row_begin, int row_end,
+                           RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
     for (int j = row_begin; j < row_end; ++j) {
