@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 #include "lancer/prepared.hpp"
 #include "lancer/vec3.hpp"
@@ -77,6 +78,19 @@ inline T power_int(T x, T e) {
     result = select(odd, result * base, result);
     base = base * base;
     e = half;
+  }
+  return result;
+}
+
+// x^n for a whole n known to the caller as an integer: the same multiplications, in the same
+// order, as power_int(x, n), without testing n's bits in T.
+template <class T>
+inline T power_uint(T x, std::uint32_t n) {
+  T result(1);
+  T base = x;
+  for (; n != 0; n >>= 1) {
+    if (n & 1u) result = result * base;
+    base = base * base;
   }
   return result;
 }

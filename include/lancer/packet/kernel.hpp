@@ -269,6 +269,11 @@ struct Kernel {
   // for the rare fractional ones, exactly as the reference does for that material.
   static B power(const Scene& s, const B& cos_nh, const B& shininess,
                  const B& shininess_int) noexcept {
+    // One whole exponent for every lane (one material's area, the common case): drive binary
+    // powering from the exponent's bits as an integer, a chain of multiplications only.
+    const T first = shininess.get(0);
+    if (xsimd::all(shininess == B(first)) && shininess_int.get(0) != T(0))
+      return power_uint(positive_part(cos_nh), static_cast<std::uint32_t>(first));
     if constexpr (kFast) return Mth::pow01(positive_part(cos_nh), shininess);
     const M whole = shininess_int != B(0);
     B p = specular_power(cos_nh, xsimd::select(whole, shininess, B(0)));
