@@ -162,13 +162,16 @@ RayCounts run_tiles(int ny, int threads, Body body) {
   return total;
 }
 
-// The scene's size: the largest distance from the origin of anything a ray starts from or
-// hits at a finite place, at least 1.
+// The scene's size: the largest distance from the camera's position (the origin of the
+// prepared, camera-relative coordinates) of anything a ray starts from or hits at a finite
+// place, at least 1.
 float scene_size(const Scene& scene) {
-  double r = 1;
-  auto grow = [&](const Vec3<double>& p, double pad) { r = std::max(r, length(p) + pad); };
-  // Orthographic rays start anywhere on the screen rectangle about the camera's position.
   const CameraSpec& c = scene.camera;
+  double r = 1;
+  auto grow = [&](const Vec3<double>& p, double pad) {
+    r = std::max(r, length(p - c.position) + pad);
+  };
+  // Orthographic rays start anywhere on the screen rectangle about the camera's position.
   grow(c.position, std::hypot(std::max(std::abs(c.xmin), std::abs(c.xmax)),
                               std::max(std::abs(c.ymin), std::abs(c.ymax))));
   for (const Light& l : scene.lights) grow(l.position, 0);
