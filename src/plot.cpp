@@ -576,9 +576,36 @@ Drawing scatter_plot(const std::vector<double>& x, const std::vector<double>& y,
   d.texts.push_back({12, (y0 + y1) / 2, o.y_label, Align::middle, Align::start, fs, true, kBlack});
   if (!o.title.empty())
     d.texts.push_back({(x0 + x1) / 2, 16, o.title, Align::middle, Align::start, fs, false, kBlack});
+  // Point labels: above right, below right, above left or below left of the point, the first
+  // that overlaps no label placed before it.
+  struct Box {
+    double x0, y0, x1, y1;
+  };
+  std::vector<Box> placed;
+  auto overlaps = [&](const Box& b) {
+    for (const Box& p : placed)
+      if (b.x0 < p.x1 && p.x0 < b.x1 && b.y0 < p.y1 && p.y0 < b.y1) return true;
+    return false;
+  };
   for (std::size_t k = 0; k < x.size(); ++k) {
     if (!std::isfinite(x[k]) || !std::isfinite(y[k])) continue;
-    d.circles.push_back({px(x[k]), py(y[k]), o.point_radius, o.point_color, 0});
+    const double cx = px(x[k]), cy = py(y[k]), r = o.point_radius;
+    d.circles.push_back({cx, cy, r, o.point_color, 0});
+    if (k >= o.labels.size() || o.labels[k].empty()) continue;
+    const double w = text_width(o.labels[k], 1), h = text_height(1), m = r + 3;
+    const Box candidates[4] = {{cx + m, cy - m - h, cx + m + w, cy - m},
+                               {cx + m, cy + m, cx + m + w, cy + m + h},
+                               {cx - m - w, cy - m - h, cx - m, cy - m},
+                               {cx - m - w, cy + m, cx - m, cy + m + h}};
+    Box chosen = candidates[0];
+    for (const Box& b : candidates)
+      if (!overlaps(b)) {
+        chosen = b;
+        break;
+      }
+    placed.push_back(chosen);
+    d.texts.push_back(
+        {chosen.x0, chosen.y0, o.labels[k], Align::start, Align::start, 1, false, kBlack});
   }
   return d;
 }

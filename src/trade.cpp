@@ -60,15 +60,16 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
 
 void write_trade_plot(const std::vector<TradeRow>& rows, const std::string& scene_name,
                       const std::string& path) {
+  plot::ScatterOptions o;
   std::vector<double> x, y;
-  std::string legend;
   for (const TradeRow& r : rows) {
     x.push_back(r.mrays_per_s);
     y.push_back(100.0 * r.off_pixel_frac);
+    o.labels.push_back(std::string(to_string(r.precision)) + " " + std::to_string(r.width));
   }
-  plot::ScatterOptions o;
+  o.width = 800;
   o.x_label = "Mrays/s (full render, 1 thread)";
-  o.y_label = "% pixels off > 1/255 vs double";
+  o.y_label = "% of pixels off by over 1/255";
   o.title = "lancer trade: " + scene_name;
   plot::Drawing d = plot::scatter_plot(x, y, o);
   plot::write_drawing(d, path);

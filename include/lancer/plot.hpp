@@ -91,6 +91,7 @@ struct ScatterOptions {
   std::string x_label = "x", y_label = "y", title;
   double point_radius = 3;
   Color point_color = kPointBlue;
+  std::vector<std::string> labels;  // optional, one per point, drawn beside it
 };
 Drawing scatter_plot(const std::vector<double>& x, const std::vector<double>& y,
                      const ScatterOptions& options = {});
