@@ -85,11 +85,8 @@ class Tracer {
 
  private:
   Vec3<T> normal_at(int id, const Vec3<T>& p) const {
-    if (id < s_.num_spheres) {
-      const T r = s_.sphere_r[id];
-      return {(p.x - s_.sphere_cx[id]) / r, (p.y - s_.sphere_cy[id]) / r,
-              (p.z - s_.sphere_cz[id]) / r};
-    }
+    if (id < s_.num_spheres)
+      return sphere_normal(p, Vec3<T>{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]});
     const int k = id - s_.num_spheres;
     return {s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
   }

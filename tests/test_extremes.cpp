@@ -234,5 +234,20 @@ TEST(Extremes, RobustSphereTestAgainstNaive) {
   }
 }
 
+// Regression (found by tests/fuzz's random extreme scenes, seed 1592592339): a sphere of radius
+// 0.0022 hit from 833 229 units away, inside a sphere of radius 833 224. Float put the hit point
+// more than a radius off the small sphere, so (P - C) / r was no unit vector and
+// max(0, n.h)^248 overflowed to infinity in every exact path. Normals are now normalize(P - C).
+TEST(Extremes, RegressionHugeRatioNormalStaysUnit) {
+  const Scene s = parse_scene(R"json({"background":13.302387326305087,"camera":{"bounds":[-0.0028929095709333023,0.0028929095709333023,-0.0017357457425599813,0.0017357457425599813],"direction":[-0.00021300084227959815,-0.01895005954173712,0.0022593820785139253],"distance":0.019086463928626514,"position":[142.5028297268132,-325.8753489362518,-0.0022593820785139253],"resolution":[13,7],"type":"pinhole"},"environment":0.20081863085515317,"epsilon":2.2168076990862738e-07,"lights":[{"ambient":3.6651902538281145e-28,"intensity":0.00019688123224410637,"position":[0.003610918427886144,160518.14571400677,0.009362893223054529]},{"ambient":7.777187556240758e+18,"intensity":4.111023838859243e-19,"position":[241.7176144644219,-4049.0445449829926,68.69838284870218]}],"max_depth":4,"objects":[{"center":[0.0,0.08881240260092461,0.028152485386231944],"material":{"color":0.07034900501678609,"ka":0.9476149097829323,"kd":0.5546920058644115,"ks":0.7937598242100052,"reflect":0.28230852966681236,"shininess":133.95435501564054},"radius":0.00049296404461191,"type":"sphere"},{"center":[-1211.9535982414066,-21670.053870657135,-0.00402833871255136],"material":{"color":[0.7671167627428418,0.5762682372583714,0.7155373125671155],"ka":0.4478953997346691,"kd":0.06167354571151118,"ks":0.3990379006082163,"reflect":0.5614557901828694,"shininess":194.59719955655797},"radius":0.0006191279797295787,"type":"sphere"},{"center":[-0.1170018069319957,-327.5103804428406,0.0],"material":{"color":[0.6724221293689044,0.3642898116727542,0.9686140860061596],"ka":0.0,"kd":0.16284785805627922,"ks":0.0,"reflect":0.41214377675191394,"shininess":142.16268836177906},"radius":833224.607493961,"type":"sphere"},{"center":[142.5026167259709,-325.8942989957935,0.0],"material":{"color":[0.23366672149786383,0.0136343625641413,0.858227458767072],"ka":0.7577736588133923,"kd":0.5328986291264245,"ks":0.14455349210393842,"reflect":0.5407301476092863,"shininess":248.0},"radius":0.0022168076990862736,"type":"sphere"}]})json", "regression");
+  for (Precision p : {Precision::exact, Precision::fast, Precision::dbl}) {
+    for (int width : packet::supported_widths(p)) {
+      RenderOptions opt;
+      opt.precision = p, opt.width = width;
+      EXPECT_TRUE(all_finite(render(s, opt).image)) << to_string(p) << " width " << width;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lancer

@@ -174,6 +174,14 @@ inline Vec3<T> offset_origin(const Vec3<T>& p, const Vec3<T>& n, const T& cos_di
   return p + n * select(cos_dir_n < T(0), -delta, delta);
 }
 
+// The unit normal of a sphere at p, normalize(p - c): the contract's (p - c) / r where p lies on
+// the sphere, and still unit length where float has put p off it (a small sphere hit from far
+// away), where (p - c) / r is not and max(0, n.h)^shininess would overflow.
+template <class Math = ExactMath, class T>
+inline Vec3<T> sphere_normal(const Vec3<T>& p, const Vec3<T>& c) {
+  return Math::normalize(p - c);
+}
+
 // Blinn-Phong's specular factor max(0, n.h)^shininess, exact for whole shininess.
 template <class T>
 inline T specular_power(const T& cos_nh, const T& shininess) {

@@ -321,7 +321,7 @@ struct Kernel {
       const int ns = s.num_spheres;
       const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
                 gather(s.sphere_cz, sid, ns)};
-      n = Mth::div(p - c, gather(s.sphere_r, sid, ns));
+      n = sphere_normal<Mth>(p, c);
     }
     if (s.features.planes) {
       const B pid = xsimd::max(id - B(T(s.num_spheres)), B(0));
