@@ -204,21 +204,49 @@ struct Kernel {
                        RayCounts& counts) noexcept {
     const B eps(s.epsilon);
     if (s.features.spheres) {
-      for (int i = 0; i < s.num_spheres; ++i) {
-        tests(counts, valid, true);
-        const B r2(s.sphere_r2[i]);
-        const V f = kFromEye ? V{B(s.eye.fx[i]), B(s.eye.fy[i]), B(s.eye.fz[i])}
-                             : o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
-        const SphereDisc<B> sd = sphere_disc<Mth>(f, d, r2);
-        M m = valid & (sd.disc >= B(0));
-        if (!xsimd::any(m)) continue;
+      // The tests of sphere i, given its discriminant: the nearest root beyond epsilon, kept
+      // where it is nearer than the best so far.
+      auto update = [&](int i, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
         const B c = kFromEye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
         const B t = sphere_first_root(sphere_roots<Mth>(sd, c), eps);
         m = m & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
         best_id = xsimd::select(m, B(T(i)), best_id);
+      };
+      auto offset = [&](int i) {
+        return kFromEye ? V{B(s.eye.fx[i]), B(s.eye.fy[i]), B(s.eye.fz[i])}
+                        : o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
+      };
+      // kGroup spheres per early-out test: most rays miss most spheres, and one branch then
+      // skips the group. Hits are still taken in sphere order: the sequential loop's result.
+      constexpr int kGroup = 4;
+      int i = 0;
+      for (; i + kGroup <= s.num_spheres; i += kGroup) {
+        V f[kGroup];
+        SphereDisc<B> sd[kGroup];
+        M m[kGroup];
+        M any_hit(false);
+        for (int g = 0; g < kGroup; ++g) {
+          tests(counts, valid, true);
+          f[g] = offset(i + g);
+          sd[g] = sphere_disc<Mth>(f[g], d, B(s.sphere_r2[i + g]));
+          m[g] = valid & (sd[g].disc >= B(0));
+          any_hit = any_hit | m[g];
+        }
+        if (!xsimd::any(any_hit)) continue;
+        for (int g = 0; g < kGroup; ++g)
+          if (xsimd::any(m[g])) update(i + g, f[g], B(s.sphere_r2[i + g]), sd[g], m[g]);
+      }
+      for (; i < s.num_spheres; ++i) {
+        tests(counts, valid, true);
+        const B r2(s.sphere_r2[i]);
+        const V f = offset(i);
+        const SphereDisc<B> sd = sphere_disc<Mth>(f, d, r2);
+        const M m = valid & (sd.disc >= B(0));
+        if (xsimd::any(m)) update(i, f, r2, sd, m);
       }
     }
+
     if (s.features.planes) {
       for (int k = 0; k < s.num_planes; ++k) {
         tests(counts, valid, false);
