@@ -29,7 +29,6 @@ std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& opt) {
   const std::vector<int> embree_widths =
       embree ? peer::embree_widths(opt.widths) : std::vector<int>{};
   std::vector<BenchRow> rows;
-  std::vector<std::vector<double>> times;
   for (const std::string& mode : opt.modes)
     for (int width : opt.widths)
       for (int threads : opt.threads) {
@@ -37,48 +36,58 @@ std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& opt) {
         r.mode = mode, r.width = width, r.threads = threads;
         r.isa = packet::isa_name(width);
         rows.push_back(r);
-        times.emplace_back();
         // The peer's row of the same mode, width and threads right after lancer's.
         if (std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
           r.engine = "embree";
           r.isa = "embree";
           r.precision = "float";  // Embree's own single-precision arithmetic
           rows.push_back(r);
-          times.emplace_back();
         }
       }
-  // One untimed warm-up of each configuration, then `repeat` rounds, configurations interleaved.
-  for (int rep = -1; rep < opt.repeat; ++rep) {
-    for (std::size_t k = 0; k < rows.size(); ++k) {
+  std::vector<std::function<double()>> run;
+  for (BenchRow& row : rows) {
+    run.push_back([&scene, &embree, &row]() -> double {
+      if (row.engine == "embree") {
+        if (row.mode == "primary") {
+          const PrimaryResult p = embree->primary(row.width, row.threads);
+          return row.rays = p.rays.total(), p.seconds;
+        }
+        const peer::EmbreeScene::RaysResult f = embree->trace_all(row.width, row.threads);
+        return row.rays = f.rays.total(), f.seconds;
+      }
       RenderOptions ro;
-      ro.width = rows[k].width;
-      ro.threads = rows[k].threads;
+      ro.width = row.width;
+      ro.threads = row.threads;
+      if (row.mode == "primary") {
+        const PrimaryResult p = render_primary(scene, ro);
+        return row.rays = p.rays.total(), p.seconds;
+      }
+      const RenderResult f = render(scene, ro);
+      return row.rays = f.rays.total(), f.seconds;
+    });
+  }
+  const std::vector<double> seconds = time_interleaved(run, opt.repeat, opt.min_seconds);
+  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].seconds = seconds[k];
+  return rows;
+}
+
+std::vector<double> time_interleaved(const std::vector<std::function<double()>>& run, int repeat,
+                                     double min_seconds) {
+  std::vector<std::vector<double>> times(run.size());
+  for (int rep = -1; rep < repeat; ++rep) {
+    for (std::size_t k = 0; k < run.size(); ++k) {
       double seconds = 0;
       int renders = 0;
       do {
-        if (rows[k].engine == "embree") {
-          if (rows[k].mode == "primary") {
-            const PrimaryResult p = embree->primary(rows[k].width, rows[k].threads);
-            seconds += p.seconds, rows[k].rays = p.rays.total();
-          } else {
-            const peer::EmbreeScene::RaysResult f =
-                embree->trace_all(rows[k].width, rows[k].threads);
-            seconds += f.seconds, rows[k].rays = f.rays.total();
-          }
-        } else if (rows[k].mode == "primary") {
-          const PrimaryResult p = render_primary(scene, ro);
-          seconds += p.seconds, rows[k].rays = p.rays.total();
-        } else {
-          const RenderResult f = render(scene, ro);
-          seconds += f.seconds, rows[k].rays = f.rays.total();
-        }
+        seconds += run[k]();
         ++renders;
-      } while (rep >= 0 && seconds < opt.min_seconds);
+      } while (rep >= 0 && seconds < min_seconds);
       if (rep >= 0) times[k].push_back(seconds / renders);
     }
   }
-  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].seconds = median(times[k]);
-  return rows;
+  std::vector<double> medians;
+  for (const auto& t : times) medians.push_back(median(t));
+  return medians;
 }
 
 }  // namespace lancer

@@ -1,21 +1,16 @@
 // The Embree peer: the scene in Embree 3, traced with rtcIntersect1/4/8/16 and rtcOccluded1/4/8/16
 // on lancer's own camera rays. See include/lancer/peer.hpp for the model and its limits.
-#include "lancer/peer.hpp"
-
 #include <cstdlib>
 
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/peer.hpp"
 
 #ifdef LANCER_HAVE_EMBREE
 
 #include <embree3/rtcore.h>
 #include <pmmintrin.h>
 #include <xmmintrin.h>
-#include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -26,6 +21,7 @@
 
 #include "lancer/formulas.hpp"
 #include "lancer/prepared.hpp"
+#include "lancer/tiles.hpp"
 
 namespace lancer::peer {
 
@@ -130,36 +126,14 @@ class FlushDenormals {
   unsigned saved_;
 };
 
-// Runs body(row_begin, row_end, counts) over tiles of 4 rows on `threads` threads, as lancer's
-// render does (src/render.cpp run_tiles), and sums the counts.
+// Tiles as lancer's render splits them (lancer/tiles.hpp), each under Embree's flush-to-zero
+// and denormals-are-zero, restored afterwards so that lancer's kernels never run with them.
 template <class Body>
-RayCounts run_tiles(int ny, int threads, Body body) {
-  constexpr int kTileRows = 4;
-  const int tiles = (ny + kTileRows - 1) / kTileRows;
-  auto tile = [&](int t, RayCounts& counts) {
-    const int r0 = t * kTileRows, r1 = std::min(ny, r0 + kTileRows);
+RayCounts embree_tiles(int ny, int threads, Body body) {
+  return run_tiles(ny, threads, [&](int r0, int r1, RayCounts& counts) {
     const FlushDenormals ftz_daz;
     body(r0, r1, counts);
-  };
-  if (threads <= 1) {
-    RayCounts counts;
-    for (int t = 0; t < tiles; ++t) tile(t, counts);
-    return counts;
-  }
-  tbb::combinable<RayCounts> per_thread;
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, tiles, 1),
-        [&](const tbb::blocked_range<int>& r) {
-          RayCounts& counts = per_thread.local();
-          for (int t = r.begin(); t < r.end(); ++t) tile(t, counts);
-        },
-        tbb::simple_partitioner());
   });
-  RayCounts total;
-  per_thread.combine_each([&](const RayCounts& c) { total += c; });
-  return total;
 }
 
 // The scene's size: the largest distance from the camera's position (the origin of the
@@ -324,12 +298,12 @@ struct EmbreeScene::Impl {
         // A square of half-size plane_half about the plane's point: rays from within the scene
         // miss it only when they run within about 1/kPlaneExtent radian of parallel to it.
         RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
-        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-            g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-            4 * std::size_t(s.num_planes)));
-        auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-            g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned),
-            std::size_t(s.num_planes)));
+        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                              RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                              4 * std::size_t(s.num_planes)));
+        auto* idx = static_cast<unsigned*>(
+            rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
+                                    4 * sizeof(unsigned), std::size_t(s.num_planes)));
         check("plane buffers");
         for (int k = 0; k < s.num_planes; ++k) {
           const Vec3<double> n{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
@@ -425,8 +399,7 @@ struct EmbreeScene::Impl {
             const int lanes = std::min(W, cam.nx - i0);
             camera_packet<W>(rh, valid, i0, j, a, b, lanes);
             Api<W>::intersect(valid, scene, &ctx, rh);
-            PeerHit* row =
-                out + (std::size_t(b * cam.samples + a) * cam.ny + j) * cam.nx + i0;
+            PeerHit* row = out + (std::size_t(b * cam.samples + a) * cam.ny + j) * cam.nx + i0;
             for (int k = 0; k < lanes; ++k) {
               const int id = object_id(RTCHitN_geomID(hit, W, k), RTCHitN_primID(hit, W, k));
               row[k] = {id < 0 ? kInf : RTCRayN_tfar(ray, W, k), id};
@@ -457,8 +430,10 @@ struct EmbreeScene::Impl {
           for (int a = 0; a < cam.samples; ++a) {
             for (int k = 0; k < W; ++k) {
               active[k] = k < lanes ? -1 : 0;
-              if (k < lanes) camera_ray_of(i0 + k, j, a, b, o[k], d[k]);
-              else o[k] = o[0], d[k] = d[0];
+              if (k < lanes)
+                camera_ray_of(i0 + k, j, a, b, o[k], d[k]);
+              else
+                o[k] = o[0], d[k] = d[0];
             }
             counts.camera += lanes;
             for (int depth = 0;; ++depth) {
@@ -472,8 +447,7 @@ struct EmbreeScene::Impl {
               Api<W>::intersect(active, scene, &ctx, rh);
               bool any_hit = false;
               for (int k = 0; k < W; ++k) {
-                id[k] = active[k] ? object_id(RTCHitN_geomID(hit, W, k),
-                                              RTCHitN_primID(hit, W, k))
+                id[k] = active[k] ? object_id(RTCHitN_geomID(hit, W, k), RTCHitN_primID(hit, W, k))
                                   : -1;
                 if (id[k] < 0) continue;
                 any_hit = true;
@@ -512,10 +486,9 @@ struct EmbreeScene::Impl {
                     }
                   }
                   // Leaving the surface as lancer does: offset along the normal (formulas.hpp).
-                  const Vec3<float> from =
-                      id[k] >= 0
-                          ? offset_origin<float, float>(p[k], n[k], dot(dir, n[k]), o[k], t[k])
-                          : o[0];
+                  const Vec3<float> from = id[k] >= 0 ? offset_origin<float, float>(
+                                                            p[k], n[k], dot(dir, n[k]), o[k], t[k])
+                                                      : o[0];
                   set_ray<W>(sray, k, from, dir, s.epsilon, dist);
                 }
                 counts.shadow += nlit;
@@ -568,12 +541,20 @@ PrimaryResult EmbreeScene::primary(int width, int threads) const {
   res.threads = std::max(1, threads);
   res.t.assign(std::size_t(im.s.camera.nx) * im.s.camera.ny, 0.0f);
   const auto start = Clock::now();
-  res.rays = run_tiles(im.s.camera.ny, res.threads, [&](int r0, int r1, RayCounts& c) {
+  res.rays = embree_tiles(im.s.camera.ny, res.threads, [&](int r0, int r1, RayCounts& c) {
     switch (width) {
-      case 1: im.primary_rows<1>(res.t.data(), r0, r1, c); break;
-      case 4: im.primary_rows<4>(res.t.data(), r0, r1, c); break;
-      case 8: im.primary_rows<8>(res.t.data(), r0, r1, c); break;
-      default: im.primary_rows<16>(res.t.data(), r0, r1, c); break;
+      case 1:
+        im.primary_rows<1>(res.t.data(), r0, r1, c);
+        break;
+      case 4:
+        im.primary_rows<4>(res.t.data(), r0, r1, c);
+        break;
+      case 8:
+        im.primary_rows<8>(res.t.data(), r0, r1, c);
+        break;
+      default:
+        im.primary_rows<16>(res.t.data(), r0, r1, c);
+        break;
     }
   });
   res.seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -585,12 +566,20 @@ EmbreeScene::RaysResult EmbreeScene::trace_all(int width, int threads) const {
   const Impl& im = *impl_;
   RaysResult res;
   const auto start = Clock::now();
-  res.rays = run_tiles(im.s.camera.ny, std::max(1, threads), [&](int r0, int r1, RayCounts& c) {
+  res.rays = embree_tiles(im.s.camera.ny, std::max(1, threads), [&](int r0, int r1, RayCounts& c) {
     switch (width) {
-      case 1: im.trace_rows<1>(r0, r1, c); break;
-      case 4: im.trace_rows<4>(r0, r1, c); break;
-      case 8: im.trace_rows<8>(r0, r1, c); break;
-      default: im.trace_rows<16>(r0, r1, c); break;
+      case 1:
+        im.trace_rows<1>(r0, r1, c);
+        break;
+      case 4:
+        im.trace_rows<4>(r0, r1, c);
+        break;
+      case 8:
+        im.trace_rows<8>(r0, r1, c);
+        break;
+      default:
+        im.trace_rows<16>(r0, r1, c);
+        break;
     }
   });
   res.seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -604,10 +593,18 @@ std::vector<PeerHit> EmbreeScene::camera_hits(int width) const {
   std::vector<PeerHit> out(std::size_t(cam.nx) * cam.ny * cam.samples * cam.samples);
   const FlushDenormals ftz_daz;
   switch (width) {
-    case 1: im.camera_hits<1>(out.data()); break;
-    case 4: im.camera_hits<4>(out.data()); break;
-    case 8: im.camera_hits<8>(out.data()); break;
-    default: im.camera_hits<16>(out.data()); break;
+    case 1:
+      im.camera_hits<1>(out.data());
+      break;
+    case 4:
+      im.camera_hits<4>(out.data());
+      break;
+    case 8:
+      im.camera_hits<8>(out.data());
+      break;
+    default:
+      im.camera_hits<16>(out.data());
+      break;
   }
   return out;
 }

@@ -1,10 +1,5 @@
 #include "lancer/render.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -15,6 +10,7 @@
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
+#include "lancer/tiles.hpp"
 
 namespace lancer {
 
@@ -120,39 +116,14 @@ PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
   return p;
 }
 
-// Runs body(row_begin, row_end, counts) over row tiles on `threads` threads and sums the
-// counts. Each pixel depends only on its own rays, so the image is the same for any split.
+// Tiles over threads with the progress callback fed as rows complete.
 template <class Body>
 RayCounts run_tiles(int ny, int threads, const RenderOptions& opt, Body body) {
-  // Small tiles balance the load across rows of different cost; four rows keep packets busy.
-  constexpr int kTileRows = 4;
-  const int tiles = (ny + kTileRows - 1) / kTileRows;
   std::atomic<int> rows_done{0};
-  auto tile = [&](int t, RayCounts& counts) {
-    const int r0 = t * kTileRows, r1 = std::min(ny, r0 + kTileRows);
-    body(r0, r1, counts);
-    const int done = rows_done += r1 - r0;
+  return lancer::run_tiles(ny, threads, body, [&](int rows) {
+    const int done = rows_done += rows;
     if (opt.on_progress) opt.on_progress(done, ny);
-  };
-  if (threads == 1) {
-    RayCounts counts;
-    for (int t = 0; t < tiles; ++t) tile(t, counts);
-    return counts;
-  }
-  tbb::combinable<RayCounts> per_thread;
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, tiles, 1),
-        [&](const tbb::blocked_range<int>& r) {
-          RayCounts& counts = per_thread.local();
-          for (int t = r.begin(); t < r.end(); ++t) tile(t, counts);
-        },
-        tbb::simple_partitioner());
   });
-  RayCounts total;
-  per_thread.combine_each([&](const RayCounts& c) { total += c; });
-  return total;
 }
 
 int resolve_threads(int requested) {

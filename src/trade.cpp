@@ -42,19 +42,16 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
   }
 
   // Speed: configurations interleaved within each repeat, each timed run at least min_seconds.
-  std::vector<std::vector<double>> rates(rows.size());
-  for (int rep = -1; rep < opt.repeat; ++rep) {
-    for (std::size_t k = 0; k < rows.size(); ++k) {
-      double seconds = 0;
-      std::uint64_t rays = 0;
-      do {
-        const RenderResult r = render(scene, configs[k]);
-        seconds += r.seconds, rays += r.rays.total();
-      } while (rep >= 0 && seconds < opt.min_seconds);
-      if (rep >= 0) rates[k].push_back(rays / seconds * 1e-6);
-    }
-  }
-  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].mrays_per_s = median(rates[k]);
+  std::vector<std::function<double()>> run;
+  std::vector<std::uint64_t> rays(rows.size());
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    run.push_back([&, k] {
+      const RenderResult r = render(scene, configs[k]);
+      rays[k] = r.rays.total();
+      return r.seconds;
+    });
+  const std::vector<double> seconds = time_interleaved(run, opt.repeat, opt.min_seconds);
+  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].mrays_per_s = rays[k] / seconds[k] * 1e-6;
   return rows;
 }
 

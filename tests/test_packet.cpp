@@ -17,12 +17,7 @@
 namespace lancer {
 namespace {
 
-std::vector<int> packet_widths() {
-  std::vector<int> w;
-  for (int width : packet::supported_widths())
-    if (width > 1) w.push_back(width);
-  return w;
-}
+using testing::packet_widths;
 
 struct Outcome {
   BitDiff diff;
@@ -66,9 +61,7 @@ TEST(PacketIdentity, EveryShippedSceneAtEveryWidth) {
 
 // Packets of doubles against the double reference, likewise bit for bit.
 TEST(PacketIdentity, DoublePacketsEveryShippedSceneAndRandomScenes) {
-  std::vector<int> widths;
-  for (int w : packet::supported_widths(Precision::dbl))
-    if (w > 1) widths.push_back(w);
+  const std::vector<int> widths = packet_widths(Precision::dbl);
   for (const std::string& path : testing::shipped_scenes()) {
     SCOPED_TRACE(path);
     for (int width : widths) expect_identical(load_scene(path), width, Precision::dbl);

@@ -11,12 +11,7 @@
 namespace lancer {
 namespace {
 
-std::vector<int> packet_widths() {
-  std::vector<int> w;
-  for (int width : packet::supported_widths())
-    if (width > 1) w.push_back(width);
-  return w;
-}
+using testing::packet_widths;
 
 TEST(Profile, StagesAddUpToTheTotal) {
   Scene s = load_scene(testing::source_path("scenes/lorenzi-reflections.json"));

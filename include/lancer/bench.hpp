@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,7 +17,7 @@ struct BenchRow {
   // "primary": camera rays, closest hit only; "full": the whole render. For the embree peer,
   // "full" is every ray lancer's render traces (camera, shadow, mirror) without the shading.
   std::string mode;
-  int width = 1;  // lanes; for embree the packet call rtcIntersect1/4/8/16
+  int width = 1;    // lanes; for embree the packet call rtcIntersect1/4/8/16
   std::string isa;  // "embree" for the peer (Embree picks its own ISA inside)
   std::string precision = "exact";
   int threads = 1;
@@ -44,5 +45,12 @@ struct BenchOptions {
 std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& options);
 
 double median(std::vector<double> v);
+
+// Times configurations side by side: one untimed warm-up of each, then `repeat` rounds with the
+// configurations interleaved (machine noise falls on all alike), each timed run repeated until
+// it lasts min_seconds. run[k]() does one render of configuration k and returns the seconds of
+// its work alone. Returns each configuration's median seconds per render.
+std::vector<double> time_interleaved(const std::vector<std::function<double()>>& run, int repeat,
+                                     double min_seconds);
 
 }  // namespace lancer

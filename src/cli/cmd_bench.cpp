@@ -27,17 +27,6 @@ struct BenchArgs {
   SceneOverrides overrides;
 };
 
-// "a,b" "c" -> a, b, c.
-std::vector<std::string> split_list(const std::vector<std::string>& items) {
-  std::vector<std::string> out;
-  for (const std::string& item : items) {
-    std::stringstream ss(item);
-    std::string part;
-    while (std::getline(ss, part, ',')) out.push_back(part);
-  }
-  return out;
-}
-
 // One ISA's single-thread peak (include/lancer/peak.hpp), median over the repeats.
 struct PeakRow {
   int width = 1;
@@ -50,9 +39,8 @@ std::vector<PeakRow> measure_peaks(int repeat) {
   constexpr double kSeconds = 0.1;
   std::vector<PeakRow> rows;
   for (int w : packet::supported_widths()) rows.push_back({w, packet::isa_name(w), 0, 0});
-  std::sort(rows.begin(), rows.end(), [](const PeakRow& a, const PeakRow& b) {
-    return a.width < b.width;
-  });
+  std::sort(rows.begin(), rows.end(),
+            [](const PeakRow& a, const PeakRow& b) { return a.width < b.width; });
   std::vector<std::vector<double>> fma(rows.size()), muladd(rows.size());
   for (int rep = 0; rep < repeat; ++rep)
     for (std::size_t k = 0; k < rows.size(); ++k) {
@@ -68,8 +56,7 @@ std::vector<PeakRow> measure_peaks(int repeat) {
 }
 
 // Fills gflops, lane_gflops and peak_fraction of lancer's primary rows.
-void add_flops(const Scene& scene, const std::vector<PeakRow>& peaks,
-               std::vector<BenchRow>& rows) {
+void add_flops(const Scene& scene, const std::vector<PeakRow>& peaks, std::vector<BenchRow>& rows) {
   for (BenchRow& r : rows) {
     // The counts are those of exact mode's arithmetic.
     if (r.engine != "lancer" || r.mode != "primary" || r.precision != "exact") continue;
@@ -128,15 +115,10 @@ void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
   out["scene"] = scene;
   out["results"] = nlohmann::json::array();
   for (const BenchRow& r : rows) {
-    nlohmann::json row{{"engine", r.engine},
-                       {"mode", r.mode},
-                       {"width", r.width},
-                       {"isa", r.isa},
-                       {"precision", r.precision},
-                       {"threads", r.threads},
-                       {"rays", r.rays},
-                       {"seconds", r.seconds},
-                       {"mrays_per_s", r.mrays_per_s()}};
+    nlohmann::json row{
+        {"engine", r.engine}, {"mode", r.mode},           {"width", r.width},
+        {"isa", r.isa},       {"precision", r.precision}, {"threads", r.threads},
+        {"rays", r.rays},     {"seconds", r.seconds},     {"mrays_per_s", r.mrays_per_s()}};
     if (r.gflops) row["gflops"] = *r.gflops;
     if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
     if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;

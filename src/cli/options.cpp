@@ -26,7 +26,9 @@ int parse_int(const std::string& text, const std::string& option) {
   return static_cast<int>(v);
 }
 
-std::vector<std::string> split_commas(const std::vector<std::string>& items) {
+}  // namespace
+
+std::vector<std::string> split_list(const std::vector<std::string>& items) {
   std::vector<std::string> out;
   for (const std::string& item : items) {
     std::stringstream ss(item);
@@ -35,7 +37,6 @@ std::vector<std::string> split_commas(const std::vector<std::string>& items) {
   }
   return out;
 }
-}  // namespace
 
 int parse_width(const std::string& text, const std::string& option) {
   if (text == "auto") return 0;
@@ -48,7 +49,7 @@ int parse_width(const std::string& text, const std::string& option) {
 std::vector<int> parse_width_list(const std::vector<std::string>& items, const std::string& option,
                                   Precision precision) {
   std::vector<int> out;
-  for (const std::string& part : split_commas(items)) {
+  for (const std::string& part : split_list(items)) {
     if (part == "all") {
       for (int w : packet::supported_widths(precision)) out.push_back(w);
       continue;
@@ -63,7 +64,7 @@ std::vector<int> parse_width_list(const std::vector<std::string>& items, const s
 std::vector<int> parse_int_list(const std::vector<std::string>& items, const std::string& option,
                                 int min_value) {
   std::vector<int> out;
-  for (const std::string& part : split_commas(items)) {
+  for (const std::string& part : split_list(items)) {
     const int v = parse_int(part, option);
     if (v < min_value)
       throw InputError(option + ": must be >= " + std::to_string(min_value) + ", not " + part);

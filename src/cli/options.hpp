@@ -9,6 +9,9 @@
 
 namespace lancer::cli {
 
+// "a,b" "c" -> a, b, c: list options given as repeated values, comma-separated, or both.
+std::vector<std::string> split_list(const std::vector<std::string>& items);
+
 // "auto" -> 0, else a whole number; throws InputError naming `option`.
 int parse_width(const std::string& text, const std::string& option);
 // "1,4,16" or "all" (every width this machine runs, widest first).

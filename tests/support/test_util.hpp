@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "lancer/image.hpp"
+#include "lancer/packet/api.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 
@@ -69,6 +70,14 @@ inline CommandResult run_command(const std::string& command) {
 }
 
 inline std::string cli() { return LANCER_CLI; }
+
+// The packet widths (not 1) this machine runs for a precision, widest first.
+inline std::vector<int> packet_widths(Precision p = Precision::exact) {
+  std::vector<int> w;
+  for (int width : packet::supported_widths(p))
+    if (width > 1) w.push_back(width);
+  return w;
+}
 
 inline Image render_with(const Scene& scene, int width, Precision precision = Precision::exact,
                          int threads = 1) {
