@@ -38,7 +38,7 @@ log="$build/fuzz.log"
 status=0
 # The first corpus folder receives new inputs; the seed folders are only read.
 "$build/fuzz_scene" "$build/corpus" "$root/scenes" "$root/tests/fuzz/corpus" \
-  -dict="$root/tests/fuzz/scene.dict" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
+  -dict="$root/tests/fuzz/scene.dict" -max_len=4096 -timeout=10 -rss_limit_mb=4096 \
   -max_total_time="$seconds" -print_final_stats=1 -artifact_prefix="$build/artifacts/" \
   >"$log" 2>&1 || status=$?
 
@@ -46,7 +46,7 @@ runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | awk '{s += $1} 
 if [ "$status" -ne 0 ]; then
   tail -n 40 "$log"
 else
-  grep -E '^#[0-9]+ *DONE|^Done' "$log" || true
+  grep -E '^#[0-9]+ *DONE|^Done|^lancer fuzz:' "$log" || true
 fi
 echo "fuzz.sh: $runs executions in ${seconds} s, exit status $status"
 if [ "$status" -ne 0 ]; then

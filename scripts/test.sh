@@ -17,5 +17,5 @@ echo "validate: every scene in scenes/ bit-identical at every width this CPU run
 
 if [ "$quick" -eq 0 ]; then
   [ -x .ci/sanitize.sh ] && .ci/sanitize.sh
-  [ -x .ci/fuzz.sh ] && .ci/fuzz.sh "${LANCER_FUZZ_SECONDS:-300}"
+  [ -x .ci/fuzz.sh ] && .ci/fuzz.sh "${LANCER_FUZZ_SECONDS:-120}"
 fi

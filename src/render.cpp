@@ -70,6 +70,9 @@ PrecisionChoice choose_precision(const Scene& scene) {
   double smallest = INFINITY;
   for (const Sphere& s : scene.spheres) {
     grow(s.center);
+    // A sphere reaches its radius beyond its centre: a huge one around the camera is a huge
+    // scene, whatever its centre's distance.
+    extent = std::max(extent, s.radius);
     smallest = std::min(smallest, s.radius);
   }
   for (const Plane& p : scene.planes) grow(p.point);

@@ -1,14 +1,14 @@
 // Scene files: JSON in exactly the format of SCENE-MODEL.md, validated strictly. Every error is
 // one line naming the place, as `objects[2].radius: must be > 0`.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
-#include <algorithm>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <vector>
-#include <sstream>
 
 #include "lancer/error.hpp"
 #include "lancer/scene.hpp"
@@ -101,8 +101,7 @@ class ObjectReader {
   double number_or(const std::string& key, double fallback) {
     return has(key) ? number(key) : fallback;
   }
-  double non_negative_or(const std::string& key, double fallback,
-                         double max_value = kMaxRadiance) {
+  double non_negative_or(const std::string& key, double fallback, double max_value = kMaxRadiance) {
     double v = number_or(key, fallback);
     if (v < 0) fail(at(key), "must be >= 0");
     if (v > max_value) fail(at(key), "must be at most " + show(max_value));
@@ -126,8 +125,8 @@ class ObjectReader {
     const double c[3] = {v.x, v.y, v.z};
     for (int i = 0; i < 3; ++i)
       if (std::fabs(c[i]) > kMaxCoordinate)
-        fail(index_path(at(key), i), "must be from " + show(-kMaxCoordinate) + " to " +
-                                         show(kMaxCoordinate));
+        fail(index_path(at(key), i),
+             "must be from " + show(-kMaxCoordinate) + " to " + show(kMaxCoordinate));
     return v;
   }
   // A direction, of any non-zero length. One far from 1 is scaled by a power of two, which
@@ -200,7 +199,6 @@ class ObjectReader {
   std::string path_;
   std::set<std::string> seen_;
 };
-
 
 CameraSpec read_camera(const json& j) {
   ObjectReader r(j, "camera");
@@ -502,18 +500,30 @@ Scene parse_scene(const std::string& text, const std::string& name) {
   }
   const auto& c = s.camera;
   if (static_cast<long long>(c.nx) * c.ny * s.supersample * s.supersample > kMaxSamples)
-    fail(name + ": camera.resolution", "resolution x supersample^2 exceeds " +
-                                  std::to_string(kMaxSamples) + " samples");
+    fail(name + ": camera.resolution",
+         "resolution x supersample^2 exceeds " + std::to_string(kMaxSamples) + " samples");
   return s;
 }
 
 Scene load_scene(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": is a folder, not a scene file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open scene file");
-  std::ostringstream text;
-  text << in.rdbuf();
+  // Read at most 1 GiB + 1 byte, so that /dev/zero or a runaway pipe fails instead of filling
+  // memory; reserve once when the size is known (a regular file).
+  std::string text;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxSceneBytes) throw InputError(path + ": file larger than 1 GiB");
+  if (!ec) text.reserve(static_cast<std::size_t>(size));
+  std::vector<char> buf(std::size_t(1) << 16);
+  while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0) {
+    text.append(buf.data(), static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxSceneBytes) throw InputError(path + ": file larger than 1 GiB");
+  }
   if (in.bad()) throw InputError(path + ": cannot read scene file");
-  return parse_scene(text.str(), path);
+  return parse_scene(text, path);
 }
 
 }  // namespace lancer

@@ -7,6 +7,7 @@
 // an infinity in the image.
 //
 // Build and run with .ci/fuzz.sh; every finding becomes a case in test_regressions.cpp.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -28,13 +29,25 @@ namespace {
   std::abort();  // libFuzzer saves the input as a crash artifact
 }
 
-void check_message(const std::string& message, const std::string& name,
-                   const std::string& input) {
+void check_message(const std::string& message, const std::string& name, const std::string& input) {
   if (message.empty()) finding("InputError with an empty message", input);
   if (message.find('\n') != std::string::npos || message.find('\r') != std::string::npos)
     finding("InputError message is not one line: " + message, input);
   if (message.compare(0, name.size() + 1, name + ":") != 0)
     finding("InputError message does not start with the scene name: " + message, input);
+}
+
+// Renders `scene` with the float reference; false and the first non-finite pixel if any.
+bool render_is_finite(const lancer::Scene& scene, int& i, int& j, int& c) {
+  const lancer::PreparedScene<float> prepared = lancer::prepare<float>(scene);
+  lancer::Image image(scene.camera.nx, scene.camera.ny);
+  lancer::RayCounts counts;
+  lancer::reference::render_rows(prepared, image, 0, scene.camera.ny, counts);
+  for (j = 0; j < image.ny; ++j)
+    for (i = 0; i < image.nx; ++i)
+      for (c = 0; c < 3; ++c)
+        if (!std::isfinite(image.pixel(i, j)[c])) return false;
+  return true;
 }
 
 }  // namespace
@@ -59,19 +72,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   scene.camera.ny = std::min(scene.camera.ny, 8);
   scene.supersample = 1;
   scene.max_depth = std::min(scene.max_depth, 3);
-  const lancer::PreparedScene<float> prepared = lancer::prepare<float>(scene);
-  lancer::Image image(scene.camera.nx, scene.camera.ny);
-  lancer::RayCounts counts;
-  lancer::reference::render_rows(prepared, image, 0, scene.camera.ny, counts);
-  for (int j = 0; j < image.ny; ++j)
-    for (int i = 0; i < image.nx; ++i)
-      for (int c = 0; c < 3; ++c) {
-        const float v = image.pixel(i, j)[c];
-        if (!std::isfinite(v)) {
-          char where[128];
-          std::snprintf(where, sizeof where, "pixel (%d, %d) channel %d is %g", i, j, c, v);
-          finding(std::string("non-finite radiance in a loaded scene: ") + where, text);
-        }
-      }
+  int i, j, c;
+  if (render_is_finite(scene, i, j, c)) return 0;
+  char where[128];
+  std::snprintf(where, sizeof where, "pixel (%d, %d) channel %d is not finite", i, j, c);
+  finding(std::string("non-finite radiance in a loaded scene: ") + where, text);
   return 0;
 }

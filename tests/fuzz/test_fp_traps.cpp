@@ -1,10 +1,12 @@
 // Built with -DLANCER_FP_TRAPS=ON: renders every scene in scenes/ through the reference (float
 // and double) with the floating-point exceptions invalid, divide-by-zero and overflow trapping
-// (glibc's feenableexcept). A trap is caught (SIGFPE), reported with the scene, precision, row
-// and kind of exception and the faulting instruction's address (give it to addr2line -f -C -e
-// on this test binary), and the render goes on with the next row.
+// (glibc's feenableexcept). A trap is caught (SIGFPE), reported with the scene, precision, row,
+// kind of exception and the faulting instruction (function, and file+offset for addr2line -f -C
+// -i -e FILE), and the render goes on with the next row. LANCER_FP_TRAPS_SCENES=a.json:b.json
+// adds scenes of one's own.
 //
 // Underflow and inexact are not trapped: both are routine in a ray tracer.
+#include <dlfcn.h>
 #include <fenv.h>
 #include <gtest/gtest.h>
 #include <setjmp.h>
@@ -48,13 +50,20 @@ extern "C" void on_fpe(int, siginfo_t* info, void* context) {
 
 const char* code_name(int code) {
   switch (code) {
-    case FPE_FLTINV: return "invalid (FE_INVALID)";
-    case FPE_FLTDIV: return "divide by zero (FE_DIVBYZERO)";
-    case FPE_FLTOVF: return "overflow (FE_OVERFLOW)";
-    case FPE_FLTUND: return "underflow";
-    case FPE_FLTRES: return "inexact";
-    case FPE_INTDIV: return "integer divide by zero";
-    default: return "other";
+    case FPE_FLTINV:
+      return "invalid (FE_INVALID)";
+    case FPE_FLTDIV:
+      return "divide by zero (FE_DIVBYZERO)";
+    case FPE_FLTOVF:
+      return "overflow (FE_OVERFLOW)";
+    case FPE_FLTUND:
+      return "underflow";
+    case FPE_FLTRES:
+      return "inexact";
+    case FPE_INTDIV:
+      return "integer divide by zero";
+    default:
+      return "other";
   }
 }
 
@@ -68,10 +77,25 @@ std::vector<std::string> scene_files() {
     while (std::getline(list, path, ':'))
       if (!path.empty()) out.push_back(path);
   }
-  for (const auto& e : std::filesystem::directory_iterator(std::string(LANCER_SOURCE_DIR) + "/scenes"))
+  for (const auto& e :
+       std::filesystem::directory_iterator(std::string(LANCER_SOURCE_DIR) + "/scenes"))
     if (e.path().extension() == ".json") out.push_back(e.path().string());
   std::sort(out.begin(), out.end());
   return out;
+}
+
+// "function (file+0xoffset)" for a code address: the offset is what addr2line -f -C -i -e FILE
+// takes.
+std::string where(std::uintptr_t address) {
+  std::ostringstream s;
+  Dl_info info{};
+  if (address && dladdr(reinterpret_cast<void*>(address), &info) && info.dli_fname) {
+    s << (info.dli_sname ? info.dli_sname : "?") << " (" << info.dli_fname << "+0x" << std::hex
+      << address - reinterpret_cast<std::uintptr_t>(info.dli_fbase) << ")";
+  } else {
+    s << "0x" << std::hex << address;
+  }
+  return s.str();
 }
 
 // Renders row by row with traps on; returns one line per trapping row.
@@ -80,7 +104,8 @@ std::vector<std::string> traps_in(const Scene& scene) {
   const PreparedScene<T> prepared = prepare<T>(scene);
   Image image(scene.camera.nx, scene.camera.ny);
   std::vector<std::string> found;
-  struct sigaction action {}, previous{};
+  struct sigaction action {
+  }, previous{};
   action.sa_sigaction = on_fpe;
   action.sa_flags = SA_SIGINFO;
   sigemptyset(&action.sa_mask);
@@ -97,7 +122,7 @@ std::vector<std::string> traps_in(const Scene& scene) {
       fedisableexcept(FE_ALL_EXCEPT);
       feclearexcept(FE_ALL_EXCEPT);
       std::ostringstream s;
-      s << "row " << j << ": " << code_name(g_code) << " at 0x" << std::hex << g_address;
+      s << "row " << j << ": " << code_name(g_code) << " at " << where(g_address);
       found.push_back(s.str());
       if (found.size() >= 10) {
         found.push_back("(stopped after 10 trapping rows)");
@@ -127,7 +152,8 @@ INSTANTIATE_TEST_SUITE_P(Scenes, FpTraps, ::testing::ValuesIn(scene_files()),
 
 // The handler itself works: a division by zero traps and is reported.
 TEST(FpTrapsSelfCheck, DivisionByZeroTraps) {
-  struct sigaction action {}, previous{};
+  struct sigaction action {
+  }, previous{};
   action.sa_sigaction = on_fpe;
   action.sa_flags = SA_SIGINFO;
   sigemptyset(&action.sa_mask);

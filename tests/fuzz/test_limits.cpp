@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -49,7 +48,8 @@ struct CliResult {
   std::string err;
 };
 CliResult render_file(const std::string& text) {
-  const std::string dir = (fs::temp_directory_path() / ("lancer-limits-" + std::to_string(getpid()))).string();
+  const std::string dir =
+      (fs::temp_directory_path() / ("lancer-limits-" + std::to_string(getpid()))).string();
   fs::create_directories(dir);
   const std::string scene = dir + "/scene.json", out = dir + "/out.png", err = dir + "/err.txt";
   std::ofstream(scene, std::ios::binary) << text;
@@ -107,11 +107,47 @@ TEST(Limits, HugeNumbersAreRefusedByTheCli) {
   EXPECT_EQ(error_of("{" + kCam + ",\"objects\":[],\"epsilon\":1e-99999}"), "(no error)");
 }
 
+// `lancer render` on things that are not scene files.
+CliResult render_path(const std::string& scene) {
+  const std::string err =
+      (fs::temp_directory_path() / ("lancer-limits-err-" + std::to_string(getpid()))).string();
+  const std::string cmd = std::string("'") + LANCER_CLI + "' render '" + scene +
+                          "' -o /proc/lancer-never.png >/dev/null 2>'" + err + "'";
+  const int st = std::system(cmd.c_str());
+  CliResult r;
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  std::ifstream in(err);
+  std::ostringstream s;
+  s << in.rdbuf();
+  r.err = s.str();
+  fs::remove(err);
+  return r;
+}
+
+TEST(Limits, FolderAsSceneFile) {
+  const CliResult r = render_path(fs::temp_directory_path().string());
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("is a folder, not a scene file"), std::string::npos) << r.err;
+}
+
+// An endless input stops at the 1 GiB limit instead of filling memory.
+TEST(Limits, EndlessSceneFileStopsAtOneGiB) {
+#ifdef LANCER_UNDER_ASAN
+  GTEST_SKIP() << "reads 1 GiB, about 2 GiB of memory under AddressSanitizer";
+#endif
+  const CliResult r = render_path("/dev/zero");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("/dev/zero: file larger than 1 GiB"), std::string::npos) << r.err;
+}
+
 TEST(Limits, ResolutionTimesSamplesIsCapped) {
   auto with = [](const std::string& res, int ss) {
     return error_of(R"({"camera":{"type":"pinhole","position":[0,0,0],"direction":[0,0,-1],)"
-                    R"("distance":1,"resolution":)" + res + R"(,"bounds":[-1,1,-1,1]},)"
-                    R"("supersample":)" + std::to_string(ss) + R"(,"objects":[]})");
+                    R"("distance":1,"resolution":)" +
+                    res +
+                    R"(,"bounds":[-1,1,-1,1]},)"
+                    R"("supersample":)" +
+                    std::to_string(ss) + R"(,"objects":[]})");
   };
   EXPECT_NE(with("[65536,65536]", 1).find("resolution x supersample^2 exceeds"), std::string::npos);
   EXPECT_NE(with("[65537,1]", 1).find("must be at most 65536 per axis"), std::string::npos);
@@ -129,21 +165,17 @@ long peak_rss_kib() {
 }
 
 // A million spheres: the text is built in memory and parsed. Memory is measured by the peak
-// resident size, which the DOM of nlohmann::json dominates (about 10 times the text); nothing
-// is timed. About 2 s in a Release build.
+// resident size, which the DOM of nlohmann::json dominates (about 11 times the text's 53 MB);
+// nothing is timed. About 2.5 s in a Release build, 30 s under ASan (where the memory bound is
+// not checked). It took minutes before parse_json stopped using json::parse's callback.
 TEST(Limits, MillionSpheresLoad) {
-#ifdef LANCER_UNDER_ASAN
-  GTEST_SKIP() << "a million spheres take minutes and gigabytes under AddressSanitizer; "
-                  "run this test in a Release build";
-#endif
   constexpr int kSpheres = 1000000;
   std::string text = "{" + kCam + R"(,"lights":[{"position":[0,10,0]}],"objects":[)";
   text.reserve(std::size_t(kSpheres) * 80);
   char buf[128];
   for (int i = 0; i < kSpheres; ++i) {
-    std::snprintf(buf, sizeof buf,
-                  R"(%s{"type":"sphere","center":[%d,%d,%d],"radius":0.25})", i ? "," : "",
-                  i % 100, (i / 100) % 100, -(i / 10000));
+    std::snprintf(buf, sizeof buf, R"(%s{"type":"sphere","center":[%d,%d,%d],"radius":0.25})",
+                  i ? "," : "", i % 100, (i / 100) % 100, -(i / 10000));
     text += buf;
   }
   text += "]}";
@@ -157,8 +189,14 @@ TEST(Limits, MillionSpheresLoad) {
   const double text_kib = text.size() / 1024.0;
   RecordProperty("text_mib", std::to_string(text_kib / 1024));
   RecordProperty("peak_growth_mib", std::to_string((after - before) / 1024.0));
-  EXPECT_LT(after - before, 16 * text_kib)
+#ifdef LANCER_UNDER_ASAN
+  // AddressSanitizer's redzones and quarantine about double the footprint: no bound to check.
+  std::printf("text %.1f MiB, peak grew by %.1f MiB (ASan)\n", text_kib / 1024,
+              (after - before) / 1024.0);
+#else
+  EXPECT_LT(after - before, 20 * text_kib)
       << "text " << text_kib / 1024 << " MiB, peak grew by " << (after - before) / 1024.0 << " MiB";
+#endif
 }
 
 }  // namespace

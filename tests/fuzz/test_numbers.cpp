@@ -3,7 +3,9 @@
 // pixel, at width 1 and at every packet width this CPU runs, in every precision.
 //
 // Each iteration has its own seed, printed on failure (SCOPED_TRACE) with the scene itself;
-// LANCER_NUMBERS_SEED=<seed> reruns one, LANCER_NUMBERS_ITERATIONS=<n> runs more.
+// LANCER_NUMBERS_SEED=<seed> reruns one, LANCER_NUMBERS_ITERATIONS=<n> runs more (default 5000;
+// 300 in Debug and ASan builds),
+// LANCER_NUMBERS_DUMP=<folder> writes each failing scene there as extreme-<seed>.json.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,7 +13,9 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <ostream>
 #include <random>
 #include <sstream>
 #include <string>
@@ -22,6 +26,10 @@
 #include "lancer/scene.hpp"
 
 namespace lancer {
+
+// Test names and messages show "exact", "double", "fast".
+inline void PrintTo(Precision p, std::ostream* os) { *os << to_string(p); }
+
 namespace {
 
 using nlohmann::json;
@@ -31,9 +39,7 @@ class Rng {
   explicit Rng(std::uint64_t seed) : gen_(seed) {}
   double uniform() { return static_cast<double>(gen_() >> 11) * 0x1.0p-53; }
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-  double log_uniform(double lo, double hi) {
-    return lo * std::exp(std::log(hi / lo) * uniform());
-  }
+  double log_uniform(double lo, double hi) { return lo * std::exp(std::log(hi / lo) * uniform()); }
   int integer(int lo, int hi) { return lo + static_cast<int>(gen_() % std::uint64_t(hi - lo + 1)); }
   bool chance(double p) { return uniform() < p; }
   double sign() { return chance(0.5) ? 1.0 : -1.0; }
@@ -55,9 +61,11 @@ json extreme_material(Rng& r) {
   m["kd"] = r.uniform();
   m["ks"] = r.chance(0.3) ? 0.0 : r.uniform(0, 1);
   const int kind = r.integer(0, 4);
-  m["shininess"] = kind == 0 ? 0.0 : kind == 1 ? 1e4 : kind == 2 ? 1.0 : kind == 3
-                                                                       ? r.uniform(0, 200)
-                                                                       : std::floor(r.uniform(2, 300));
+  m["shininess"] = kind == 0   ? 0.0
+                   : kind == 1 ? 1e4
+                   : kind == 2 ? 1.0
+                   : kind == 3 ? r.uniform(0, 200)
+                               : std::floor(r.uniform(2, 300));
   m["reflect"] = r.chance(0.4) ? 0.0 : r.uniform(0, 0.95);
   return m;
 }
@@ -109,9 +117,10 @@ json extreme_scene(std::uint64_t seed) {
   json camera;
   const double half = target[3] * r.log_uniform(0.5, 3);  // the sphere fills part of the view
   if (r.chance(0.7)) {
-    const double distance = std::sqrt((target[0] - px) * (target[0] - px) +
-                                      (target[1] - py) * (target[1] - py) +
-                                      (target[2] - pz) * (target[2] - pz)) + 1e-6;
+    const double distance =
+        std::sqrt((target[0] - px) * (target[0] - px) + (target[1] - py) * (target[1] - py) +
+                  (target[2] - pz) * (target[2] - pz)) +
+        1e-6;
     camera = {{"type", "pinhole"}, {"distance", std::max(distance, 1e-3)}};
   } else {
     camera = {{"type", "orthographic"}};
@@ -131,41 +140,45 @@ json extreme_scene(std::uint64_t seed) {
   return scene;
 }
 
-struct Path {
-  Precision precision;
-  int width;
-};
-
-std::vector<Path> all_paths() {
-  std::vector<Path> out;
-  for (Precision p : {Precision::exact, Precision::dbl, Precision::fast})
-    for (int w : packet::supported_widths(p))
-      if (!(p == Precision::fast && w == 1)) out.push_back({p, w});
-  return out;
-}
-
 std::uint64_t env_or(const char* name, std::uint64_t fallback) {
   const char* v = std::getenv(name);
   return v && *v ? std::strtoull(v, nullptr, 10) : fallback;
 }
 
-TEST(ExtremeNumbers, NoNanOrInfinityAtAnyWidth) {
+#if defined(__SANITIZE_ADDRESS__) || !defined(__OPTIMIZE__)
+constexpr std::uint64_t kDefaultIterations = 300;  // Debug and ASan builds are ~50x slower
+#else
+constexpr std::uint64_t kDefaultIterations = 5000;  // about 1 s per precision
+#endif
+
+// One test per precision, each at width 1 (not for fast) and every packet width this CPU runs;
+// auto (what `lancer render` does by default) at widths auto and 1.
+class ExtremeNumbers : public ::testing::TestWithParam<Precision> {};
+
+TEST_P(ExtremeNumbers, NoNanOrInfinityAtAnyWidth) {
+  const Precision precision = GetParam();
+  std::vector<int> widths;
+  if (precision == Precision::automatic) {
+    widths = {0, 1};  // auto: the widest the chosen precision runs, and the reference
+  } else {
+    for (int w : packet::supported_widths(precision))
+      if (!(precision == Precision::fast && w == 1)) widths.push_back(w);
+  }
   const std::uint64_t only = env_or("LANCER_NUMBERS_SEED", ~std::uint64_t(0));
-  const std::uint64_t iterations = env_or("LANCER_NUMBERS_ITERATIONS", 200);
-  const std::vector<Path> paths = all_paths();
+  const std::uint64_t iterations = env_or("LANCER_NUMBERS_ITERATIONS", kDefaultIterations);
   int failing_seeds = 0;
   for (std::uint64_t it = 0; it < iterations && failing_seeds < 10; ++it) {
     const std::uint64_t seed = only != ~std::uint64_t(0) ? only : 0x5eed0000 + it;
     const json doc = extreme_scene(seed);
-    SCOPED_TRACE("seed " + std::to_string(seed) + " (LANCER_NUMBERS_SEED=" +
-                 std::to_string(seed) + "), scene: " + doc.dump());
+    SCOPED_TRACE("seed " + std::to_string(seed) + " (LANCER_NUMBERS_SEED=" + std::to_string(seed) +
+                 "), scene: " + doc.dump());
     Scene scene;
     ASSERT_NO_THROW(scene = parse_scene(doc.dump(), "extreme.json"));
     bool seed_failed = false;
-    for (const Path& p : paths) {
+    for (int w : widths) {
       RenderOptions opt;
-      opt.width = p.width;
-      opt.precision = p.precision;
+      opt.width = w;
+      opt.precision = precision;
       opt.threads = 1;
       const Image im = render(scene, opt).image;
       bool bad = false;
@@ -175,16 +188,31 @@ TEST(ExtremeNumbers, NoNanOrInfinityAtAnyWidth) {
             const float v = im.pixel(i, j)[c];
             if (!std::isfinite(v)) {
               bad = true;
-              ADD_FAILURE() << to_string(p.precision) << " width " << p.width << ": pixel (" << i
-                            << ", " << j << ") channel " << c << " is " << v;
+              ADD_FAILURE() << to_string(precision) << " width " << w << ": pixel (" << i << ", "
+                            << j << ") channel " << c << " is " << v;
             }
           }
       seed_failed = seed_failed || bad;
     }
     failing_seeds += seed_failed;
+    if (seed_failed && std::getenv("LANCER_NUMBERS_DUMP")) {
+      // Write the scene out, e.g. for LANCER_FP_TRAPS_SCENES (test_fp_traps.cpp).
+      std::ofstream(std::string(std::getenv("LANCER_NUMBERS_DUMP")) + "/extreme-" +
+                    std::to_string(seed) + ".json")
+          << doc.dump(2);
+    }
     if (only != ~std::uint64_t(0)) break;
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Precisions, ExtremeNumbers,
+                         ::testing::Values(Precision::exact, Precision::dbl, Precision::fast,
+                                           Precision::automatic),
+                         [](const ::testing::TestParamInfo<Precision>& param) {
+                           return param.param == Precision::automatic
+                                      ? std::string("auto")
+                                      : std::string(to_string(param.param));
+                         });
 
 }  // namespace
 }  // namespace lancer

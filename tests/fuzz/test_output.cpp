@@ -5,6 +5,7 @@
 // After SIGKILL nothing can clean up: if the kill lands while the image is being written, the
 // hidden `.<name>.lancer-XXXXXX` stays behind (never a file at the target name). Killed while
 // rendering, nothing at all is left, since the temporary file is only created to write.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
@@ -12,12 +13,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <fcntl.h>
-
 #include <algorithm>
 #include <chrono>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -80,8 +79,10 @@ struct Child {
     argv.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
     // The child must see the default dispositions, whatever the test runner ignores.
     posix_spawnattr_t attr;
     posix_spawnattr_init(&attr);
@@ -132,8 +133,16 @@ std::string scene_path(const char* name) {
 // A render that takes many seconds: 4000 x 4000 x 4 samples of the reflections scene on one
 // thread (about 10 s on the development machine at width 16, far more at width 1 or under ASan).
 std::vector<std::string> long_render(const std::string& out) {
-  return {"render", scene_path("lorenzi-reflections.json"), "-o", out, "--resolution",
-          "4000x4000", "--supersample", "2", "--threads", "1"};
+  return {"render",
+          scene_path("lorenzi-reflections.json"),
+          "-o",
+          out,
+          "--resolution",
+          "4000x4000",
+          "--supersample",
+          "2",
+          "--threads",
+          "1"};
 }
 
 std::string describe(int status) {
@@ -148,7 +157,8 @@ void kill_mid_render(int sig) {
   ASSERT_GT(c.pid, 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   ASSERT_TRUE(c.running()) << "the render ended before it could be interrupted: "
-                           << describe(c.wait_status) << "\n" << c.err();
+                           << describe(c.wait_status) << "\n"
+                           << c.err();
   ASSERT_EQ(kill(c.pid, sig), 0);
   c.wait();
   // The handler removes what is pending and dies by the same signal.
@@ -303,8 +313,9 @@ TEST(OutputRefused, SceneFileItself) {
     fs::create_symlink(scene, dir.file("link-" + name));
     for (const std::string& out : {scene, dir.path + "/./" + name, dir.file("link-" + name)}) {
       SCOPED_TRACE(out);
-      expect_refused(out, out, {"render", scene, "-o", out, "--resolution", "4000x4000",
-                                "--supersample", "2", "--threads", "1"});
+      expect_refused(out, out,
+                     {"render", scene, "-o", out, "--resolution", "4000x4000", "--supersample", "2",
+                      "--threads", "1"});
       EXPECT_EQ(slurp(scene), original);
     }
   }

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Builds the `asan` preset (build-asan/: Debug, AddressSanitizer + UndefinedBehaviorSanitizer,
+# -fno-sanitize-recover=all, no benchmarks) and runs the whole CTest suite under it. Any
+# sanitizer report, leak or failing test makes it exit non-zero.
+#
+#   .ci/sanitize.sh [extra ctest arguments, e.g. -R lancer_hostile]
+#
+# Tests run one at a time unless CTEST_PARALLEL_LEVEL says otherwise: some of them time how fast
+# the CLI refuses bad output paths, and the machine has 2 cores.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:check_initialization_order=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+
+cmake --preset asan
+cmake --build --preset asan -j2
+ctest --preset asan -j"${CTEST_PARALLEL_LEVEL:-1}" "$@"
