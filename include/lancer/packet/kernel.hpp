@@ -149,16 +149,17 @@ struct Kernel {
   static unsigned bits(const M& m) noexcept {
     using R = typename M::register_type;
     const R r = static_cast<R>(m);
-    if constexpr (std::is_same_v<R, __m128>)
-      return static_cast<unsigned>(_mm_movemask_ps(r));
-    else if constexpr (std::is_same_v<R, __m128d>)
-      return static_cast<unsigned>(_mm_movemask_pd(r));
-    else if constexpr (std::is_same_v<R, __m256>)
-      return static_cast<unsigned>(_mm256_movemask_ps(r));
-    else if constexpr (std::is_same_v<R, __m256d>)
-      return static_cast<unsigned>(_mm256_movemask_pd(r));
+    constexpr bool kFloat = std::is_same_v<T, float>;
+    // By the batch's size, not R's type: naming a vector type as a template argument drops its
+    // attributes (-Wignored-attributes).
+    if constexpr (sizeof(B) == 64)  // AVX-512: masks are __mmask16 / __mmask8
+      return static_cast<unsigned>(r);
+    else if constexpr (sizeof(B) == 16)
+      return static_cast<unsigned>(kFloat ? _mm_movemask_ps(__m128(r))
+                                          : _mm_movemask_pd(__m128d(r)));
     else
-      return static_cast<unsigned>(r);  // AVX-512: __mmask16 / __mmask8
+      return static_cast<unsigned>(kFloat ? _mm256_movemask_ps(__m256(r))
+                                          : _mm256_movemask_pd(__m256d(r)));
   }
 
   // Active lanes of a mask.
