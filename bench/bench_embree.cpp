@@ -27,8 +27,7 @@ struct EmbreeCase {
   std::unique_ptr<peer::EmbreeScene> embree;  // built on first use
 
   const peer::EmbreeScene& get() {
-    if (!embree)
-      embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
+    if (!embree) embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
     return *embree;
   }
 };

@@ -1,10 +1,10 @@
 // Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); every other
 // format through OpenImageIO. Files appear whole or not at all.
+#include <OpenImageIO/imageio.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <OpenImageIO/imageio.h>
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
@@ -25,7 +25,8 @@ namespace {
 
 std::string lower_extension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -54,8 +55,9 @@ std::string make_temp_beside(const std::string& target, const char* kind = "lanc
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
   int fd = mkstemp(buf.data());
-  if (fd < 0) throw InputError(target + ": cannot create a file in " + dir.string() + ": " +
-                               std::strerror(errno));
+  if (fd < 0)
+    throw InputError(target + ": cannot create a file in " + dir.string() + ": " +
+                     std::strerror(errno));
   close(fd);
   return buf.data();
 }
@@ -118,8 +120,10 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
   }
   fs::path p(path);
   fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-  if (!fs::is_directory(dir, ec)) throw InputError(path + ": folder " + dir.string() + " does not exist");
-  if (access(dir.c_str(), W_OK) != 0) throw InputError(path + ": folder " + dir.string() + " is not writable");
+  if (!fs::is_directory(dir, ec))
+    throw InputError(path + ": folder " + dir.string() + " does not exist");
+  if (access(dir.c_str(), W_OK) != 0)
+    throw InputError(path + ": folder " + dir.string() + " is not writable");
   if (fs::is_directory(p, ec)) throw InputError(path + ": is a folder");
   if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
     throw InputError(path + ": exists and is not writable");

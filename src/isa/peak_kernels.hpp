@@ -10,7 +10,7 @@ double scalar_muladd(long iterations);  // src/peak.cpp, baseline x86-64
 double sse42_muladd(long iterations);   // src/isa/peak_sse42.cpp
 double avx2_fma(long iterations);       // src/isa/peak_avx2.cpp
 double avx2_muladd(long iterations);
-double avx512_fma(long iterations);     // src/isa/peak_avx512.cpp
+double avx512_fma(long iterations);  // src/isa/peak_avx512.cpp
 double avx512_muladd(long iterations);
 
 // Where each kernel leaves its chains' sum, so that the compiler must compute them.

@@ -85,11 +85,12 @@ TEST(EmbreePeer, CameraRaysHitAndMissAsLancerOnEveryScene) {
         EXPECT_LT(double(a.hit_miss) / a.rays, 1e-3) << a.hit_miss << " of " << a.rays;
         EXPECT_LT(double(a.other_object) / a.rays, 1e-3) << a.other_object << " of " << a.rays;
         EXPECT_LT(a.max_rel_t, 1e-3);
-        std::printf("  %-40s w=%-2d %s: %zu rays, hit/miss differ %zu, object differs %zu, "
-                    "max |dt|/t %.2g\n",
-                    std::filesystem::path(path).filename().c_str(), w,
-                    mode == peer::PlaneMode::user ? "user" : "quad", a.rays, a.hit_miss,
-                    a.other_object, a.max_rel_t);
+        std::printf(
+            "  %-40s w=%-2d %s: %zu rays, hit/miss differ %zu, object differs %zu, "
+            "max |dt|/t %.2g\n",
+            std::filesystem::path(path).filename().c_str(), w,
+            mode == peer::PlaneMode::user ? "user" : "quad", a.rays, a.hit_miss, a.other_object,
+            a.max_rel_t);
       }
     }
   }
