@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <xsimd/config/xsimd_arch.hpp>
 
 #include "isa/peak_kernels.hpp"
 #include "lancer/formulas.hpp"
@@ -67,11 +68,11 @@ double peak_gflops(int width, double seconds) {
     case 1:
       return measure(peak_kernels::scalar_muladd, seconds);
     case 4:
-      return measure(peak_kernels::sse42_muladd, seconds);
+      return measure(peak_kernels::chains<xsimd::sse4_2, false, kPeakChains>, seconds);
     case 8:
-      return measure(peak_kernels::avx2_fma, seconds);
+      return measure(peak_kernels::chains<xsimd::fma3<xsimd::avx2>, true, kPeakChains>, seconds);
     case 16:
-      return measure(peak_kernels::avx512_fma, seconds);
+      return measure(peak_kernels::chains<xsimd::avx512f, true, kPeakChainsAvx512>, seconds);
     default:
       return 0;
   }
@@ -81,9 +82,9 @@ double peak_muladd_gflops(int width, double seconds) {
   if (!runs(width)) return 0;
   switch (width) {
     case 8:
-      return measure(peak_kernels::avx2_muladd, seconds);
+      return measure(peak_kernels::chains<xsimd::avx2, false, kPeakChains>, seconds);
     case 16:
-      return measure(peak_kernels::avx512_muladd, seconds);
+      return measure(peak_kernels::chains<xsimd::avx512f, false, kPeakChainsAvx512>, seconds);
     default:
       return peak_gflops(width, seconds);
   }

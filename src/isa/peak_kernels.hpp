@@ -7,11 +7,12 @@
 namespace lancer::peak_kernels {
 
 double scalar_muladd(long iterations);  // src/peak.cpp, baseline x86-64
-double sse42_muladd(long iterations);   // src/isa/peak_sse42.cpp
-double avx2_fma(long iterations);       // src/isa/peak_avx2.cpp
-double avx2_muladd(long iterations);
-double avx512_fma(long iterations);  // src/isa/peak_avx512.cpp
-double avx512_muladd(long iterations);
+
+// N independent chains on batch<float, Arch>: xsimd::fma (one vfmadd, for fma3<avx2> and
+// avx512f) or a mul then an add (never fused: -ffp-contract=off). Defined in
+// peak_chains.hpp, instantiated only in the per-ISA src/isa/peak_*.cpp.
+template <class Arch, bool kFma, int N>
+double chains(long iterations);
 
 // Where each kernel leaves its chains' sum, so that the compiler must compute them.
 extern volatile float sink;
