@@ -2,6 +2,8 @@
 // format through OpenImageIO. Files appear whole or not at all.
 #include <OpenImageIO/imageio.h>
 #include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -9,6 +11,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -46,19 +49,40 @@ void set_pending(const std::string& path) {
 }
 void clear_pending() { g_has_pending = false; }
 
+// The signals whose handler (src/cli/main.cpp) removes the pending file. Held back while a
+// temporary file is created and registered, so that no signal finds it created but unknown.
+class HoldTerminationSignals {
+ public:
+  HoldTerminationSignals() {
+    sigset_t hold;
+    sigemptyset(&hold);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&hold, sig);
+    pthread_sigmask(SIG_BLOCK, &hold, &previous_);
+  }
+  ~HoldTerminationSignals() { pthread_sigmask(SIG_SETMASK, &previous_, nullptr); }
+  HoldTerminationSignals(const HoldTerminationSignals&) = delete;
+  HoldTerminationSignals& operator=(const HoldTerminationSignals&) = delete;
+
+ private:
+  sigset_t previous_;
+};
+
 // A fresh temporary file beside `target`, so that the final rename stays on one file system:
-// `.<name>.lancer-XXXXXX` (`.<name>.lancer-probe-XXXXXX` for the writability probe).
-std::string make_temp_beside(const std::string& target, const char* kind = "lancer-") {
+// `.<name>.lancer-XXXXXX` (`.<name>.lancer-probe-XXXXXX` for the writability probe). It is the
+// pending file from the moment it exists.
+std::string make_pending_beside(const std::string& target, const char* kind = "lancer-") {
   fs::path t(target);
   fs::path dir = t.parent_path().empty() ? fs::path(".") : t.parent_path();
   std::string pattern = (dir / ("." + t.filename().string() + "." + kind + "XXXXXX")).string();
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
+  const HoldTerminationSignals hold;
   int fd = mkstemp(buf.data());
   if (fd < 0)
     throw InputError(target + ": cannot create a file in " + dir.string() + ": " +
                      std::strerror(errno));
   close(fd);
+  set_pending(buf.data());
   return buf.data();
 }
 
@@ -129,15 +153,13 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
     throw InputError(path + ": exists and is not writable");
   // access() is no answer for root, who passes it for /proc, /sys or a read-only mount: create the
   // file the write will create (and remove it), so that the failure comes before the render.
-  const std::string probe = make_temp_beside(path, "lancer-probe-");
-  set_pending(probe);
+  make_pending_beside(path, "lancer-probe-");
   remove_pending_outputs();
 }
 
 void write_image(const Image& image, const std::string& path) {
   check_output_path(path);
-  const std::string tmp = make_temp_beside(path);
-  set_pending(tmp);
+  const std::string tmp = make_pending_beside(path);
   try {
     if (lower_extension(path) == ".pfm")
       write_pfm(image, tmp);
