@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 
 #include "lancer/error.hpp"
@@ -130,6 +131,26 @@ void remove_pending_outputs() noexcept {
   if (g_has_pending.exchange(false)) unlink(g_pending);  // async-signal-safe
 }
 
+void check_writable_target(const std::string& path, const std::string& scene_path) {
+  if (path.empty()) throw InputError("output path is empty");
+  std::error_code ec;
+  if (!scene_path.empty() && fs::exists(path, ec) && fs::equivalent(path, scene_path, ec))
+    throw InputError(path + ": would overwrite the scene file");
+  fs::path p(path);
+  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  if (!fs::is_directory(dir, ec))
+    throw InputError(path + ": folder " + dir.string() + " does not exist");
+  if (access(dir.c_str(), W_OK) != 0)
+    throw InputError(path + ": folder " + dir.string() + " is not writable");
+  if (fs::is_directory(p, ec)) throw InputError(path + ": is a folder");
+  if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
+    throw InputError(path + ": exists and is not writable");
+  // access() is no answer for root, who passes it for /proc, /sys or a read-only mount: create the
+  // file the write will create (and remove it), so that the failure comes before the work.
+  make_pending_beside(path, "lancer-probe-");
+  remove_pending_outputs();
+}
+
 void check_output_path(const std::string& path, const std::string& scene_path) {
   if (path.empty()) throw InputError("-o: output path is empty");
   std::error_code ec;
@@ -142,29 +163,14 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
     auto probe = OIIO::ImageOutput::create(path);
     if (!probe) throw InputError(path + ": unknown image format '" + ext + "'");
   }
-  fs::path p(path);
-  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-  if (!fs::is_directory(dir, ec))
-    throw InputError(path + ": folder " + dir.string() + " does not exist");
-  if (access(dir.c_str(), W_OK) != 0)
-    throw InputError(path + ": folder " + dir.string() + " is not writable");
-  if (fs::is_directory(p, ec)) throw InputError(path + ": is a folder");
-  if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
-    throw InputError(path + ": exists and is not writable");
-  // access() is no answer for root, who passes it for /proc, /sys or a read-only mount: create the
-  // file the write will create (and remove it), so that the failure comes before the render.
-  make_pending_beside(path, "lancer-probe-");
-  remove_pending_outputs();
+  check_writable_target(path, scene_path);
 }
 
-void write_image(const Image& image, const std::string& path) {
-  check_output_path(path);
+void write_file_atomically(const std::string& path,
+                           const std::function<void(const std::string&)>& write) {
   const std::string tmp = make_pending_beside(path);
   try {
-    if (lower_extension(path) == ".pfm")
-      write_pfm(image, tmp);
-    else
-      write_oiio(image, path, tmp);
+    write(tmp);
     // mkstemp makes the file 0600; give it the permissions an ordinary new file would get.
     const mode_t mask = umask(0);
     umask(mask);
@@ -176,6 +182,16 @@ void write_image(const Image& image, const std::string& path) {
     remove_pending_outputs();
     throw;
   }
+}
+
+void write_image(const Image& image, const std::string& path) {
+  check_output_path(path);
+  write_file_atomically(path, [&](const std::string& tmp) {
+    if (lower_extension(path) == ".pfm")
+      write_pfm(image, tmp);
+    else
+      write_oiio(image, path, tmp);
+  });
 }
 
 Image read_image(const std::string& path) {

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 
 #include "lancer/error.hpp"
@@ -421,31 +422,12 @@ std::string to_svg(const Drawing& d) {
 
 void check_text_path(const std::string& path, const std::string& option,
                      const std::string& scene_path) {
-  const std::string where = option + " " + path;
   if (path.empty()) throw InputError(option + ": output path is empty");
-  fs::path p(path);
-  std::error_code ec;
-  if (!scene_path.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
-    throw InputError(where + ": would overwrite the scene file");
-  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-  if (!fs::is_directory(dir, ec))
-    throw InputError(where + ": folder " + dir.string() + " does not exist");
-  if (access(dir.c_str(), W_OK) != 0)
-    throw InputError(where + ": folder " + dir.string() + " is not writable");
-  if (fs::is_directory(p, ec)) throw InputError(where + ": is a folder");
-  if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
-    throw InputError(where + ": exists and is not writable");
-  // access() says yes to root on a read-only mount: create the temporary file the write will
-  // create, and remove it, so that the failure comes before any work.
-  std::string pattern = (dir / ("." + p.filename().string() + ".lancer-probe-XXXXXX")).string();
-  std::vector<char> name(pattern.begin(), pattern.end());
-  name.push_back('\0');
-  const int fd = mkstemp(name.data());
-  if (fd < 0)
-    throw InputError(where + ": cannot create a file in " + dir.string() + ": " +
-                     std::strerror(errno));
-  close(fd);
-  unlink(name.data());
+  try {
+    check_writable_target(path, scene_path);
+  } catch (const InputError& e) {
+    throw InputError(option + " " + e.what());
+  }
 }
 
 void check_drawing_path(const std::string& path, const std::string& option,
@@ -460,37 +442,12 @@ void check_drawing_path(const std::string& path, const std::string& option,
 }
 
 void write_text_file(const std::string& text, const std::string& path) {
-  // As write_image does: a temporary file beside the target, renamed into place when whole.
-  fs::path t(path);
-  fs::path dir = t.parent_path().empty() ? fs::path(".") : t.parent_path();
-  std::string pattern = (dir / ("." + t.filename().string() + ".lancer-XXXXXX")).string();
-  std::vector<char> name(pattern.begin(), pattern.end());
-  name.push_back('\0');
-  const int fd = mkstemp(name.data());
-  if (fd < 0)
-    throw InputError(path + ": cannot create a file in " + dir.string() + ": " +
-                     std::strerror(errno));
-  const std::string tmp = name.data();
-  auto fail = [&](const std::string& what) {
-    const int err = errno;
-    unlink(tmp.c_str());
-    throw InputError(path + ": " + what + ": " + std::strerror(err));
-  };
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = write(fd, text.data() + done, text.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      close(fd);
-      fail("write failed");
-    }
-    done += std::size_t(n);
-  }
-  if (close(fd) != 0) fail("write failed");
-  const mode_t mask = umask(0);
-  umask(mask);
-  chmod(tmp.c_str(), 0666 & ~mask);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("cannot rename into place");
+  write_file_atomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.flush();
+    if (!out) throw InputError(path + ": write failed: " + std::strerror(errno));
+  });
 }
 
 void write_drawing(const Drawing& d, const std::string& path) {

@@ -55,8 +55,12 @@ void report(const std::string& name, const Scene& s, double max_exact_off = 1.0,
     const Measure m = measure(s, p, width);
     std::printf(" %7.3f%% %7.3f%% |", 100 * m.hit_mismatch, 100 * m.off);
     EXPECT_TRUE(m.finite) << name << ": NaN or infinity in a pixel, precision " << to_string(p);
-    if (p == Precision::exact) EXPECT_LE(m.off, max_exact_off) << name;
-    if (p == Precision::automatic) EXPECT_LE(m.off, max_auto_off) << name;
+    if (p == Precision::exact) {
+      EXPECT_LE(m.off, max_exact_off) << name;
+    }
+    if (p == Precision::automatic) {
+      EXPECT_LE(m.off, max_auto_off) << name;
+    }
   }
   std::printf(" %s\n", to_string(choose_precision(s).precision));
 }
@@ -229,8 +233,12 @@ TEST(Extremes, RobustSphereTestAgainstNaive) {
     const Classified c = classify(ratio, 200000, 42);
     std::printf("| %15g | %18.4f%% | %17.4f%% |\n", ratio, 100 * c.robust_agree,
                 100 * c.naive_agree);
-    if (ratio >= 1e-4) EXPECT_GE(c.robust_agree, 0.9999) << "ratio " << ratio;
-    if (ratio <= 1e-3) EXPECT_LT(c.naive_agree, c.robust_agree) << "ratio " << ratio;
+    if (ratio >= 1e-4) {
+      EXPECT_GE(c.robust_agree, 0.9999) << "ratio " << ratio;
+    }
+    if (ratio <= 1e-3) {
+      EXPECT_LT(c.naive_agree, c.robust_agree) << "ratio " << ratio;
+    }
   }
 }
 

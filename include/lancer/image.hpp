@@ -1,6 +1,7 @@
 // Linear RGB radiance images, row 0 at the top, and writing them to files.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,15 @@ struct Image {
 // Checks before rendering that `path` can be written: a known extension, an existing folder we
 // may write to, and not the scene file itself. Throws InputError naming the path.
 void check_output_path(const std::string& path, const std::string& scene_path = "");
+
+// The checks of check_output_path but the format: an existing folder we may write to (probed by
+// creating a file, since root passes access() on read-only places), not a folder, not the scene.
+void check_writable_target(const std::string& path, const std::string& scene_path = "");
+
+// Runs write(tmp) on a temporary file beside `path`, then renames it into place: the file appears
+// whole or not at all, and a SIGINT/SIGTERM/SIGHUP meanwhile removes the temporary file.
+void write_file_atomically(const std::string& path,
+                           const std::function<void(const std::string& tmp)>& write);
 
 // Writes by extension: .pfm by lancer's own writer, anything else through OpenImageIO. Float
 // formats keep radiance unclamped; integer formats clamp to [0, 1] and round to nearest. The
