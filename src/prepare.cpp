@@ -82,6 +82,7 @@ PreparedScene<T> prepare(const Scene& scene) {
   };
 
   p.num_spheres = static_cast<int>(scene.spheres.size());
+  p.naive_spheres_hold = true;
   for (const Sphere& s : scene.spheres) {
     const Vec3<double> center = s.center - shift;
     p.sphere_cx.push_back(T(center.x));
@@ -89,6 +90,8 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.sphere_cz.push_back(T(center.z));
     p.sphere_r.push_back(T(s.radius));
     p.sphere_r2.push_back(T(s.radius) * T(s.radius));
+    p.sphere_inv_r.push_back(T(1.0 / s.radius));
+    if (s.radius < kNaiveSphereRatio * length(center)) p.naive_spheres_hold = false;
     if (!pc.orthographic) {
       const Vec3<T> f =
           pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
@@ -121,9 +124,10 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.light_ambient.push_back(T(l.ambient));
   }
   // Packets look per-object fields up a whole register at a time: pad with zeros.
-  for (auto* field : {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.plane_nx,
-                      &p.plane_ny, &p.plane_nz, &p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd,
-                      &p.mat_ks, &p.mat_shininess, &p.mat_reflect, &p.mat_shininess_int})
+  for (auto* field :
+       {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.sphere_inv_r, &p.plane_nx,
+        &p.plane_ny, &p.plane_nz, &p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd, &p.mat_ks,
+        &p.mat_shininess, &p.mat_reflect, &p.mat_shininess_int})
     if (field->size() < std::size_t(kMaxLanes)) field->resize(kMaxLanes, T(0));
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;

@@ -56,6 +56,10 @@ struct PreparedScene {
   // Spheres: object ids 0 .. num_spheres-1.
   int num_spheres = 0;
   std::vector<T> sphere_cx, sphere_cy, sphere_cz, sphere_r, sphere_r2;
+  std::vector<T> sphere_inv_r;  // 1 / r, rounded once (fast mode's normals)
+  // Every sphere's radius is at least kNaiveSphereRatio of its distance from the camera: fast
+  // mode may use the textbook discriminant b^2 - c, which float keeps there (docs/precision.md).
+  bool naive_spheres_hold = false;
   // Planes: object ids num_spheres .. num_objects-1. Normals are unit.
   int num_planes = 0;
   std::vector<T> plane_px, plane_py, plane_pz, plane_nx, plane_ny, plane_nz;
@@ -73,6 +77,10 @@ struct PreparedScene {
 
   int num_objects() const { return num_spheres + num_planes; }
 };
+
+// Radius over distance from the camera above which b^2 - c still classifies >= 99.6% of rays
+// near a sphere's edge as double does (test Extremes.RobustSphereTestAgainstNaive's method).
+inline constexpr double kNaiveSphereRatio = 1.0 / 256.0;
 
 // The widest packet, in lanes: tables that packets read whole batches from are padded by this.
 inline constexpr int kMaxLanes = 16;

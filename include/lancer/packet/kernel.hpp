@@ -197,6 +197,28 @@ struct Kernel {
     return {xsimd::select(m, a.x, b.x), xsimd::select(m, a.y, b.y), xsimd::select(m, a.z, b.z)};
   }
 
+  // The discriminant of sphere i, f = origin - centre. Exact: Ray Tracing Gems ch. 7's
+  // r^2 - |f - b d|^2, as the reference. Fast: the textbook b^2 - c, b^2 fused, with c from the
+  // eye's table for camera rays: a third of the operations, at the price of b^2 - c's
+  // cancellation when a sphere is small against its distance, so only in scenes where no sphere
+  // is (PreparedScene::naive_spheres_hold; docs/precision.md). The roots are
+  // c/q and q in both (first_root), which keeps t accurate where the ray starts near a surface.
+  static SphereDisc<B> disc_of(const Scene& s, const V& f, const V& d, const B& r2, bool from_eye,
+                               int i) noexcept {
+    if (kFast && s.naive_spheres_hold) {
+      const B b = Mth::dot(f, d);
+      const B c = from_eye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
+      return {b, xsimd::fms(b, b, c)};
+    } else {
+      return sphere_disc<Mth>(f, d, r2);
+    }
+  }
+  static B first_root(const Scene& s, const SphereDisc<B>& sd, const V& f, const B& r2,
+                      bool from_eye, int i, const B& eps) noexcept {
+    const B c = from_eye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
+    return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
+  }
+
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
   // hit is found; returns the lanes whose t is now finite (hit by something).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
@@ -208,8 +230,7 @@ struct Kernel {
       // The tests of sphere i, given its discriminant: the nearest root beyond epsilon, kept
       // where it is nearer than the best so far.
       auto update = [&](int i, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
-        const B c = kFromEye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
-        const B t = sphere_first_root(sphere_roots<Mth>(sd, c), eps);
+        const B t = first_root(s, sd, f, r2, kFromEye, i, eps);
         m = m & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
         best_id = xsimd::select(m, B(T(i)), best_id);
@@ -230,7 +251,7 @@ struct Kernel {
         for (int g = 0; g < kGroup; ++g) {
           tests(counts, valid, true);
           f[g] = offset(i + g);
-          sd[g] = sphere_disc<Mth>(f[g], d, B(s.sphere_r2[i + g]));
+          sd[g] = disc_of(s, f[g], d, B(s.sphere_r2[i + g]), kFromEye, i + g);
           m[g] = valid & (sd[g].disc >= B(0));
           any_hit = any_hit | m[g];
         }
@@ -242,7 +263,7 @@ struct Kernel {
         tests(counts, valid, true);
         const B r2(s.sphere_r2[i]);
         const V f = offset(i);
-        const SphereDisc<B> sd = sphere_disc<Mth>(f, d, r2);
+        const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, i);
         const M m = valid & (sd.disc >= B(0));
         if (xsimd::any(m)) update(i, f, r2, sd, m);
       }
@@ -273,10 +294,10 @@ struct Kernel {
       tests(counts, pending, true);
       const V f = p - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
       const B r2(s.sphere_r2[i]);
-      const SphereDisc<B> sd = sphere_disc<Mth>(f, l, r2);
+      const SphereDisc<B> sd = disc_of(s, f, l, r2, false, i);
       M m = pending & (sd.disc >= B(0));
       if (!xsimd::any(m)) continue;
-      const B t = sphere_first_root(sphere_roots<Mth>(sd, sphere_c<Mth>(f, r2)), eps);
+      const B t = first_root(s, sd, f, r2, false, i, eps);
       m = m & (t > eps) & (t < dist);
       pending = pending & ~m;
       if (!xsimd::any(pending)) return valid;
@@ -317,6 +338,16 @@ struct Kernel {
     return B::load_aligned(pv);
   }
 
+  // A cosine with the surface normal. Fast mode's sphere normals, (p - c) / r, are unit only as
+  // far as p lies on the sphere: where float puts p far off a tiny sphere, capping at 1 keeps
+  // cos^shininess and kd I cos finite.
+  static B cosine(const B& c) noexcept {
+    if constexpr (kFast)
+      return xsimd::min(c, B(1.0f));
+    else
+      return c;
+  }
+
   // One bounce level of a packet: what the recursion of the reference keeps on its stack.
   struct Level {
     B r, g, b;    // local colour (or background/environment where the ray missed)
@@ -350,7 +381,10 @@ struct Kernel {
       const int ns = s.num_spheres;
       const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
                 gather(s.sphere_cz, sid, ns)};
-      n = sphere_normal<Mth>(p, c);
+      if constexpr (kFast)  // (p - c) / r, the contract's normal, by a multiplication
+        n = (p - c) * gather(s.sphere_inv_r, sid, ns);
+      else
+        n = sphere_normal<Mth>(p, c);
     }
     if (s.features.planes) {
       const B pid = xsimd::max(id - B(T(s.num_spheres)), B(0));
@@ -389,14 +423,15 @@ struct Kernel {
       lap(counts, kShadowRays);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
-      diffuse =
-          xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(cos_nl), diffuse);
+      diffuse = xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(cosine(cos_nl)),
+                              diffuse);
       if (s.features.specular) {
         const V half = l + view;
         const B half_len = Mth::length(half);
         const M m = unblocked & (half_len > B(0));
         const V h = Mth::div(half, half_len);
-        const B term = (ks * intensity) * power(s, Mth::dot(n, h), shininess, shininess_int);
+        const B term =
+            (ks * intensity) * power(s, cosine(Mth::dot(n, h)), shininess, shininess_int);
         specular = xsimd::select(m, specular + term, specular);
       }
     }
