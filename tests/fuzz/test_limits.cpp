@@ -47,12 +47,8 @@ struct CliResult {
   int status = -1;
   std::string err;
 };
-CliResult render_file(const std::string& text) {
-  const std::string dir =
-      (fs::temp_directory_path() / ("lancer-limits-" + std::to_string(getpid()))).string();
-  fs::create_directories(dir);
-  const std::string scene = dir + "/scene.json", out = dir + "/out.png", err = dir + "/err.txt";
-  std::ofstream(scene, std::ios::binary) << text;
+// `lancer render SCENE -o OUT`, its stderr kept in the file `err` (removed afterwards).
+CliResult run_render(const std::string& scene, const std::string& out, const std::string& err) {
   const std::string cmd = std::string("'") + LANCER_CLI + "' render '" + scene + "' -o '" + out +
                           "' >/dev/null 2>'" + err + "'";
   const int st = std::system(cmd.c_str());
@@ -62,6 +58,17 @@ CliResult render_file(const std::string& text) {
   std::ostringstream s;
   s << in.rdbuf();
   r.err = s.str();
+  fs::remove(err);
+  return r;
+}
+
+CliResult render_file(const std::string& text) {
+  const std::string dir =
+      (fs::temp_directory_path() / ("lancer-limits-" + std::to_string(getpid()))).string();
+  fs::create_directories(dir);
+  const std::string scene = dir + "/scene.json", out = dir + "/out.png";
+  std::ofstream(scene, std::ios::binary) << text;
+  const CliResult r = run_render(scene, out, dir + "/err.txt");
   EXPECT_FALSE(fs::exists(out)) << "an output file was written";
   fs::remove_all(dir);
   return r;
@@ -109,19 +116,9 @@ TEST(Limits, HugeNumbersAreRefusedByTheCli) {
 
 // `lancer render` on things that are not scene files.
 CliResult render_path(const std::string& scene) {
-  const std::string err =
-      (fs::temp_directory_path() / ("lancer-limits-err-" + std::to_string(getpid()))).string();
-  const std::string cmd = std::string("'") + LANCER_CLI + "' render '" + scene +
-                          "' -o /proc/lancer-never.png >/dev/null 2>'" + err + "'";
-  const int st = std::system(cmd.c_str());
-  CliResult r;
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  std::ifstream in(err);
-  std::ostringstream s;
-  s << in.rdbuf();
-  r.err = s.str();
-  fs::remove(err);
-  return r;
+  return run_render(
+      scene, "/proc/lancer-never.png",
+      (fs::temp_directory_path() / ("lancer-limits-err-" + std::to_string(getpid()))).string());
 }
 
 TEST(Limits, FolderAsSceneFile) {
