@@ -46,8 +46,8 @@ using Clock = std::chrono::steady_clock;
 
 // GFLOP/s of `kernel` over about `seconds`, after a short warm-up (wide units may be powered
 // up, and the clock raised, only once they are in use).
-double measure(double (*kernel)(long), double seconds) {
-  constexpr long kBatch = 1L << 18;
+double measure(PeakKernel kernel, double seconds) {
+  constexpr long kBatch = kPeakBatch;
   kernel(kBatch);
   double flops = 0, elapsed = 0;
   const auto start = Clock::now();
@@ -62,32 +62,32 @@ bool runs(int width) { return width == 1 || packet::kernels_for(width) != nullpt
 
 }  // namespace
 
-double peak_gflops(int width, double seconds) {
-  if (!runs(width)) return 0;
+PeakKernel peak_kernel(int width, bool fma) {
+  if (!runs(width)) return nullptr;
   switch (width) {
     case 1:
-      return measure(peak_kernels::scalar_muladd, seconds);
+      return peak_kernels::scalar_muladd;
     case 4:
-      return measure(peak_kernels::chains<xsimd::sse4_2, false, kPeakChains>, seconds);
+      return peak_kernels::chains<xsimd::sse4_2, false, kPeakChains>;
     case 8:
-      return measure(peak_kernels::chains<xsimd::fma3<xsimd::avx2>, true, kPeakChains>, seconds);
+      return fma ? peak_kernels::chains<xsimd::fma3<xsimd::avx2>, true, kPeakChains>
+                 : peak_kernels::chains<xsimd::avx2, false, kPeakChains>;
     case 16:
-      return measure(peak_kernels::chains<xsimd::avx512f, true, kPeakChainsAvx512>, seconds);
+      return fma ? peak_kernels::chains<xsimd::avx512f, true, kPeakChainsAvx512>
+                 : peak_kernels::chains<xsimd::avx512f, false, kPeakChainsAvx512>;
     default:
-      return 0;
+      return nullptr;
   }
 }
 
+double peak_gflops(int width, double seconds) {
+  const PeakKernel k = peak_kernel(width, true);
+  return k ? measure(k, seconds) : 0;
+}
+
 double peak_muladd_gflops(int width, double seconds) {
-  if (!runs(width)) return 0;
-  switch (width) {
-    case 8:
-      return measure(peak_kernels::chains<xsimd::avx2, false, kPeakChains>, seconds);
-    case 16:
-      return measure(peak_kernels::chains<xsimd::avx512f, false, kPeakChainsAvx512>, seconds);
-    default:
-      return peak_gflops(width, seconds);
-  }
+  const PeakKernel k = peak_kernel(width, false);
+  return k ? measure(k, seconds) : 0;
 }
 
 PrimaryFlops primary_flops(const Scene& scene, int width) {

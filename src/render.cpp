@@ -232,4 +232,51 @@ PrimaryResult render_primary_with_ids(const Scene& scene, const RenderOptions& o
   return primary_impl(scene, opt, true);
 }
 
+struct PrimaryKernelRun::State {
+  PreparedScene<float> scene;
+  const packet::KernelTable<float>* kernels = nullptr;
+  int threads = 1;
+  int packets_per_row = 0;
+  std::vector<float> rays;
+  std::vector<int> lanes;
+};
+
+PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
+    : state_(std::make_unique<State>()) {
+  if (opt.precision != Precision::exact && opt.precision != Precision::fast)
+    throw InputError("--precision: the kernel alone runs float packets: exact or fast");
+  const int width = resolve_width(opt.width, opt.precision);
+  if (width == 1) throw InputError("--width: the kernel alone runs packets: 4, 8 or 16, not 1");
+  State& st = *state_;
+  st.scene = prepare_for<float>(scene, opt);
+  st.kernels = packet::float_kernels(width, opt.precision);
+  st.threads = resolve_threads(opt.threads);
+  st.packets_per_row = st.kernels->packets_per_row(st.scene);
+  const std::size_t packets = std::size_t(st.packets_per_row) * scene.camera.ny;
+  st.rays.resize(packets * 6 * std::size_t(width));
+  st.lanes.resize(packets);
+  st.kernels->camera_packets(st.scene, 0, scene.camera.ny, st.rays.data(), st.lanes.data());
+}
+
+PrimaryKernelRun::~PrimaryKernelRun() = default;
+
+PrimaryResult PrimaryKernelRun::run() {
+  const State& st = *state_;
+  const int w = st.kernels->width;
+  PrimaryResult res;
+  res.width = w;
+  res.threads = st.threads;
+  res.t.assign(st.lanes.size() * std::size_t(w), 0.0f);
+  res.seconds = timed([&] {
+    res.rays = lancer::run_tiles(st.scene.camera.ny, st.threads, [&](int r0, int r1, RayCounts& c) {
+      const std::size_t first = std::size_t(r0) * st.packets_per_row;
+      const std::size_t count = std::size_t(r1 - r0) * st.packets_per_row;
+      st.kernels->intersect_camera_packets(st.scene, st.rays.data() + first * 6 * w,
+                                           st.lanes.data() + first, count, res.t.data() + first * w,
+                                           c);
+    });
+  });
+  return res;
+}
+
 }  // namespace lancer

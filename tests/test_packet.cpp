@@ -192,6 +192,58 @@ TEST(PacketPrimary, SameDistancesAsTheReference) {
   }
 }
 
+// The kernel alone (lancer bench --mode kernel) runs primary mode's closest hit on the same
+// camera rays: summing its sub-sample distances in primary mode's order gives its bits.
+TEST(PacketPrimary, KernelAloneGivesPrimaryModesDistances) {
+  std::vector<std::string> paths = testing::shipped_scenes();
+  for (const std::string& path : paths) {
+    SCOPED_TRACE(path);
+    Scene s = load_scene(path);
+    s.supersample = 2;  // sub-samples too, and odd packets at the rows' ends
+    s.camera.nx = 37;
+    const int n = s.supersample;
+    for (Precision p : {Precision::exact, Precision::fast})
+      for (int width : packet::supported_widths(p)) {
+        if (width == 1) continue;  // the reference: no kernel alone
+        for (int threads : {1, 2}) {
+          RenderOptions opt;
+          opt.width = width, opt.precision = p, opt.threads = threads;
+          const PrimaryResult primary = render_primary(s, opt);
+          PrimaryKernelRun kernel(s, opt);
+          const PrimaryResult alone = kernel.run();
+          EXPECT_EQ(alone.rays.camera, primary.rays.camera);
+          const int across = (s.camera.nx + width - 1) / width;
+          ASSERT_EQ(alone.t.size(), std::size_t(s.camera.ny) * n * n * across * width);
+          std::size_t differ = 0;
+          for (int j = 0; j < s.camera.ny; ++j)
+            for (int i = 0; i < s.camera.nx; ++i) {
+              float sum = 0;
+              for (int b = 0; b < n; ++b)
+                for (int a = 0; a < n; ++a) {
+                  const std::size_t packet =
+                      (std::size_t(j) * n * n + b * n + a) * across + i / width;
+                  sum = sum + alone.t[packet * width + i % width];
+                }
+              const float want = primary.t[std::size_t(j) * s.camera.nx + i];
+              differ += std::memcmp(&sum, &want, sizeof(float)) != 0;
+            }
+          EXPECT_EQ(differ, 0u) << to_string(p) << " width " << width << ", " << threads
+                                << " threads";
+        }
+      }
+  }
+}
+
+TEST(PacketPrimary, KernelAloneRunsFloatPacketsOnly) {
+  const Scene s = load_scene(testing::shipped_scenes().front());
+  RenderOptions opt;
+  opt.width = 1;
+  EXPECT_THROW(PrimaryKernelRun(s, opt), InputError);
+  opt.width = 0;
+  opt.precision = Precision::dbl;
+  EXPECT_THROW(PrimaryKernelRun(s, opt), InputError);
+}
+
 // Modelling only what a scene requires must not change a bit: the pruned terms add exact zeros.
 TEST(PacketIdentity, PruningChangesNothing) {
   for (const std::string& path : testing::shipped_scenes()) {

@@ -8,14 +8,17 @@
 #include <string>
 #include <vector>
 
+#include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer {
 
 struct BenchRow {
   std::string engine = "lancer";  // or a peer: "embree"
-  // "primary": camera rays, closest hit only; "full": the whole render. For the embree peer,
-  // "full" is every ray lancer's render traces (camera, shadow, mirror) without the shading.
+  // "primary": camera rays, closest hit only; "full": the whole render; "kernel": the primary
+  // intersection kernel alone, over camera rays made beforehand (PrimaryKernelRun; packets
+  // only). For the embree peer, "full" is every ray lancer's render traces (camera, shadow,
+  // mirror) without the shading.
   std::string mode;
   int width = 1;    // lanes; for embree the packet call rtcIntersect1/4/8/16
   std::string isa;  // "embree" for the peer (Embree picks its own ISA inside)
@@ -24,15 +27,26 @@ struct BenchRow {
   std::uint64_t rays = 0;  // per run
   double seconds = 0;      // per render, median over the repeats
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
-  // With --peak, lancer's primary rows: intersection GFLOP/s (include/lancer/peak.hpp), what the
-  // SIMD lanes execute, and the first against the single-thread peak x threads.
+  // With --peak, lancer's exact primary and kernel rows: intersection GFLOP/s
+  // (include/lancer/peak.hpp), what the SIMD lanes execute, and the first against the
+  // single-thread peak of the row's width x threads.
   std::optional<double> gflops, lane_gflops, peak_fraction;
 };
 
+// One ISA's single-thread peak (include/lancer/peak.hpp), timed interleaved with the rows.
+struct PeakRow {
+  int width = 1;
+  std::string isa;
+  double gflops = 0;         // FMA at widths 8 and 16, mul+add at 1 and 4
+  double muladd_gflops = 0;  // mul+add at every width: lancer's own ceiling
+};
+
 struct BenchOptions {
-  std::vector<int> widths;   // resolved widths (1 = the reference)
-  std::vector<int> threads;  // e.g. {1}
-  std::vector<std::string> modes{"primary", "full"};
+  // The precisions to run and, for each, its resolved widths (1 = the reference).
+  std::vector<Precision> precisions{Precision::exact};
+  std::vector<std::vector<int>> widths;
+  std::vector<int> threads;                           // e.g. {1}
+  std::vector<std::string> modes{"primary", "full"};  // and/or "kernel"
   int repeat = 5;
   // Each timed run renders the scene as often as it takes to last this long, so that a small
   // scene is timed over milliseconds, not microseconds; its time per render is what counts.
@@ -40,9 +54,17 @@ struct BenchOptions {
   // Peers run beside lancer, interleaved within each repeat: "embree" (include/lancer/peer.hpp).
   // They get the same modes, threads and those widths they offer (peer::embree_widths).
   std::vector<std::string> peers;
+  // Also time each ISA's peak, as one more configuration of the same rounds, so that the
+  // fraction of peak compares figures the machine's noise fell on alike.
+  bool peak = false;
 };
 
-std::vector<BenchRow> run_bench(const Scene& scene, const BenchOptions& options);
+struct BenchResult {
+  std::vector<BenchRow> rows;
+  std::vector<PeakRow> peaks;  // with options.peak, by width
+};
+
+BenchResult run_bench(const Scene& scene, const BenchOptions& options);
 
 double median(std::vector<double> v);
 

@@ -86,6 +86,14 @@ inline constexpr int kPlaneSelects = 2;
 inline constexpr int kCameraRayFlopsPinhole = 24;
 inline constexpr int kCameraRayFlopsOrthographic = 12;
 
+// The peak kernel of `width` (fma: FMA at widths 8 and 16; mul+add otherwise, and always at 1
+// and 4): kernel(iterations) runs that many iterations of every chain and returns the flops
+// done. nullptr if this CPU does not run that ISA.
+using PeakKernel = double (*)(long iterations);
+// Iterations per timed call: about half a millisecond at every width.
+inline constexpr long kPeakBatch = 1L << 18;
+PeakKernel peak_kernel(int width, bool fma);
+
 // Single-thread peak of the float ISA of `width` (1 scalar, 4 SSE4.2 mul+add, 8 AVX2 FMA,
 // 16 AVX-512F FMA), in GFLOP/s, measured over about `seconds`. 0 if this CPU does not run it.
 double peak_gflops(int width, double seconds);

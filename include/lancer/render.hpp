@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 
 #include "lancer/image.hpp"
@@ -57,6 +58,24 @@ struct PrimaryResult {
   int threads = 1;
 };
 PrimaryResult render_primary(const Scene& scene, const RenderOptions& options);
+
+// The primary intersection kernel alone (lancer bench --mode kernel): the camera rays of every
+// pixel and sub-sample are made once, at construction, untimed; each run() times only the
+// closest-hit kernel of primary mode over them (on options.threads threads) and returns the
+// nearest t of every camera ray, in the packets' order, infinity where missed. Float packets
+// only (exact or fast): InputError otherwise, naming --width or --precision.
+class PrimaryKernelRun {
+ public:
+  PrimaryKernelRun(const Scene& scene, const RenderOptions& options);
+  ~PrimaryKernelRun();
+  PrimaryKernelRun(const PrimaryKernelRun&) = delete;
+  PrimaryKernelRun& operator=(const PrimaryKernelRun&) = delete;
+  PrimaryResult run();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 // The width `requested` resolves to (0 = auto) for a precision (not automatic), or InputError
 // naming `option`.

@@ -20,6 +20,7 @@ struct BenchArgs {
   std::vector<std::string> widths{"all"};
   std::vector<std::string> threads{"1"};
   std::vector<std::string> modes{"primary", "full"};
+  std::vector<std::string> precisions{"exact"};
   int repeat = 5;
   bool json = false;
   std::vector<std::string> peers;
@@ -27,39 +28,11 @@ struct BenchArgs {
   SceneOverrides overrides;
 };
 
-// One ISA's single-thread peak (include/lancer/peak.hpp), median over the repeats.
-struct PeakRow {
-  int width = 1;
-  std::string isa;
-  double gflops = 0;         // FMA at widths 8 and 16, mul+add at 1 and 4
-  double muladd_gflops = 0;  // mul+add at every width: lancer's own ceiling
-};
-
-std::vector<PeakRow> measure_peaks(int repeat) {
-  constexpr double kSeconds = 0.1;
-  std::vector<PeakRow> rows;
-  for (int w : packet::supported_widths()) rows.push_back({w, packet::isa_name(w), 0, 0});
-  std::sort(rows.begin(), rows.end(),
-            [](const PeakRow& a, const PeakRow& b) { return a.width < b.width; });
-  std::vector<std::vector<double>> fma(rows.size()), muladd(rows.size());
-  for (int rep = 0; rep < repeat; ++rep)
-    for (std::size_t k = 0; k < rows.size(); ++k) {
-      fma[k].push_back(peak_gflops(rows[k].width, kSeconds));
-      muladd[k].push_back(rows[k].width >= 8 ? peak_muladd_gflops(rows[k].width, kSeconds)
-                                             : fma[k].back());
-    }
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    rows[k].gflops = median(fma[k]);
-    rows[k].muladd_gflops = median(muladd[k]);
-  }
-  return rows;
-}
-
-// Fills gflops, lane_gflops and peak_fraction of lancer's primary rows.
+// Fills gflops, lane_gflops and peak_fraction of lancer's exact primary and kernel rows.
 void add_flops(const Scene& scene, const std::vector<PeakRow>& peaks, std::vector<BenchRow>& rows) {
   for (BenchRow& r : rows) {
-    // The counts are those of exact mode's arithmetic.
-    if (r.engine != "lancer" || r.mode != "primary" || r.precision != "exact") continue;
+    // The counts are those of exact mode's arithmetic; both modes run the same intersections.
+    if (r.engine != "lancer" || r.mode == "full" || r.precision != "exact") continue;
     const PrimaryFlops f = primary_flops(scene, r.width);
     const double rays_per_s = r.mrays_per_s() * 1e6;
     r.gflops = rays_per_s * f.per_ray * 1e-9;
@@ -79,23 +52,26 @@ void print_peaks(const std::vector<PeakRow>& peaks) {
 
 void print_table(const std::string& scene, const std::vector<BenchRow>& rows, int repeat,
                  bool peak) {
-  std::printf("lancer bench: %s, exact precision, median of %d runs, widths interleaved\n",
-              scene.c_str(), repeat);
-  std::printf("  %-8s %-8s %5s %-8s %7s %12s %10s %10s %9s", "engine", "mode", "width", "isa",
-              "threads", "rays", "seconds", "Mrays/s", "vs w=1");
+  std::printf("lancer bench: %s, median of %d runs, configurations interleaved\n", scene.c_str(),
+              repeat);
+  std::printf("  %-8s %-8s %-9s %5s %-10s %7s %12s %10s %10s %9s", "engine", "mode", "precision",
+              "width", "isa", "threads", "rays", "seconds", "Mrays/s", "vs w=1");
   if (peak) std::printf(" %9s %11s %7s", "GFLOP/s", "lane GFLOP/s", "of peak");
   std::printf("\n");
   for (const BenchRow& r : rows) {
-    // Speed-up against the reference row of the same mode and threads, when there is one.
+    // Speed-up against the reference row of the same mode, threads and precision (exact for
+    // the peer), when there is one.
     double base = 0;
+    const std::string& precision = r.engine == "lancer" ? r.precision : "exact";
     for (const BenchRow& b : rows)
-      if (b.engine == "lancer" && b.mode == r.mode && b.threads == r.threads && b.width == 1)
+      if (b.engine == "lancer" && b.mode == r.mode && b.threads == r.threads && b.width == 1 &&
+          b.precision == precision)
         base = b.mrays_per_s();
     char ratio[32] = "-";
     if (base > 0) std::snprintf(ratio, sizeof ratio, "%.2fx", r.mrays_per_s() / base);
-    std::printf("  %-8s %-8s %5d %-8s %7d %12llu %10.5f %10.2f %9s", r.engine.c_str(),
-                r.mode.c_str(), r.width, r.isa.c_str(), r.threads, (unsigned long long)r.rays,
-                r.seconds, r.mrays_per_s(), ratio);
+    std::printf("  %-8s %-8s %-9s %5d %-10s %7d %12llu %10.5f %10.2f %9s", r.engine.c_str(),
+                r.mode.c_str(), r.precision.c_str(), r.width, r.isa.c_str(), r.threads,
+                (unsigned long long)r.rays, r.seconds, r.mrays_per_s(), ratio);
     if (peak && r.gflops)
       std::printf(" %9.2f %11.2f %6.1f%%", *r.gflops, *r.lane_gflops,
                   100 * r.peak_fraction.value_or(0));
@@ -106,7 +82,9 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
         "  GFLOP/s: flops of lancer's ray-sphere and ray-plane tests per camera ray (counts in "
         "include/lancer/peak.hpp;\n  ray generation not included) x rays/s. lane GFLOP/s: what "
         "the SIMD lanes execute (whole packets on the hit path,\n  idle lanes of partial "
-        "packets). of peak: GFLOP/s / (that width's single-thread peak x threads).\n");
+        "packets). of peak: GFLOP/s / (that width's single-thread peak x threads), the peak\n"
+        "  timed in the same rounds. primary times camera rays, the kernel and the stores; "
+        "kernel the intersection\n  kernel alone, over camera rays made beforehand.\n");
 }
 
 void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
@@ -139,15 +117,25 @@ void run_bench_cmd(const BenchArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
   BenchOptions opt;
-  opt.widths = parse_width_list(a.widths, "--width");
+  opt.precisions.clear();
+  for (const std::string& p : split_list(a.precisions)) {
+    const Precision precision = parse_precision(p, "--precision");
+    if (precision == Precision::automatic)
+      throw InputError("--precision: bench measures exact, double or fast, not auto");
+    opt.precisions.push_back(precision);
+    opt.widths.push_back(parse_width_list(a.widths, "--width", precision));
+  }
+  if (opt.precisions.empty()) throw InputError("--precision: no precision given");
   opt.threads = parse_int_list(a.threads, "--threads", 1);
   if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
   opt.repeat = a.repeat;
   opt.modes.clear();
-  for (const std::string& m : a.modes) {
-    if (m != "primary" && m != "full") throw InputError("--mode: must be primary or full");
+  for (const std::string& m : split_list(a.modes)) {
+    if (m != "primary" && m != "full" && m != "kernel")
+      throw InputError("--mode: must be primary, full or kernel, not '" + m + "'");
     opt.modes.push_back(m);
   }
+  if (opt.modes.empty()) throw InputError("--mode: no mode given");
   for (const std::string& p : split_list(a.peers)) {
     if (p != "embree") throw InputError("--peer: must be embree, not '" + p + "'");
     if (!peer::embree_available())
@@ -156,16 +144,14 @@ void run_bench_cmd(const BenchArgs& a) {
           "configure with -DLANCER_WITH_EMBREE=ON)");
     opt.peers.push_back(p);
   }
-  // The peak first, while nothing else of ours runs.
-  std::vector<PeakRow> peaks;
-  if (a.peak) peaks = measure_peaks(a.repeat);
-  std::vector<BenchRow> rows = run_bench(scene, opt);
-  if (a.peak) add_flops(scene, peaks, rows);
+  opt.peak = a.peak;
+  BenchResult result = run_bench(scene, opt);
+  if (a.peak) add_flops(scene, result.peaks, result.rows);
   if (a.json) {
-    print_json(a.scene, rows, a.peak ? &peaks : nullptr);
+    print_json(a.scene, result.rows, a.peak ? &result.peaks : nullptr);
   } else {
-    print_table(a.scene, rows, a.repeat, a.peak);
-    if (a.peak) print_peaks(peaks);
+    print_table(a.scene, result.rows, a.repeat, a.peak);
+    if (a.peak) print_peaks(result.peaks);
   }
 }
 }  // namespace
@@ -178,15 +164,19 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--width", args->widths,
                   "Widths, e.g. 1,4,8,16 or all (default: all this CPU runs; 1 = reference)");
   cmd->add_option("--threads", args->threads, "Thread counts, e.g. 1,2 (default 1)");
-  cmd->add_option("--mode", args->modes, "primary and/or full (default both)");
+  cmd->add_option("--mode", args->modes,
+                  "primary, full and/or kernel (the primary intersection kernel alone, packets "
+                  "only; default primary,full)");
+  cmd->add_option("--precision", args->precisions,
+                  "exact, fast and/or double, e.g. exact,fast (default exact)");
   cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--peer", args->peers,
                   "Run a peer beside lancer, interleaved: embree (Embree 3, if built with it)");
   cmd->add_flag("--peak", args->peak,
-                "Measure each ISA's single-thread peak GFLOP/s and report primary rows' "
-                "intersection GFLOP/s against it");
+                "Time each ISA's single-thread peak GFLOP/s in the same rounds and report exact "
+                "primary and kernel rows' intersection GFLOP/s against it");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   cmd->callback([args] { run_bench_cmd(*args); });

@@ -263,5 +263,39 @@ TEST(BenchCli, PeakAddsPeaksAndFlopsToPrimaryRows) {
   }
 }
 
+TEST(BenchCli, KernelModeAndPrecisionsAddTheirRows) {
+  const CliRun r = run("bench " + kFlux +
+                       " --mode kernel,primary --precision exact,fast --repeat 1 --json --peak");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  int kernel_rows = 0, fast_rows = 0;
+  for (const auto& row : j["results"]) {
+    EXPECT_GT(row["rays"].get<double>(), 0);
+    if (row["mode"] == "kernel") {
+      ++kernel_rows;
+      EXPECT_GT(row["width"].get<int>(), 1);  // packets only
+    }
+    if (row["precision"] == "fast") ++fast_rows;
+    // Flops are counted for exact rows, primary and kernel alike.
+    EXPECT_EQ(row.contains("peak_fraction"), row["precision"] == "exact") << row.dump();
+  }
+  const int packets = int(packet::supported_widths(Precision::fast).size());
+  EXPECT_EQ(kernel_rows, 2 * packets);
+  EXPECT_EQ(fast_rows, 2 * packets);  // fast has no width 1
+}
+
+TEST(BenchCli, BadModesAndPrecisionsAreInputErrors) {
+  const std::pair<std::string, std::string> cases[] = {{"--mode sideways", "--mode"},
+                                                       {"--precision auto", "--precision"},
+                                                       {"--precision exact,triple", "--precision"},
+                                                       {"--precision fast --width 1", "--width"}};
+  for (const auto& [args, option] : cases) {
+    const CliRun r = run("bench " + kFlux + " " + args + " --repeat 1");
+    EXPECT_EQ(r.status, 2) << args << ": " << r.out;
+    EXPECT_NE(r.out.find(option), std::string::npos) << args << ": " << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  }
+}
+
 }  // namespace
 }  // namespace lancer

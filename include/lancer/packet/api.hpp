@@ -31,6 +31,16 @@ struct KernelTable {
   // Camera rays and closest hit only, as reference::primary_rows.
   void (*primary_rows)(const PreparedScene<Real>&, float* t_out, float* id_out, int row_begin,
                        int row_end, RayCounts&);
+  // The primary intersection kernel alone (lancer bench --mode kernel): camera_packets makes the
+  // camera rays of rows [row_begin, row_end) once, packets_per_row per row, each 6 x width
+  // values (origin then direction, SoA) and its live lanes; intersect_camera_packets runs
+  // primary_rows' closest-hit kernel over `count` of them, width nearest t per packet into t_out
+  // (infinity where missed).
+  int (*packets_per_row)(const PreparedScene<Real>&);
+  void (*camera_packets)(const PreparedScene<Real>&, int row_begin, int row_end, Real* rays,
+                         int* lanes);
+  void (*intersect_camera_packets)(const PreparedScene<Real>&, const Real* rays, const int* lanes,
+                                   std::size_t count, Real* t_out, RayCounts&);
   // One packet through the closest-hit kernel, for tests: rays in SoA arrays of `width` lanes
   // (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
   // t and id. hit_out gets the lanes hit.

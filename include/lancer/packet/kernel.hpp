@@ -10,6 +10,7 @@
 
 #include <immintrin.h>  // every ISA's register types, for bits()
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -246,18 +247,21 @@ struct Kernel {
       for (; i + kGroup <= s.num_spheres; i += kGroup) {
         V f[kGroup];
         SphereDisc<B> sd[kGroup];
-        M m[kGroup];
-        M any_hit(false);
         for (int g = 0; g < kGroup; ++g) {
           tests(counts, valid, true);
           f[g] = offset(i + g);
           sd[g] = disc_of(s, f[g], d, B(s.sphere_r2[i + g]), kFromEye, i + g);
-          m[g] = valid & (sd[g].disc >= B(0));
-          any_hit = any_hit | m[g];
         }
-        if (!xsimd::any(any_hit)) continue;
-        for (int g = 0; g < kGroup; ++g)
-          if (xsimd::any(m[g])) update(i + g, f[g], B(s.sphere_r2[i + g]), sd[g], m[g]);
+        // Some disc >= 0 exactly where the largest is: one compare for the group. (The
+        // discriminants of a loaded scene are never NaN: its coordinates are bounded.)
+        static_assert(kGroup == 4);
+        const B largest =
+            xsimd::max(xsimd::max(sd[0].disc, sd[1].disc), xsimd::max(sd[2].disc, sd[3].disc));
+        if (!xsimd::any(valid & (largest >= B(0)))) continue;
+        for (int g = 0; g < kGroup; ++g) {
+          const M m = valid & (sd[g].disc >= B(0));
+          if (xsimd::any(m)) update(i + g, f[g], B(s.sphere_r2[i + g]), sd[g], m);
+        }
       }
       for (; i < s.num_spheres; ++i) {
         tests(counts, valid, true);
@@ -571,6 +575,56 @@ struct Kernel {
     }
   }
 
+  // Packets of camera rays per image row (sub-samples times packets across), as
+  // camera_packets() lays them out.
+  static int packets_per_row(const Scene& s) noexcept {
+    const PreparedCamera<T>& cam = s.camera;
+    return cam.samples * cam.samples * ((cam.nx + W - 1) / W);
+  }
+
+  // The camera rays of rows [row_begin, row_end), made once for the primary intersection kernel
+  // alone (intersect_camera_packets): per packet the origin then the direction, component by
+  // component, W lanes each (6 W values), and its live lanes; packets_per_row() per row.
+  static void camera_packets(const Scene& s, int row_begin, int row_end, T* rays,
+                             int* lanes_out) noexcept {
+    const PreparedCamera<T>& cam = s.camera;
+    std::size_t p = 0;
+    for (int j = row_begin; j < row_end; ++j)
+      for (int b = 0; b < cam.samples; ++b)
+        for (int a = 0; a < cam.samples; ++a)
+          for (int i0 = 0; i0 < cam.nx; i0 += W, ++p) {
+            V o, d;
+            camera_packet(s, i0, j, a, b, o, d);
+            T* r = rays + p * 6 * W;
+            o.x.store_unaligned(r), o.y.store_unaligned(r + W), o.z.store_unaligned(r + 2 * W);
+            d.x.store_unaligned(r + 3 * W), d.y.store_unaligned(r + 4 * W);
+            d.z.store_unaligned(r + 5 * W);
+            lanes_out[p] = std::min(W, cam.nx - i0);
+          }
+  }
+
+  // The primary intersection kernel alone, as primary_rows runs it, over `count` packets made
+  // by camera_packets(): W nearest distances per packet into t_out (infinity where missed).
+  [[gnu::flatten]] static void intersect_camera_packets(const Scene& s, const T* rays,
+                                                        const int* lanes, std::size_t count,
+                                                        T* t_out, RayCounts& counts) noexcept {
+    const B lane = iota();
+    for (std::size_t p = 0; p < count; ++p) {
+      const T* r = rays + p * 6 * W;
+      const V o{B::load_unaligned(r), B::load_unaligned(r + W), B::load_unaligned(r + 2 * W)};
+      const V d{B::load_unaligned(r + 3 * W), B::load_unaligned(r + 4 * W),
+                B::load_unaligned(r + 5 * W)};
+      const M valid = lane < B(T(lanes[p]));
+      counts.camera += static_cast<std::uint64_t>(lanes[p]);
+      B t(std::numeric_limits<T>::infinity()), id(T(-1));
+      if (s.camera.orthographic)
+        closest_hit(s, valid, o, d, t, id, counts);
+      else
+        closest_hit<true>(s, valid, o, d, t, id, counts);
+      t.store_unaligned(t_out + p * W);
+    }
+  }
+
   static void closest_hit_packet(const Scene& s, const bool* valid, const T* rays, T* t, T* id,
                                  bool* hit_out) noexcept {
     const M v = M::load_unaligned(valid);
@@ -591,7 +645,14 @@ struct Kernel {
 template <class Arch, class Real, class Mode>
 KernelTable<Real> table() {
   using K = Kernel<Arch, Real, Mode>;
-  return {K::W, Arch::name(), &K::render_rows, &K::primary_rows, &K::closest_hit_packet};
+  return {K::W,
+          Arch::name(),
+          &K::render_rows,
+          &K::primary_rows,
+          &K::packets_per_row,
+          &K::camera_packets,
+          &K::intersect_camera_packets,
+          &K::closest_hit_packet};
 }
 
 }  // namespace lancer::packet
