@@ -91,7 +91,9 @@ PreparedScene<T> prepare(const Scene& scene) {
     p.sphere_r.push_back(T(s.radius));
     p.sphere_r2.push_back(T(s.radius) * T(s.radius));
     p.sphere_inv_r.push_back(T(1.0 / s.radius));
-    if (s.radius < kNaiveSphereRatio * length(center)) p.naive_spheres_hold = false;
+    const double distance = length(center);
+    if (s.radius < kNaiveSphereRatio * distance || s.radius > 0.5 * distance)
+      p.naive_spheres_hold = false;
     if (!pc.orthographic) {
       const Vec3<T> f =
           pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};

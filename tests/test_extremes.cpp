@@ -252,6 +252,10 @@ TEST(FastMode, TextbookDiscriminantOnlyWhereItHolds) {
   EXPECT_TRUE(holds(1, 256));
   EXPECT_FALSE(holds(1, 257));
   EXPECT_FALSE(holds(1e-3, 1));
+  // Seen from within a radius of its surface, or from inside: the roots' ulps of |b| matter.
+  EXPECT_TRUE(holds(5, 10));
+  EXPECT_FALSE(holds(6, 10));
+  EXPECT_FALSE(holds(1e6, 1e6 + 2));
   EXPECT_TRUE(prepare<float>(load_scene(testing::source_path("scenes/lorenzi-reflections.json")))
                   .naive_spheres_hold);
 }

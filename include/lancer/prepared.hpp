@@ -57,8 +57,11 @@ struct PreparedScene {
   int num_spheres = 0;
   std::vector<T> sphere_cx, sphere_cy, sphere_cz, sphere_r, sphere_r2;
   std::vector<T> sphere_inv_r;  // 1 / r, rounded once (fast mode's normals)
-  // Every sphere's radius is at least kNaiveSphereRatio of its distance from the camera: fast
-  // mode may use the textbook discriminant b^2 - c, which float keeps there (docs/precision.md).
+  // Every sphere's radius is at least kNaiveSphereRatio of its distance from the camera and at
+  // most half of it: fast mode may use the textbook discriminant b^2 - c and roots -b -+ sqrt,
+  // which float keeps there (docs/precision.md). Beyond the first bound b^2 - c cancels; beyond
+  // the second the roots carry ulps of |b|, the distance to the centre, which for a huge sphere
+  // seen from near its surface (a ground of radius 1e6) far exceed the hit's own distance.
   bool naive_spheres_hold = false;
   // Planes: object ids num_spheres .. num_objects-1. Normals are unit.
   int num_planes = 0;

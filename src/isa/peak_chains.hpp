@@ -4,6 +4,7 @@
 
 #include <xsimd/xsimd.hpp>
 
+#include "lancer/packet/fused.hpp"
 #include "peak_kernels.hpp"
 
 namespace lancer::peak_kernels {
@@ -18,7 +19,7 @@ double chains(long iterations) {
   for (int k = 0; k < N; ++k) acc[k] = B(1.0f + 0.01f * k);
   for (long i = 0; i < iterations; ++i) {
 #pragma GCC unroll 16
-    for (int k = 0; k < N; ++k) acc[k] = kFma ? xsimd::fma(acc[k], a, b) : acc[k] * a + b;
+    for (int k = 0; k < N; ++k) acc[k] = kFma ? packet::fmadd(acc[k], a, b) : acc[k] * a + b;
   }
   B sum = acc[0];
   for (int k = 1; k < N; ++k) sum = sum + acc[k];

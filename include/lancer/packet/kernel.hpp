@@ -20,13 +20,14 @@
 
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/packet/fused.hpp"
 #include "lancer/profile.hpp"
 
 namespace lancer::packet {
 
-// Fast arithmetic for float batches: fused multiply-adds, and reciprocals / reciprocal square
-// roots from the hardware's approximations (12 bits on SSE/AVX, 14 on AVX-512) refined by one
-// Newton step to about 22 bits. Which of these pay is measured by `lancer trade`.
+// Fast arithmetic for float batches: fused multiply-adds (fused.hpp), and reciprocals / reciprocal
+// square roots from the hardware's approximations (12 bits on SSE/AVX, 14 on AVX-512) refined by
+// one Newton step to about 22 bits. Which of these pay is measured by `lancer trade`.
 template <class Arch>
 struct FastMath {
   using B = xsimd::batch<float, Arch>;
@@ -47,25 +48,25 @@ struct FastMath {
   // One Newton-Raphson step each: r' = r (2 - x r), y' = y (1.5 - x/2 y^2).
   static B rcp(const B& x) noexcept {
     const B r = approx_rcp(x);
-    return xsimd::fma(r, xsimd::fnma(x, r, B(1.0f)), r);
+    return fmadd(r, fnmadd(x, r, B(1.0f)), r);
   }
   static B rsqrt(const B& x) noexcept {
     const B y = approx_rsqrt(x);
-    return y * xsimd::fnma(B(0.5f) * x * y, y, B(1.5f));
+    return y * fnmadd(B(0.5f) * x * y, y, B(1.5f));
   }
 
   static B dot(const Vec3<B>& a, const Vec3<B>& b) noexcept {
-    return xsimd::fma(a.z, b.z, xsimd::fma(a.y, b.y, a.x * b.x));
+    return fmadd(a.z, b.z, fmadd(a.y, b.y, a.x * b.x));
   }
   static B div(const B& a, const B& b) noexcept { return a * rcp(b); }
   static Vec3<B> div(const Vec3<B>& v, const B& s) noexcept { return v * rcp(s); }
   static B length(const Vec3<B>& v) noexcept { return xsimd::sqrt(dot(v, v)); }
   static Vec3<B> normalize(const Vec3<B>& v) noexcept { return v * rsqrt(dot(v, v)); }
   static Vec3<B> sub_scaled(const Vec3<B>& a, const Vec3<B>& b, const B& s) noexcept {
-    return {xsimd::fnma(b.x, s, a.x), xsimd::fnma(b.y, s, a.y), xsimd::fnma(b.z, s, a.z)};
+    return {fnmadd(b.x, s, a.x), fnmadd(b.y, s, a.y), fnmadd(b.z, s, a.z)};
   }
   static Vec3<B> along(const Vec3<B>& o, const Vec3<B>& d, const B& t) noexcept {
-    return {xsimd::fma(t, d.x, o.x), xsimd::fma(t, d.y, o.y), xsimd::fma(t, d.z, o.z)};
+    return {fmadd(t, d.x, o.x), fmadd(t, d.y, o.y), fmadd(t, d.z, o.z)};
   }
   static Vec3<B> reflect(const Vec3<B>& d, const Vec3<B>& n) noexcept {
     return sub_scaled(d, n, B(2.0f) * dot(d, n));
@@ -80,22 +81,22 @@ struct FastMath {
     const B exponent = xsimd::batch_cast<float>((bits >> 23) - I(127));
     const B m = xsimd::bitwise_cast<B>((bits & I(0x007fffff)) | I(0x3f800000)) - B(1.0f);
     B g = B(0.0204903372f);
-    g = xsimd::fma(g, m, B(-0.0960662224f));
-    g = xsimd::fma(g, m, B(0.215588502f));
-    g = xsimd::fma(g, m, B(-0.339247757f));
-    g = xsimd::fma(g, m, B(0.477705927f));
-    g = xsimd::fma(g, m, B(-0.721162734f));
-    g = xsimd::fma(g, m, B(1.44269326f));
-    const B log2c = xsimd::fma(g, m, exponent);
+    g = fmadd(g, m, B(-0.0960662224f));
+    g = fmadd(g, m, B(0.215588502f));
+    g = fmadd(g, m, B(-0.339247757f));
+    g = fmadd(g, m, B(0.477705927f));
+    g = fmadd(g, m, B(-0.721162734f));
+    g = fmadd(g, m, B(1.44269326f));
+    const B log2c = fmadd(g, m, exponent);
     const B y = xsimd::max(e * log2c, B(-126.0f));
     const B yi = xsimd::floor(y);
     const B f = y - yi;
     B q = B(0.00189510704f);
-    q = xsimd::fma(q, f, B(0.00894621529f));
-    q = xsimd::fma(q, f, B(0.0558632821f));
-    q = xsimd::fma(q, f, B(0.24014077f));
-    q = xsimd::fma(q, f, B(0.69315462f));
-    q = xsimd::fma(q, f, B(0.999999896f));
+    q = fmadd(q, f, B(0.00894621529f));
+    q = fmadd(q, f, B(0.0558632821f));
+    q = fmadd(q, f, B(0.24014077f));
+    q = fmadd(q, f, B(0.69315462f));
+    q = fmadd(q, f, B(0.999999896f));
     const I scaled = xsimd::bitwise_cast<I>(q) + (xsimd::batch_cast<std::int32_t>(yi) << 23);
     const B result = xsimd::bitwise_cast<B>(scaled);
     return xsimd::select(e == B(0.0f), B(1.0f), xsimd::select(c > B(0.0f), result, B(0.0f)));
@@ -202,20 +203,29 @@ struct Kernel {
   // r^2 - |f - b d|^2, as the reference. Fast: the textbook b^2 - c, b^2 fused, with c from the
   // eye's table for camera rays: a third of the operations, at the price of b^2 - c's
   // cancellation when a sphere is small against its distance, so only in scenes where no sphere
-  // is (PreparedScene::naive_spheres_hold; docs/precision.md). The roots are
-  // c/q and q in both (first_root), which keeps t accurate where the ray starts near a surface.
+  // is (PreparedScene::naive_spheres_hold; docs/precision.md).
+  static bool textbook(const Scene& s) noexcept { return kFast && s.naive_spheres_hold; }
   static SphereDisc<B> disc_of(const Scene& s, const V& f, const V& d, const B& r2, bool from_eye,
                                int i) noexcept {
-    if (kFast && s.naive_spheres_hold) {
+    if (textbook(s)) {
       const B b = Mth::dot(f, d);
-      const B c = from_eye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
-      return {b, xsimd::fms(b, b, c)};
+      // c = |f|^2 - r^2 with r^2 folded into the first multiply-add.
+      const B c = from_eye ? B(s.eye.c[i]) : fmadd(f.z, f.z, fmadd(f.y, f.y, fmsub(f.x, f.x, r2)));
+      return {b, fmsub(b, b, c)};
     } else {
       return sphere_disc<Mth>(f, d, r2);
     }
   }
+  // The nearest root beyond epsilon. Exact: c/q and q (RTG ch. 7), as the reference. Fast, with
+  // the textbook discriminant: -b -+ sqrt(disc), no division; its near root loses ulps of |b|
+  // where the ray starts near the sphere, which the offset origins and epsilon absorb.
   static B first_root(const Scene& s, const SphereDisc<B>& sd, const V& f, const B& r2,
                       bool from_eye, int i, const B& eps) noexcept {
+    if (textbook(s)) {
+      const B root = xsimd::sqrt(sd.disc);
+      const B near_t = -(sd.b + root);
+      return xsimd::select(near_t > eps, near_t, root - sd.b);
+    }
     const B c = from_eye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
   }
@@ -326,7 +336,10 @@ struct Kernel {
     // One whole exponent for every lane (one material's area, the common case): drive binary
     // powering from the exponent's bits as an integer, a chain of multiplications only.
     const T first = shininess.get(0);
-    if (xsimd::all(shininess == B(first)) && shininess_int.get(0) != T(0))
+    // Whole: the prepared flag (exact); fast tests the value itself and gathers no flag.
+    const bool first_whole = kFast ? first == std::trunc(first) && first < T(4294967296.0)
+                                   : shininess_int.get(0) != T(0);
+    if (xsimd::all(shininess == B(first)) && first_whole)
       return power_uint(positive_part(cos_nh), static_cast<std::uint32_t>(first));
     if constexpr (kFast) return Mth::pow01(positive_part(cos_nh), shininess);
     const M whole = shininess_int != B(0);
@@ -340,6 +353,21 @@ struct Kernel {
     for (int k = 0; k < W; ++k)
       if (wv[k] == T(0)) pv[k] = std::pow(cv[k], sv[k]);
     return B::load_aligned(pv);
+  }
+
+  // v / |v|, and |v| in `length`. Exact: a square root and a division, as the reference.
+  // Fast: one refined reciprocal square root for both. Where v = 0, length is 0 (exact) or NaN
+  // (fast): callers test length > 0, false for both.
+  static V unit(const V& v, B& length) noexcept {
+    if constexpr (kFast) {
+      const B len2 = Mth::dot(v, v);
+      const B inv = Mth::rsqrt(len2);
+      length = len2 * inv;
+      return v * inv;
+    } else {
+      length = Mth::length(v);
+      return Mth::div(v, length);
+    }
   }
 
   // A cosine with the surface normal. Fast mode's sphere normals, (p - c) / r, are unit only as
@@ -405,22 +433,23 @@ struct Kernel {
     if (s.features.specular) {
       ks = gather(s, s.mat_ks, id);
       shininess = gather(s, s.mat_shininess, id);
-      shininess_int = gather(s, s.mat_shininess_int, id);
+      if constexpr (!kFast) shininess_int = gather(s, s.mat_shininess_int, id);
     }
     B ambient(0), diffuse(0), specular(0);
     for (int k = 0; k < s.num_lights; ++k) {
       ambient = ambient + ka * B(s.light_ambient[k]);
       const V to_light = V{B(s.light_x[k]), B(s.light_y[k]), B(s.light_z[k])} - p;
-      const B dist = Mth::length(to_light);
+      B dist;
+      const V l = unit(to_light, dist);
       const M lit = hit & (dist > B(0));
       counts.shadow += count(lit);
       if (!xsimd::any(lit)) continue;
-      const V l = Mth::div(to_light, dist);
       const B cos_nl = Mth::dot(l, n);
-      const V from = offset_origin<B, T>(p, n, cos_nl, o, best_t);
       // Fast mode: a light behind the surface is blocked by the surface itself (the offset
-      // origin lies on the viewer's side), so its shadow ray is answered without tracing.
+      // origin lies on the viewer's side), so its shadow ray is answered without tracing; the
+      // rays traced all leave on the normal's side.
       const M traced = kFast ? lit & (cos_nl > B(0)) : lit;
+      const V from = offset_origin<B, T>(p, n, kFast ? B(1) : cos_nl, o, best_t);
       lap(counts, kShading);
       occupancy(counts, kShadowRays, traced);
       const M unblocked = traced & ~occluded(s, traced, from, l, dist, counts);
@@ -430,10 +459,9 @@ struct Kernel {
       diffuse = xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(cosine(cos_nl)),
                               diffuse);
       if (s.features.specular) {
-        const V half = l + view;
-        const B half_len = Mth::length(half);
+        B half_len;
+        const V h = unit(l + view, half_len);
         const M m = unblocked & (half_len > B(0));
-        const V h = Mth::div(half, half_len);
         const B term =
             (ks * intensity) * power(s, cosine(Mth::dot(n, h)), shininess, shininess_int);
         specular = xsimd::select(m, specular + term, specular);
@@ -452,8 +480,12 @@ struct Kernel {
     out.reflected = hit & (out.reflect > B(0));
     if (xsimd::any(out.reflected)) {
       counts.reflected += count(out.reflected);
-      const V r = Mth::normalize(Mth::reflect(d, n));
-      const V from = offset_origin<B, T>(p, n, Mth::dot(r, n), o, best_t);
+      // Fast: d and n are unit to a few ulps (n to the accuracy of p on the sphere), and so
+      // is their reflection: no normalisation.
+      const V r = kFast ? Mth::reflect(d, n) : Mth::normalize(Mth::reflect(d, n));
+      // n faces the incoming ray, so the reflected one leaves on its side: r.n = -d.n >= 0.
+      // Exact computes r.n as the reference does; fast takes the sign as known.
+      const V from = offset_origin<B, T>(p, n, kFast ? B(1) : Mth::dot(r, n), o, best_t);
       o = select3(out.reflected, from, o);
       d = select3(out.reflected, r, d);
     }
@@ -497,6 +529,27 @@ struct Kernel {
     for (int k = 0; k < lanes; ++k) dst[k] = static_cast<float>(tmp[k]);
   }
 
+  // 16 pixels' r, g, b into 48 interleaved floats at dst: per output register, one two-source
+  // permute places r and g (indexes 0-15 pick r, 16-31 g), a masked permute adds b.
+  static void store_rgb16(const B& r, const B& g, const B& b, float* dst) noexcept {
+    if constexpr (std::is_same_v<T, float> && W == 16) {
+      alignas(64) static constexpr std::int32_t kRg[3][16] = {
+          {0, 16, 0, 1, 17, 0, 2, 18, 0, 3, 19, 0, 4, 20, 0, 5},
+          {21, 0, 6, 22, 0, 7, 23, 0, 8, 24, 0, 9, 25, 0, 10, 26},
+          {0, 11, 27, 0, 12, 28, 0, 13, 29, 0, 14, 30, 0, 15, 31, 0}};
+      alignas(64) static constexpr std::int32_t kB[3][16] = {
+          {0, 0, 0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0, 4, 0},
+          {0, 5, 0, 0, 6, 0, 0, 7, 0, 0, 8, 0, 0, 9, 0, 0},
+          {10, 0, 0, 11, 0, 0, 12, 0, 0, 13, 0, 0, 14, 0, 0, 15}};
+      constexpr __mmask16 kBLanes[3] = {0x4924, 0x2492, 0x9249};
+      for (int v = 0; v < 3; ++v) {
+        const __m512 t = _mm512_permutex2var_ps(r, _mm512_load_si512(kRg[v]), g);
+        _mm512_storeu_ps(dst + 16 * v,
+                         _mm512_mask_permutexvar_ps(t, kBLanes[v], _mm512_load_si512(kB[v]), b));
+      }
+    }
+  }
+
   static void render_rows(const Scene& s, Image& image, int row_begin, int row_end,
                           RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
@@ -523,9 +576,17 @@ struct Kernel {
             sr = sr + r, sg = sg + g, sb = sb + bl;
           }
         }
-        (sr / samples).store_aligned(out[0]);
-        (sg / samples).store_aligned(out[1]);
-        (sb / samples).store_aligned(out[2]);
+        // The mean of the sub-samples (x / 1 is x: one sample needs no division).
+        if (cam.samples > 1) sr = sr / samples, sg = sg / samples, sb = sb / samples;
+        if constexpr (std::is_same_v<T, float> && W == 16) {
+          if (lanes == W) {
+            store_rgb16(sr, sg, sb, image.pixel(i0, j));
+            continue;
+          }
+        }
+        sr.store_aligned(out[0]);
+        sg.store_aligned(out[1]);
+        sb.store_aligned(out[2]);
         for (int k = 0; k < lanes; ++k) {
           float* px = image.pixel(i0 + k, j);
           px[0] = static_cast<float>(out[0][k]);

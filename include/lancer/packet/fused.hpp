@@ -1,0 +1,54 @@
+// Fused multiply-adds on xsimd batches, one rounding each. xsimd 8.1 fuses only for its
+// fma3<...> architectures: for avx512f its fma, fms and fnma are a multiplication then an
+// addition (two roundings, and two instructions under -ffp-contract=off), so AVX-512F gets its
+// own intrinsics here. SSE4.2 has no FMA instruction: there the unfused pair is what it has.
+// Include only from code built for the batch's ISA (packet/kernel.hpp, src/isa/).
+#pragma once
+
+#include <immintrin.h>
+
+#include <type_traits>
+#include <xsimd/xsimd.hpp>
+
+namespace lancer::packet {
+
+template <class Arch>
+inline constexpr bool kAvx512 = std::is_same_v<Arch, xsimd::avx512f>;
+
+// a * b + c
+template <class T, class Arch>
+xsimd::batch<T, Arch> fmadd(const xsimd::batch<T, Arch>& a, const xsimd::batch<T, Arch>& b,
+                            const xsimd::batch<T, Arch>& c) noexcept {
+  if constexpr (kAvx512<Arch> && std::is_same_v<T, float>)
+    return _mm512_fmadd_ps(a, b, c);
+  else if constexpr (kAvx512<Arch>)
+    return _mm512_fmadd_pd(a, b, c);
+  else
+    return xsimd::fma(a, b, c);
+}
+
+// a * b - c
+template <class T, class Arch>
+xsimd::batch<T, Arch> fmsub(const xsimd::batch<T, Arch>& a, const xsimd::batch<T, Arch>& b,
+                            const xsimd::batch<T, Arch>& c) noexcept {
+  if constexpr (kAvx512<Arch> && std::is_same_v<T, float>)
+    return _mm512_fmsub_ps(a, b, c);
+  else if constexpr (kAvx512<Arch>)
+    return _mm512_fmsub_pd(a, b, c);
+  else
+    return xsimd::fms(a, b, c);
+}
+
+// c - a * b
+template <class T, class Arch>
+xsimd::batch<T, Arch> fnmadd(const xsimd::batch<T, Arch>& a, const xsimd::batch<T, Arch>& b,
+                             const xsimd::batch<T, Arch>& c) noexcept {
+  if constexpr (kAvx512<Arch> && std::is_same_v<T, float>)
+    return _mm512_fnmadd_ps(a, b, c);
+  else if constexpr (kAvx512<Arch>)
+    return _mm512_fnmadd_pd(a, b, c);
+  else
+    return xsimd::fnma(a, b, c);
+}
+
+}  // namespace lancer::packet
