@@ -230,12 +230,23 @@ struct Kernel {
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
   }
 
+  // Fast: a ray that leaves a sphere from outside cannot meet it again (spheres are convex),
+  // so its lanes skip that sphere's roots, which would only find the point it leaves. Exact
+  // tests it, as the reference does.
+  static M skip(const M& m, const B& leaving, int sphere) noexcept {
+    if constexpr (kFast)
+      return m & (leaving != B(T(sphere)));
+    else
+      return m;
+  }
+
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
   // hit is found; returns the lanes whose t is now finite (hit by something).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
+  // `leaving`: per lane, the sphere the ray leaves from outside (-1: none); see skip().
   template <bool kFromEye = false>
   static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, B& best_id,
-                       RayCounts& counts) noexcept {
+                       RayCounts& counts, const B& leaving = B(T(-1))) noexcept {
     const B eps(s.epsilon);
     if (s.features.spheres) {
       // The tests of sphere i, given its discriminant: the nearest root beyond epsilon, kept
@@ -269,7 +280,7 @@ struct Kernel {
             xsimd::max(xsimd::max(sd[0].disc, sd[1].disc), xsimd::max(sd[2].disc, sd[3].disc));
         if (!xsimd::any(valid & (largest >= B(0)))) continue;
         for (int g = 0; g < kGroup; ++g) {
-          const M m = valid & (sd[g].disc >= B(0));
+          const M m = skip(valid & (sd[g].disc >= B(0)), leaving, i + g);
           if (xsimd::any(m)) update(i + g, f[g], B(s.sphere_r2[i + g]), sd[g], m);
         }
       }
@@ -278,7 +289,7 @@ struct Kernel {
         const B r2(s.sphere_r2[i]);
         const V f = offset(i);
         const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, i);
-        const M m = valid & (sd.disc >= B(0));
+        const M m = skip(valid & (sd.disc >= B(0)), leaving, i);
         if (xsimd::any(m)) update(i, f, r2, sd, m);
       }
     }
@@ -299,9 +310,9 @@ struct Kernel {
   }
 
   // Any-hit for shadow rays from p along unit l: the lanes of `valid` blocked before `dist`.
-  // Stops as soon as every lane of `valid` is blocked.
+  // Stops as soon as every lane of `valid` is blocked. `leaving` as for closest_hit.
   static M occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
-                    RayCounts& counts) noexcept {
+                    RayCounts& counts, const B& leaving) noexcept {
     const B eps(s.epsilon);
     M pending = valid;
     for (int i = 0; i < s.num_spheres; ++i) {
@@ -309,7 +320,7 @@ struct Kernel {
       const V f = p - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
       const B r2(s.sphere_r2[i]);
       const SphereDisc<B> sd = disc_of(s, f, l, r2, false, i);
-      M m = pending & (sd.disc >= B(0));
+      M m = skip(pending & (sd.disc >= B(0)), leaving, i);
       if (!xsimd::any(m)) continue;
       const B t = first_root(s, sd, f, r2, false, i, eps);
       m = m & (t > eps) & (t < dist);
@@ -389,15 +400,17 @@ struct Kernel {
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
   // o, d to their reflected rays.
-  static M shade(const Scene& s, M active, int depth, V& o, V& d, Level& out,
-                 RayCounts& counts) noexcept {
+  // `leaving` (fast mode): the sphere each lane's ray leaves from outside, -1 for none; set for
+  // the reflected rays.
+  [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, V& o, V& d, B& leaving,
+                                        Level& out, RayCounts& counts) noexcept {
     B best_t(std::numeric_limits<T>::infinity());
     B best_id(T(-1));
     const int stage = depth == 0 ? kPrimaryIntersection : kReflection;
     occupancy(counts, stage, active);
     const M hit = depth == 0 && !s.camera.orthographic
                       ? closest_hit<true>(s, active, o, d, best_t, best_id, counts)
-                      : closest_hit(s, active, o, d, best_t, best_id, counts);
+                      : closest_hit(s, active, o, d, best_t, best_id, counts, leaving);
     lap(counts, stage);
     const T* miss_color = depth == 0 ? s.background : s.environment;
     out.r = B(miss_color[0]), out.g = B(miss_color[1]), out.b = B(miss_color[2]);
@@ -425,8 +438,14 @@ struct Kernel {
                  gather(s.plane_nz, pid, np)};
       n = s.features.spheres ? select3(best_id < B(T(s.num_spheres)), n, pn) : pn;
     }
-    n = select3(Mth::dot(n, d) > B(0), -n, n);
+    const M inside = Mth::dot(n, d) > B(0);
+    n = select3(inside, -n, n);
     const V view = -d;
+    // The sphere hit from outside, which this level's shadow rays and reflections leave.
+    B here(T(-1));
+    if constexpr (kFast)
+      if (s.features.spheres)
+        here = xsimd::select(hit & ~inside & (best_id < B(T(s.num_spheres))), best_id, here);
 
     const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);
@@ -452,7 +471,7 @@ struct Kernel {
       const V from = offset_origin<B, T>(p, n, kFast ? B(1) : cos_nl, o, best_t);
       lap(counts, kShading);
       occupancy(counts, kShadowRays, traced);
-      const M unblocked = traced & ~occluded(s, traced, from, l, dist, counts);
+      const M unblocked = traced & ~occluded(s, traced, from, l, dist, counts, here);
       lap(counts, kShadowRays);
       if (!xsimd::any(unblocked)) continue;
       const B intensity(s.light_intensity[k]);
@@ -488,6 +507,7 @@ struct Kernel {
       const V from = offset_origin<B, T>(p, n, kFast ? B(1) : Mth::dot(r, n), o, best_t);
       o = select3(out.reflected, from, o);
       d = select3(out.reflected, r, d);
+      if constexpr (kFast) leaving = here;
     }
     lap(counts, kShading);
     return out.reflected;
@@ -499,8 +519,9 @@ struct Kernel {
   static void radiance(const Scene& s, M active, V o, V d, std::vector<Level>& levels, B& r, B& g,
                        B& b, RayCounts& counts) noexcept {
     int depth = 0;
+    B leaving(T(-1));
     for (;;) {
-      active = shade(s, active, depth, o, d, levels[depth], counts);
+      active = shade(s, active, depth, o, d, leaving, levels[depth], counts);
       if (!xsimd::any(active)) break;
       ++depth;
     }
