@@ -242,6 +242,24 @@ TEST(FastMode, LorenziReflectionsWithinItsBudget) {
   }
 }
 
+// Fast mode skips, for a ray leaving a sphere from outside, that sphere's roots (convexity).
+// From inside, the ray meets the same sphere again: inside a mirrored sphere, every reflection
+// and every shadow ray does. Skipping there would send them out to the environment.
+TEST(FastMode, RaysInsideASphereStillMeetIt) {
+  const json mirror = {{"color", 0.9}, {"ka", 0.1}, {"kd", 0.4}, {"ks", 0.5}, {"reflect", 0.6}};
+  json j = {{"camera", camera({0, 0, 0}, {0, 0, -1}, 1, 0.6)},
+            {"environment", {1, 1, 0}},
+            {"max_depth", 4},
+            {"lights", {{{"position", {0.5, 0.5, 0.5}}, {"intensity", 1}, {"ambient", 0.2}}}},
+            {"objects", {sphere({0, 0, 0}, 3, mirror), sphere({0.5, -0.3, -1.5}, 0.4)}}};
+  const Scene s = from(j);
+  for (int width : packet::supported_widths(Precision::fast)) {
+    const Measure m = measure(s, Precision::fast, width);
+    EXPECT_LE(m.off, 0.005) << "width " << width;
+    EXPECT_TRUE(m.finite) << "width " << width;
+  }
+}
+
 TEST(FastMode, TextbookDiscriminantOnlyWhereItHolds) {
   auto holds = [](double radius, double dist) {
     json j = lit({{"camera", camera({0, 0, 0}, {0, 0, -1}, 1, 1)},
