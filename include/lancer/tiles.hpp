@@ -8,6 +8,9 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <map>
+#include <memory>
+#include <mutex>
 
 #include "lancer/stats.hpp"
 
@@ -20,6 +23,18 @@ inline constexpr int kTileRows = 4;
 // threads (1: in the calling thread, no TBB), then on_tile(rows_in_that_tile) after each, and
 // returns the summed counts. Each pixel depends only on its own rays, so the image is the same
 // for any split.
+// One arena per thread count, kept for the process: a render (a benchmark repeats them by the
+// thousand) then finds its worker threads already made, not started for it. Never destroyed:
+// arenas must not outlive TBB's own statics at exit.
+inline tbb::task_arena& arena_for(int threads) {
+  static std::mutex mutex;
+  static auto* arenas = new std::map<int, std::unique_ptr<tbb::task_arena>>;
+  const std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<tbb::task_arena>& a = (*arenas)[threads];
+  if (!a) a = std::make_unique<tbb::task_arena>(threads);
+  return *a;
+}
+
 template <class Body, class OnTile>
 RayCounts run_tiles(int ny, int threads, Body body, OnTile on_tile) {
   const int tiles = (ny + kTileRows - 1) / kTileRows;
@@ -34,8 +49,7 @@ RayCounts run_tiles(int ny, int threads, Body body, OnTile on_tile) {
     return counts;
   }
   tbb::combinable<RayCounts> per_thread;
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
+  arena_for(threads).execute([&] {
     tbb::parallel_for(
         tbb::blocked_range<int>(0, tiles, 1),
         [&](const tbb::blocked_range<int>& r) {
