@@ -29,15 +29,6 @@ json base_scene() {
     ]})");
 }
 
-std::string error_of(const std::string& text) {
-  try {
-    parse_scene(text, "s.json");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
 TEST(SceneLoad, ReadsEveryFieldAndDefault) {
   const Scene s = parse_scene(base_scene().dump(), "s.json");
   EXPECT_EQ(s.camera.type, CameraType::pinhole);
@@ -177,7 +168,7 @@ class BadScene : public ::testing::TestWithParam<BadCase> {};
 TEST_P(BadScene, GivesOneLineNamingThePlace) {
   json j = base_scene();
   GetParam().mutate(j);
-  const std::string msg = error_of(j.dump());
+  const std::string msg = testing::load_error(j.dump());
   EXPECT_EQ(msg, std::string("s.json: ") + GetParam().message);
   EXPECT_EQ(msg.find('\n'), std::string::npos);
 }
@@ -195,19 +186,20 @@ TEST(SceneLoad, NonFiniteNumbersAreRefused) {
   const std::string from = "\"radius\":2";
   ASSERT_NE(text.find(from), std::string::npos);
   text.replace(text.find(from), from.size(), "\"radius\":1e999");
-  EXPECT_EQ(error_of(text), "s.json: number overflow parsing '1e999' (numbers must be finite)");
+  EXPECT_EQ(testing::load_error(text),
+            "s.json: number overflow parsing '1e999' (numbers must be finite)");
 }
 
 TEST(SceneLoad, SyntaxErrorsNameTheLine) {
   const std::string text = "{\n  \"camera\": {\n    \"type\": \"pinhole\",,\n  }\n}\n";
-  const std::string msg = error_of(text);
+  const std::string msg = testing::load_error(text);
   EXPECT_EQ(msg.rfind("s.json:3: syntax error", 0), 0u) << msg;
   EXPECT_EQ(msg.find('\n'), std::string::npos);
 }
 
 TEST(SceneLoad, DeepNestingIsRefusedCleanly) {
   const std::string text = std::string(100000, '[') + std::string(100000, ']');
-  EXPECT_NE(error_of(text).find("nested deeper than"), std::string::npos);
+  EXPECT_NE(testing::load_error(text).find("nested deeper than"), std::string::npos);
 }
 
 TEST(SceneLoad, MissingFileNamesThePath) {

@@ -15,6 +15,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/scene.hpp"
+#include "support/test_util.hpp"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define LANCER_UNDER_ASAN 1
@@ -28,15 +29,6 @@ namespace lancer {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string error_of(const std::string& text) {
-  try {
-    parse_scene(text, "s.json");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 const std::string kCam =
     R"("camera":{"type":"pinhole","position":[0,0,0],"direction":[0,0,-1],"distance":1,)"
@@ -97,7 +89,7 @@ TEST(Limits, DeepNestingIsRefusedByTheCli) {
 TEST(Limits, NestingUpToTheLimitIsOnlyWrongTypes) {
   // 32 levels is allowed by the parser; the loader then says what is wrong with the value.
   const std::string deep = std::string(30, '[') + "1" + std::string(30, ']');
-  EXPECT_EQ(error_of("{\"camera\":" + deep + "}"), "s.json: camera: must be an object");
+  EXPECT_EQ(testing::load_error("{\"camera\":" + deep + "}"), "s.json: camera: must be an object");
 }
 
 TEST(Limits, HugeNumbersAreRefusedByTheCli) {
@@ -111,7 +103,8 @@ TEST(Limits, HugeNumbersAreRefusedByTheCli) {
   expect_clean_refusal("{" + kCam + ",\"objects\":[],\"max_depth\":-9223372036854775808}",
                        "max_depth: must be an integer");
   // Underflow is no error: the number is 0.
-  EXPECT_EQ(error_of("{" + kCam + ",\"objects\":[],\"epsilon\":1e-99999}"), "(no error)");
+  EXPECT_EQ(testing::load_error("{" + kCam + ",\"objects\":[],\"epsilon\":1e-99999}"),
+            "(no error)");
 }
 
 // `lancer render` on things that are not scene files.
@@ -139,19 +132,20 @@ TEST(Limits, EndlessSceneFileStopsAtOneGiB) {
 
 TEST(Limits, ResolutionTimesSamplesIsCapped) {
   auto with = [](const std::string& res, int ss) {
-    return error_of(R"({"camera":{"type":"pinhole","position":[0,0,0],"direction":[0,0,-1],)"
-                    R"("distance":1,"resolution":)" +
-                    res +
-                    R"(,"bounds":[-1,1,-1,1]},)"
-                    R"("supersample":)" +
-                    std::to_string(ss) + R"(,"objects":[]})");
+    return testing::load_error(
+        R"({"camera":{"type":"pinhole","position":[0,0,0],"direction":[0,0,-1],)"
+        R"("distance":1,"resolution":)" +
+        res +
+        R"(,"bounds":[-1,1,-1,1]},)"
+        R"("supersample":)" +
+        std::to_string(ss) + R"(,"objects":[]})");
   };
   EXPECT_NE(with("[65536,65536]", 1).find("resolution x supersample^2 exceeds"), std::string::npos);
   EXPECT_NE(with("[65537,1]", 1).find("must be at most 65536 per axis"), std::string::npos);
   EXPECT_NE(with("[1,1]", 65).find("supersample: must be at most 64"), std::string::npos);
   EXPECT_NE(with("[1024,512]", 64).find("exceeds"), std::string::npos);
   EXPECT_EQ(with("[512,512]", 64), "(no error)");  // exactly 2^30 samples
-  EXPECT_NE(error_of("{" + kCam + R"(,"objects":[],"max_depth":65})").find("at most 64"),
+  EXPECT_NE(testing::load_error("{" + kCam + R"(,"objects":[],"max_depth":65})").find("at most 64"),
             std::string::npos);
 }
 

@@ -11,12 +11,24 @@
 #include <string>
 #include <vector>
 
+#include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer::testing {
+
+// The message of the InputError that loading `text` as a scene file named s.json gives, or
+// "(no error)".
+inline std::string load_error(const std::string& text) {
+  try {
+    parse_scene(text, "s.json");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
 
 inline std::string source_path(const std::string& rel) {
   return std::string(LANCER_SOURCE_DIR) + "/" + rel;
