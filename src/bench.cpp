@@ -63,6 +63,11 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
         }
   }
 
+  if (rows.empty())
+    throw InputError(
+        "--mode kernel: the kernel alone runs float packets (exact or fast, width 4, 8 or 16): "
+        "nothing to run");
+
   // The kernel rows' camera rays are made here, once, untimed.
   std::vector<std::unique_ptr<PrimaryKernelRun>> kernels(rows.size());
   std::vector<std::function<double()>> run;

@@ -285,10 +285,12 @@ TEST(BenchCli, KernelModeAndPrecisionsAddTheirRows) {
 }
 
 TEST(BenchCli, BadModesAndPrecisionsAreInputErrors) {
-  const std::pair<std::string, std::string> cases[] = {{"--mode sideways", "--mode"},
-                                                       {"--precision auto", "--precision"},
-                                                       {"--precision exact,triple", "--precision"},
-                                                       {"--precision fast --width 1", "--width"}};
+  const std::pair<std::string, std::string> cases[] = {
+      {"--mode sideways", "--mode"},
+      {"--precision auto", "--precision"},
+      {"--precision exact,triple", "--precision"},
+      {"--precision fast --width 1", "--width"},
+      {"--mode kernel --width 1", "--mode kernel"}};
   for (const auto& [args, option] : cases) {
     const CliRun r = run("bench " + kFlux + " " + args + " --repeat 1");
     EXPECT_EQ(r.status, 2) << args << ": " << r.out;
