@@ -33,6 +33,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     throw std::logic_error("run_bench: one list of widths per precision");
   BenchResult out;
   std::vector<BenchRow>& rows = out.rows;
+  std::vector<Precision> row_precision;  // what each row renders with (exact for the peer)
   bool peer_rows_added = false;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k) {
     const Precision precision = opt.precisions[k];
@@ -52,6 +53,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
           r.precision = to_string(precision);
           r.isa = packet::isa_name(width, precision);
           rows.push_back(r);
+          row_precision.push_back(precision);
           // The peer's row of the same mode, width and threads right after lancer's.
           if (!kernel &&
               std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
@@ -59,6 +61,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
             r.isa = "embree";
             r.precision = "float";  // Embree's own single-precision arithmetic
             rows.push_back(r);
+            row_precision.push_back(Precision::exact);
           }
         }
   }
@@ -76,7 +79,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     RenderOptions ro;
     ro.width = row.width;
     ro.threads = row.threads;
-    ro.precision = parse_precision(row.engine == "embree" ? "exact" : row.precision, "--precision");
+    ro.precision = row_precision[k];
     if (row.engine == "lancer" && row.mode == "kernel")
       kernels[k] = std::make_unique<PrimaryKernelRun>(scene, ro);
     run.push_back([&scene, &embree, &row, ro, kernel = kernels[k].get()]() -> double {

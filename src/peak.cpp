@@ -47,12 +47,11 @@ using Clock = std::chrono::steady_clock;
 // GFLOP/s of `kernel` over about `seconds`, after a short warm-up (wide units may be powered
 // up, and the clock raised, only once they are in use).
 double measure(PeakKernel kernel, double seconds) {
-  constexpr long kBatch = kPeakBatch;
-  kernel(kBatch);
+  kernel(kPeakBatch);
   double flops = 0, elapsed = 0;
   const auto start = Clock::now();
   do {
-    flops += kernel(kBatch);
+    flops += kernel(kPeakBatch);
     elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   } while (elapsed < seconds);
   return flops / elapsed * 1e-9;

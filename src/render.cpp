@@ -251,7 +251,7 @@ PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
   st.scene = prepare_for<float>(scene, opt);
   st.kernels = packet::float_kernels(width, opt.precision);
   st.threads = resolve_threads(opt.threads);
-  st.packets_per_row = st.kernels->packets_per_row(st.scene);
+  st.packets_per_row = packet::camera_packets_per_row(st.scene.camera, width);
   const std::size_t packets = std::size_t(st.packets_per_row) * scene.camera.ny;
   st.rays.resize(packets * 6 * std::size_t(width));
   st.lanes.resize(packets);

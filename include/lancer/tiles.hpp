@@ -19,10 +19,6 @@ namespace lancer {
 // Small tiles balance rows of different cost; four rows keep packets busy.
 inline constexpr int kTileRows = 4;
 
-// Runs body(row_begin, row_end, counts) over the row tiles of an image ny rows high on `threads`
-// threads (1: in the calling thread, no TBB), then on_tile(rows_in_that_tile) after each, and
-// returns the summed counts. Each pixel depends only on its own rays, so the image is the same
-// for any split.
 // One arena per thread count, kept for the process: a render (a benchmark repeats them by the
 // thousand) then finds its worker threads already made, not started for it. Never destroyed:
 // arenas must not outlive TBB's own statics at exit.
@@ -35,6 +31,10 @@ inline tbb::task_arena& arena_for(int threads) {
   return *a;
 }
 
+// Runs body(row_begin, row_end, counts) over the row tiles of an image ny rows high on `threads`
+// threads (1: in the calling thread, no TBB), then on_tile(rows_in_that_tile) after each, and
+// returns the summed counts. Each pixel depends only on its own rays, so the image is the same
+// for any split.
 template <class Body, class OnTile>
 RayCounts run_tiles(int ny, int threads, Body body, OnTile on_tile) {
   const int tiles = (ny + kTileRows - 1) / kTileRows;

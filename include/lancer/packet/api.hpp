@@ -32,11 +32,10 @@ struct KernelTable {
   void (*primary_rows)(const PreparedScene<Real>&, float* t_out, float* id_out, int row_begin,
                        int row_end, RayCounts&);
   // The primary intersection kernel alone (lancer bench --mode kernel): camera_packets makes the
-  // camera rays of rows [row_begin, row_end) once, packets_per_row per row, each 6 x width
+  // camera rays of rows [row_begin, row_end) once, camera_packets_per_row() per row, each 6 x width
   // values (origin then direction, SoA) and its live lanes; intersect_camera_packets runs
   // primary_rows' closest-hit kernel over `count` of them, width nearest t per packet into t_out
   // (infinity where missed).
-  int (*packets_per_row)(const PreparedScene<Real>&);
   void (*camera_packets)(const PreparedScene<Real>&, int row_begin, int row_end, Real* rays,
                          int* lanes);
   void (*intersect_camera_packets)(const PreparedScene<Real>&, const Real* rays, const int* lanes,
@@ -47,6 +46,13 @@ struct KernelTable {
   void (*closest_hit_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                              Real* t, Real* id, bool* hit_out);
 };
+
+// Packets of camera rays per image row as camera_packets lays them out: sub-samples times
+// packets across.
+template <class Real>
+int camera_packets_per_row(const PreparedCamera<Real>& cam, int width) {
+  return cam.samples * cam.samples * ((cam.nx + width - 1) / width);
+}
 
 // Defined in packet/kernel.hpp; instantiated per ISA in src/isa/*.cpp.
 template <class Arch, class Real, class Mode>

@@ -27,28 +27,17 @@ xsimd::batch<T, Arch> fmadd(const xsimd::batch<T, Arch>& a, const xsimd::batch<T
     return xsimd::fma(a, b, c);
 }
 
-// a * b - c
+// a * b - c and c - a * b: fmadd with a negated operand, which is exact, so the one rounding
+// is the same (and the compiler emits vfmsub / vfnmadd).
 template <class T, class Arch>
 xsimd::batch<T, Arch> fmsub(const xsimd::batch<T, Arch>& a, const xsimd::batch<T, Arch>& b,
                             const xsimd::batch<T, Arch>& c) noexcept {
-  if constexpr (kAvx512<Arch> && std::is_same_v<T, float>)
-    return _mm512_fmsub_ps(a, b, c);
-  else if constexpr (kAvx512<Arch>)
-    return _mm512_fmsub_pd(a, b, c);
-  else
-    return xsimd::fms(a, b, c);
+  return fmadd(a, b, -c);
 }
-
-// c - a * b
 template <class T, class Arch>
 xsimd::batch<T, Arch> fnmadd(const xsimd::batch<T, Arch>& a, const xsimd::batch<T, Arch>& b,
                              const xsimd::batch<T, Arch>& c) noexcept {
-  if constexpr (kAvx512<Arch> && std::is_same_v<T, float>)
-    return _mm512_fnmadd_ps(a, b, c);
-  else if constexpr (kAvx512<Arch>)
-    return _mm512_fnmadd_pd(a, b, c);
-  else
-    return xsimd::fnma(a, b, c);
+  return fmadd(-a, b, c);
 }
 
 }  // namespace lancer::packet

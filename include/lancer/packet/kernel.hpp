@@ -223,8 +223,7 @@ struct Kernel {
                       bool from_eye, int i, const B& eps) noexcept {
     if (textbook(s)) {
       const B root = xsimd::sqrt(sd.disc);
-      const B near_t = -(sd.b + root);
-      return xsimd::select(near_t > eps, near_t, root - sd.b);
+      return sphere_first_root(SphereRoots<B>{-(sd.b + root), root - sd.b}, eps);
     }
     const B c = from_eye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
@@ -232,9 +231,10 @@ struct Kernel {
 
   // Fast: a ray that leaves a sphere from outside cannot meet it again (spheres are convex),
   // so its lanes skip that sphere's roots, which would only find the point it leaves. Exact
-  // tests it, as the reference does.
+  // tests it, as the reference does; camera rays (kFromEye) leave no sphere.
+  template <bool kFromEye = false>
   static M skip(const M& m, const B& leaving, int sphere) noexcept {
-    if constexpr (kFast)
+    if constexpr (kFast && !kFromEye)
       return m & (leaving != B(T(sphere)));
     else
       return m;
@@ -280,7 +280,7 @@ struct Kernel {
             xsimd::max(xsimd::max(sd[0].disc, sd[1].disc), xsimd::max(sd[2].disc, sd[3].disc));
         if (!xsimd::any(valid & (largest >= B(0)))) continue;
         for (int g = 0; g < kGroup; ++g) {
-          const M m = skip(valid & (sd[g].disc >= B(0)), leaving, i + g);
+          const M m = skip<kFromEye>(valid & (sd[g].disc >= B(0)), leaving, i + g);
           if (xsimd::any(m)) update(i + g, f[g], B(s.sphere_r2[i + g]), sd[g], m);
         }
       }
@@ -289,7 +289,7 @@ struct Kernel {
         const B r2(s.sphere_r2[i]);
         const V f = offset(i);
         const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, i);
-        const M m = skip(valid & (sd.disc >= B(0)), leaving, i);
+        const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, i);
         if (xsimd::any(m)) update(i, f, r2, sd, m);
       }
     }
@@ -546,6 +546,15 @@ struct Kernel {
     camera_ray<Mth>(cam, x, y, o, d);
   }
 
+  // Closest hit of a packet of camera rays: from the eye's tables for a pinhole camera.
+  static void camera_closest_hit(const Scene& s, const M& valid, const V& o, const V& d, B& t,
+                                 B& id, RayCounts& counts) noexcept {
+    if (s.camera.orthographic)
+      closest_hit(s, valid, o, d, t, id, counts);
+    else
+      closest_hit<true>(s, valid, o, d, t, id, counts);
+  }
+
   // Stores the first `lanes` lanes of v at dst.
   static void store_lanes(const B& v, float* dst, int lanes) noexcept {
     alignas(64) T tmp[W];
@@ -637,10 +646,7 @@ struct Kernel {
             camera_packet(s, i0, j, a, b, o, d);
             counts.camera += lanes;
             B t(std::numeric_limits<T>::infinity()), id(T(-1));
-            if (cam.orthographic)
-              closest_hit(s, valid, o, d, t, id, counts);
-            else
-              closest_hit<true>(s, valid, o, d, t, id, counts);
+            camera_closest_hit(s, valid, o, d, t, id, counts);
             sum = sum + t;
             if (a == 0 && b == 0) first_id = id;
           }
@@ -660,16 +666,9 @@ struct Kernel {
     }
   }
 
-  // Packets of camera rays per image row (sub-samples times packets across), as
-  // camera_packets() lays them out.
-  static int packets_per_row(const Scene& s) noexcept {
-    const PreparedCamera<T>& cam = s.camera;
-    return cam.samples * cam.samples * ((cam.nx + W - 1) / W);
-  }
-
   // The camera rays of rows [row_begin, row_end), made once for the primary intersection kernel
   // alone (intersect_camera_packets): per packet the origin then the direction, component by
-  // component, W lanes each (6 W values), and its live lanes; packets_per_row() per row.
+  // component, W lanes each (6 W values), and its live lanes; camera_packets_per_row() per row.
   static void camera_packets(const Scene& s, int row_begin, int row_end, T* rays,
                              int* lanes_out) noexcept {
     const PreparedCamera<T>& cam = s.camera;
@@ -702,10 +701,7 @@ struct Kernel {
       const M valid = lane < B(T(lanes[p]));
       counts.camera += static_cast<std::uint64_t>(lanes[p]);
       B t(std::numeric_limits<T>::infinity()), id(T(-1));
-      if (s.camera.orthographic)
-        closest_hit(s, valid, o, d, t, id, counts);
-      else
-        closest_hit<true>(s, valid, o, d, t, id, counts);
+      camera_closest_hit(s, valid, o, d, t, id, counts);
       t.store_unaligned(t_out + p * W);
     }
   }
@@ -734,7 +730,6 @@ KernelTable<Real> table() {
           Arch::name(),
           &K::render_rows,
           &K::primary_rows,
-          &K::packets_per_row,
           &K::camera_packets,
           &K::intersect_camera_packets,
           &K::closest_hit_packet};
