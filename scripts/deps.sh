@@ -6,6 +6,7 @@ packages=(
   cmake g++ make pkg-config
   libxsimd-dev            # SIMD batches (xsimd 8)
   libopenimageio-dev      # image files
+  openimageio-tools       # OpenImageIO's CMake package names /usr/bin/iconvert, which only this ships
   nlohmann-json3-dev      # scene files
   libcli11-dev            # command line
   libtbb-dev              # threads
@@ -13,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
   clang libclang-rt-14-dev  # libFuzzer and the sanitizer runtimes
+  qemu-user               # runs the binary as CPUs without AVX / AVX-512 (.ci/qemu.sh)
 )
 
 missing=()

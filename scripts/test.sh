@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The second command: every test. Installs what is missing and builds first, so it works on a
-# fresh clone. Stages: the Release suite (ctest), then, unless --quick, the same suite under
+# fresh clone. Stages: the Release suite (ctest), validate on every scene, the binary under
+# emulated SSE4.2-only and AVX2-only CPUs, then, unless --quick, the same suite under
 # ASan+UBSan and a bounded fuzzing run of the scene loader.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,6 +15,9 @@ cmake --build build -j"$(nproc)"
 
 for s in scenes/*.json; do build/lancer validate "$s" >/dev/null || { echo "validate: $s differs"; exit 1; }; done
 echo "validate: every scene in scenes/ bit-identical at every width this CPU runs"
+
+# The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
+.ci/qemu.sh build
 
 if [ "$quick" -eq 0 ]; then
   [ -x .ci/sanitize.sh ] && .ci/sanitize.sh

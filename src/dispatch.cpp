@@ -1,7 +1,9 @@
 // The one dispatch point: which packet kernels this CPU and its OS run.
 #include <cstdlib>
+#include <string>
 #include <xsimd/config/xsimd_arch.hpp>
 
+#include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
 
 namespace lancer::packet {
@@ -26,15 +28,27 @@ bool cpu_runs(Isa isa) {
   return false;
 }
 
-// LANCER_MAX_WIDTH caps the float width offered (4 or 8), to run a narrower ISA's path as a CPU
-// without the wider one would.
-bool allowed(Isa isa) {
+// LANCER_MAX_WIDTH caps the float width offered (1, 4, 8 or 16), to run a narrower ISA's path as
+// a CPU without the wider one would. Parsed strictly: a cap that is not one of those is an error,
+// never a silent "no packet widths".
+int width_cap() {
   static const int cap = [] {
     const char* v = std::getenv("LANCER_MAX_WIDTH");
-    return v && *v ? std::atoi(v) : 16;
+    if (!v) return 16;
+    const std::string s(v);
+    for (int w : {1, 4, 8, 16})
+      if (s == std::to_string(w)) return w;
+    return 0;
   }();
+  if (cap == 0)
+    throw InputError("LANCER_MAX_WIDTH: must be 1, 4, 8 or 16, not '" +
+                     std::string(std::getenv("LANCER_MAX_WIDTH")) + "'");
+  return cap;
+}
+
+bool allowed(Isa isa) {
   const int float_width = isa == Isa::sse4_2 ? 4 : isa == Isa::avx2 ? 8 : 16;
-  return float_width <= cap && cpu_runs(isa);
+  return float_width <= width_cap() && cpu_runs(isa);
 }
 
 // Float lanes 4, 8, 16 and double lanes 2, 4, 8 map onto the same three ISAs.
@@ -46,38 +60,51 @@ bool isa_of(int lanes, bool dbl, Isa& isa) {
   return false;
 }
 
+// The ISA a width of a precision runs on, if this CPU and OS run it. Every table<>() call below
+// comes after this check: building a table runs that ISA's instructions.
+bool runnable(int lanes, bool dbl, Isa& isa) { return isa_of(lanes, dbl, isa) && allowed(isa); }
+
 }  // namespace
 
 const KernelTable<float>* float_kernels(int width, Precision precision) {
-  static const KernelTable<float> exact[] = {table<xsimd::sse4_2, float, ExactMode>(),
-                                             table<xsimd::avx2, float, ExactMode>(),
-                                             table<xsimd::avx512f, float, ExactMode>()};
-  static const KernelTable<float> fast[] = {table<xsimd::sse4_2, float, FastMode>(),
-                                            table<xsimd::fma3<xsimd::avx2>, float, FastMode>(),
-                                            table<xsimd::avx512f, float, FastMode>()};
   Isa isa;
-  if (!isa_of(width, false, isa) || !allowed(isa)) return nullptr;
-  if (precision == Precision::exact) return &exact[static_cast<int>(isa)];
-  if (precision == Precision::fast) return &fast[static_cast<int>(isa)];
+  if (!runnable(width, false, isa)) return nullptr;
+  const bool fast = precision == Precision::fast;
+  if (!fast && precision != Precision::exact) return nullptr;
+  switch (isa) {
+    case Isa::sse4_2:
+      return fast ? table<xsimd::sse4_2, float, FastMode>()
+                  : table<xsimd::sse4_2, float, ExactMode>();
+    case Isa::avx2:
+      return fast ? table<xsimd::fma3<xsimd::avx2>, float, FastMode>()
+                  : table<xsimd::avx2, float, ExactMode>();
+    case Isa::avx512f:
+      return fast ? table<xsimd::avx512f, float, FastMode>()
+                  : table<xsimd::avx512f, float, ExactMode>();
+  }
   return nullptr;
 }
 
 const KernelTable<float>* profiled_kernels(int width) {
-  static const KernelTable<float> profiled[] = {table<xsimd::sse4_2, float, ProfiledMode>(),
-                                                table<xsimd::avx2, float, ProfiledMode>(),
-                                                table<xsimd::avx512f, float, ProfiledMode>()};
   Isa isa;
-  if (!isa_of(width, false, isa) || !allowed(isa)) return nullptr;
-  return &profiled[static_cast<int>(isa)];
+  if (!runnable(width, false, isa)) return nullptr;
+  switch (isa) {
+    case Isa::sse4_2: return table<xsimd::sse4_2, float, ProfiledMode>();
+    case Isa::avx2: return table<xsimd::avx2, float, ProfiledMode>();
+    case Isa::avx512f: return table<xsimd::avx512f, float, ProfiledMode>();
+  }
+  return nullptr;
 }
 
 const KernelTable<double>* double_kernels(int width) {
-  static const KernelTable<double> dbl[] = {table<xsimd::sse4_2, double, ExactMode>(),
-                                            table<xsimd::avx2, double, ExactMode>(),
-                                            table<xsimd::avx512f, double, ExactMode>()};
   Isa isa;
-  if (!isa_of(width, true, isa) || !allowed(isa)) return nullptr;
-  return &dbl[static_cast<int>(isa)];
+  if (!runnable(width, true, isa)) return nullptr;
+  switch (isa) {
+    case Isa::sse4_2: return table<xsimd::sse4_2, double, ExactMode>();
+    case Isa::avx2: return table<xsimd::avx2, double, ExactMode>();
+    case Isa::avx512f: return table<xsimd::avx512f, double, ExactMode>();
+  }
+  return nullptr;
 }
 
 std::vector<int> supported_widths(Precision precision) {

@@ -4,9 +4,9 @@
 
 namespace lancer::packet {
 
-template KernelTable<float> table<xsimd::avx512f, float, ExactMode>();
-template KernelTable<float> table<xsimd::avx512f, float, ProfiledMode>();
-template KernelTable<double> table<xsimd::avx512f, double, ExactMode>();
-template KernelTable<float> table<xsimd::avx512f, float, FastMode>();
+template const KernelTable<float>* table<xsimd::avx512f, float, ExactMode>();
+template const KernelTable<float>* table<xsimd::avx512f, float, ProfiledMode>();
+template const KernelTable<double>* table<xsimd::avx512f, double, ExactMode>();
+template const KernelTable<float>* table<xsimd::avx512f, float, FastMode>();
 
 }  // namespace lancer::packet

@@ -5,9 +5,9 @@
 
 namespace lancer::packet {
 
-template KernelTable<float> table<xsimd::sse4_2, float, ExactMode>();
-template KernelTable<float> table<xsimd::sse4_2, float, ProfiledMode>();
-template KernelTable<double> table<xsimd::sse4_2, double, ExactMode>();
-template KernelTable<float> table<xsimd::sse4_2, float, FastMode>();
+template const KernelTable<float>* table<xsimd::sse4_2, float, ExactMode>();
+template const KernelTable<float>* table<xsimd::sse4_2, float, ProfiledMode>();
+template const KernelTable<double>* table<xsimd::sse4_2, double, ExactMode>();
+template const KernelTable<float>* table<xsimd::sse4_2, float, FastMode>();
 
 }  // namespace lancer::packet

@@ -54,9 +54,10 @@ int camera_packets_per_row(const PreparedCamera<Real>& cam, int width) {
   return cam.samples * cam.samples * ((cam.nx + width - 1) / width);
 }
 
-// Defined in packet/kernel.hpp; instantiated per ISA in src/isa/*.cpp.
+// Defined in packet/kernel.hpp; instantiated per ISA in src/isa/*.cpp. Call only after the
+// CPU check (dispatch.cpp): it runs that ISA's instructions.
 template <class Arch, class Real, class Mode>
-KernelTable<Real> table();
+const KernelTable<Real>* table();
 
 // The kernels of a precision (exact, dbl or fast) at a width in lanes, if this CPU and OS run
 // them, else nullptr. Float widths are 4, 8, 16; double widths 2, 4, 8.

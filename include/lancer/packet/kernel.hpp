@@ -722,16 +722,19 @@ struct Kernel {
   }
 };
 
+// The table of one instantiation, made on first use inside this ISA's own code: the dispatcher
+// calls it only once the CPU check has passed, so no instruction of the ISA runs before.
 template <class Arch, class Real, class Mode>
-KernelTable<Real> table() {
+const KernelTable<Real>* table() {
   using K = Kernel<Arch, Real, Mode>;
-  return {K::W,
-          Arch::name(),
-          &K::render_rows,
-          &K::primary_rows,
-          &K::camera_packets,
-          &K::intersect_camera_packets,
-          &K::closest_hit_packet};
+  static const KernelTable<Real> t{K::W,
+                                   Arch::name(),
+                                   &K::render_rows,
+                                   &K::primary_rows,
+                                   &K::camera_packets,
+                                   &K::intersect_camera_packets,
+                                   &K::closest_hit_packet};
+  return &t;
 }
 
 }  // namespace lancer::packet
