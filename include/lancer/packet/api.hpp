@@ -45,6 +45,11 @@ struct KernelTable {
   // t and id. hit_out gets the lanes hit.
   void (*closest_hit_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                              Real* t, Real* id, bool* hit_out);
+  // One packet through the any-hit kernel (shadow rays), for the library API (lancer.hpp):
+  // rays as closest_hit_packet, blocked_out[k] true where valid[k] and some object lies at
+  // epsilon < t < tfar[k]; false elsewhere.
+  void (*occluded_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
+                          const Real* tfar, bool* blocked_out);
 };
 
 // Packets of camera rays per image row as camera_packets lays them out: sub-samples times
