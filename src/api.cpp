@@ -1,6 +1,6 @@
 // The library API (include/lancer/lancer.hpp) over lancer's own machinery: the loader's rules,
 // prepare(), the dispatch point's kernel tables, the reference, and run_tiles.
-#include "lancer/lancer.hpp"
+#include "lancer/packet/api.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -11,7 +11,7 @@
 
 #include "lancer/formulas.hpp"
 #include "lancer/image.hpp"
-#include "lancer/packet/api.hpp"
+#include "lancer/lancer.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
@@ -57,7 +57,7 @@ std::string to_scene_file(const SceneDescription& d, const std::string& name) {
   for (std::size_t m = 0; m < d.materials.size(); ++m) {
     const Material& mt = d.materials[m];
     mats[material_name(m, d.materials.size())] = {
-        {"color", colour(mt.color)}, {"ka", mt.ka}, {"kd", mt.kd}, {"ks", mt.ks},
+        {"color", colour(mt.color)}, {"ka", mt.ka},          {"kd", mt.kd}, {"ks", mt.ks},
         {"shininess", mt.shininess}, {"reflect", mt.reflect}};
   }
   j["materials"] = mats;
@@ -118,8 +118,8 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
   const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
                     double(r.dir_z[k]) * r.dir_z[k];
   if (!(std::fabs(d2 - 1.0) <= 1e-5))
-    throw InputError(std::string(what) + ": " + lane(k) + "dir must be unit length, |dir|^2 = " +
-                     std::to_string(d2));
+    throw InputError(std::string(what) + ": " + lane(k) +
+                     "dir must be unit length, |dir|^2 = " + std::to_string(d2));
   if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
 }
 
@@ -167,8 +167,7 @@ Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
 }
 
 template <class T, int N>
-void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
-                    HitPacket<N>& h) {
+void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];

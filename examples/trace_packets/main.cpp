@@ -4,11 +4,10 @@
 // `lancer render SCENE -o FILE.pfm` wrote, the rows rendered into this program's buffer.
 //
 //   trace_packets SCENE [RENDER.pfm]      exit 0 iff everything is identical
-#include <lancer/lancer.hpp>
-
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <lancer/lancer.hpp>
 #include <limits>
 #include <string>
 #include <vector>
@@ -92,9 +91,10 @@ int main(int argc, char** argv) {
       differ += !same_bits(t[p], lancer_hits.t[p]) || id[p] != lancer_hits.id[p];
       hits += id[p] >= 0;
     }
-    std::printf("%zu camera rays in packets of 16: %zu pixels hit something; %zu of %zu pixels "
-                "differ from lancer's primary hits; occlusion disagrees with closest hit on %zu\n",
-                rays, hits, differ, pixels, occlusion_differs);
+    std::printf(
+        "%zu camera rays in packets of 16: %zu pixels hit something; %zu of %zu pixels "
+        "differ from lancer's primary hits; occlusion disagrees with closest hit on %zu\n",
+        rays, hits, differ, pixels, occlusion_differs);
     bool ok = differ == 0 && occlusion_differs == 0;
 
     if (argc == 3) {
@@ -109,7 +109,8 @@ int main(int argc, char** argv) {
       std::size_t values_differ = 0;
       for (int j = 0; j < info.ny; ++j)
         for (int x = 0; x < 3 * info.nx; ++x)
-          values_differ += !same_bits(mine[j * stride + x], theirs[std::size_t(j) * info.nx * 3 + x]);
+          values_differ +=
+              !same_bits(mine[j * stride + x], theirs[std::size_t(j) * info.nx * 3 + x]);
       std::printf("render_rows against %s: %zu values differ\n", argv[2], values_differ);
       ok = ok && values_differ == 0;
     }

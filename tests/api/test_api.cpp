@@ -3,6 +3,7 @@
 // renders against lancer::render, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -82,10 +83,14 @@ Results trace(const api::Scene& scene, const Rays& rays) {
 
 Results trace(const api::Scene& scene, const Rays& rays, int n) {
   switch (n) {
-    case 1: return trace<1>(scene, rays);
-    case 4: return trace<4>(scene, rays);
-    case 8: return trace<8>(scene, rays);
-    default: return trace<16>(scene, rays);
+    case 1:
+      return trace<1>(scene, rays);
+    case 4:
+      return trace<4>(scene, rays);
+    case 8:
+      return trace<8>(scene, rays);
+    default:
+      return trace<16>(scene, rays);
   }
 }
 
@@ -124,8 +129,11 @@ Options with(Precision p, int width = 0) {
 TEST(Api, EveryPacketWidthGivesTheSameBits) {
   for (const char* file : {"scenes/lorenzi-reflections.json", "scenes/many-spheres.json"}) {
     for (Options opt : {with(Precision::exact), with(Precision::dbl), with(Precision::exact, 4)}) {
-      SCOPED_TRACE(::testing::Message() << file << " " << to_string(opt.precision) << " width "
-                                        << opt.width);
+      const std::vector<int> widths = packet::supported_widths(opt.precision);
+      if (opt.width && std::find(widths.begin(), widths.end(), opt.width) == widths.end())
+        continue;  // a CPU (or LANCER_MAX_WIDTH) without the pinned width
+      SCOPED_TRACE(::testing::Message()
+                   << file << " " << to_string(opt.precision) << " width " << opt.width);
       const api::Scene scene = api::Scene::load(testing::source_path(file), opt);
       const Rays rays = random_rays(scene, 11, 2000, 3.0);
       const Results one = trace(scene, rays, 1);
@@ -243,7 +251,8 @@ TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
   for (int i = 0; i < 100; ++i) {
     const Vec3<double> o = far + Vec3<double>{u(rng), u(rng), u(rng)};
     const Vec3<double> dir = normalize(d.spheres[i % 20].center - o);
-    const auto right = reference::closest_hit(pf, Vec3<float>::from(o - far), Vec3<float>::from(dir));
+    const auto right =
+        reference::closest_hit(pf, Vec3<float>::from(o - far), Vec3<float>::from(dir));
     const auto naive = reference::closest_hit(pf, Vec3<float>::from(o), Vec3<float>::from(dir));
     wrong += naive.id != right.id;
   }
@@ -291,8 +300,8 @@ TEST(Api, RenderRowsGivesRendersBits) {
   for (const std::string& file : testing::shipped_scenes()) {
     const Scene desc = load_scene(file);
     for (Options opt : {with(Precision::exact), with(Precision::dbl), with(Precision::exact, 1)}) {
-      SCOPED_TRACE(::testing::Message() << file << " " << to_string(opt.precision) << " width "
-                                        << opt.width);
+      SCOPED_TRACE(::testing::Message()
+                   << file << " " << to_string(opt.precision) << " width " << opt.width);
       opt.threads = 2;
       const api::Scene scene = api::Scene::from_description(desc, opt);
       RenderOptions ro;
@@ -326,8 +335,8 @@ TEST(Api, RenderRowsGivesRendersBits) {
 }
 
 TEST(Api, ReportsWhatItChose) {
-  const api::Scene scene = api::Scene::load(
-      testing::source_path("scenes/lorenzi-reflections.json"), Options{});
+  const api::Scene scene =
+      api::Scene::load(testing::source_path("scenes/lorenzi-reflections.json"), Options{});
   const api::Info& in = scene.info();
   EXPECT_EQ(in.precision, Precision::exact);  // automatic, inside float's envelope
   EXPECT_FALSE(in.precision_reason.empty());
