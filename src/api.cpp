@@ -123,6 +123,13 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
   if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
 }
 
+// Every active lane, before any is traced: on an error nothing has been written.
+template <int N>
+void check_rays(const char* what, const int* valid, const RayPacket<N>& r) {
+  for (int k = 0; k < N; ++k)
+    if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
+}
+
 // One chunk of a caller's packet at the kernel's width W, in the prepared frame.
 template <class T>
 struct Chunk {
@@ -136,8 +143,8 @@ struct Chunk {
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
 // prepared frame in double and rounded once to T; inactive lanes get a harmless ray.
 template <class T, int N>
-int fill(const char* what, const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r,
-         int c, int w, Chunk<T>& ch) {
+int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
+         Chunk<T>& ch) {
   int active = 0;
   const Vec3<double>& w0 = s.world_origin;
   for (int l = 0; l < w; ++l) {
@@ -146,7 +153,6 @@ int fill(const char* what, const PreparedScene<T>& s, const int* valid, const Ra
     ch.valid[l] = on;
     T o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, tfar = std::numeric_limits<T>::infinity();
     if (on) {
-      check_ray(what, r, k);
       ++active;
       o[0] = T(double(r.org_x[k]) - w0.x);
       o[1] = T(double(r.org_y[k]) - w0.y);
@@ -171,9 +177,10 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
+  check_rays("intersect", valid, r);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill("intersect", s, valid, r, c, w, ch) == 0) continue;
+    if (fill(s, valid, r, c, w, ch) == 0) continue;
     if (k) {
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
     } else {  // the reference; its nearest hit counts where it lies before tfar
@@ -211,9 +218,10 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
+  check_rays("occluded", valid, r);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill("occluded", s, valid, r, c, w, ch) == 0) continue;
+    if (fill(s, valid, r, c, w, ch) == 0) continue;
     if (k) {
       k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);
     } else {

@@ -120,7 +120,8 @@ class Scene {
   // see docs/api.md for what float origins imply far from the world's origin. The kernel is the
   // widest this machine runs up to min(N, Info::width) lanes (N = 1: the reference), applied to
   // as many chunks as it takes: in exact and double precision every N gives the same bits.
-  // InputError for a non-finite origin, a direction that is not unit or a NaN tfar.
+  // InputError for a non-finite origin, a direction that is not unit or a NaN tfar in an
+  // active lane; every lane is checked first, so that then nothing has been written.
   template <int N>
   void intersect(const int* valid, const RayPacket<N>& rays, HitPacket<N>& hits) const;
   // Whether anything lies on each active lane's ray with epsilon < t < tfar: occluded[k] is

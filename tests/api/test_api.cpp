@@ -396,6 +396,16 @@ TEST(Api, BadInputIsAnInputErrorNamingThePlace) {
             "intersect: lane 2: dir must be unit length, |dir|^2 = 4.000000");
   const int valid[4] = {-1, -1, 0, -1};
   EXPECT_EQ(error_of([&] { scene.intersect(valid, r, h); }), "(no error)");  // lane 2 inactive
+  // An error in the last lane, on a scene whose queries run one lane at a time (16 chunks):
+  // every lane is checked before any is traced, so none is written.
+  const api::Scene one_lane = api::Scene::load(good, with(Precision::exact, 1));
+  api::Ray16 r16{};
+  api::Hit16 untouched;
+  for (int k = 0; k < 16; ++k) r16.dir_z[k] = -1, r16.tfar[k] = kInf, untouched.id[k] = 42;
+  r16.tfar[15] = std::nanf("");
+  EXPECT_EQ(error_of([&] { one_lane.intersect(nullptr, r16, untouched); }),
+            "intersect: lane 15: tfar is NaN");
+  for (int k = 0; k < 16; ++k) EXPECT_EQ(untouched.id[k], 42) << "lane " << k;
   r.dir_z[2] = -1;
   r.org_x[1] = kInf;
   int occ[4];
