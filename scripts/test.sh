@@ -19,6 +19,9 @@ echo "validate: every scene in scenes/ bit-identical at every width this CPU run
 # The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
 .ci/qemu.sh build
 
+# The installed package, used from outside the tree (find_package(lancer); about 10 s).
+.ci/consumer.sh build
+
 if [ "$quick" -eq 0 ]; then
   [ -x .ci/sanitize.sh ] && .ci/sanitize.sh
   [ -x .ci/fuzz.sh ] && .ci/fuzz.sh "${LANCER_FUZZ_SECONDS:-120}"

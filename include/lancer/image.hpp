@@ -10,11 +10,17 @@ namespace lancer {
 struct Image {
   int nx = 0, ny = 0;
   std::vector<float> rgb;  // nx * ny * 3, row-major from the top
+  // The image row that rgb's first row holds: a band of rows [first_row, first_row + ny) of a
+  // taller image, which renderers address by that image's row numbers (the library API renders
+  // row ranges into bands). 0 for a whole image.
+  int first_row = 0;
 
   Image() = default;
   Image(int nx_, int ny_) : nx(nx_), ny(ny_), rgb(std::size_t(nx_) * ny_ * 3, 0.0f) {}
-  float* pixel(int i, int j) { return rgb.data() + (std::size_t(j) * nx + i) * 3; }
-  const float* pixel(int i, int j) const { return rgb.data() + (std::size_t(j) * nx + i) * 3; }
+  float* pixel(int i, int j) { return rgb.data() + (std::size_t(j - first_row) * nx + i) * 3; }
+  const float* pixel(int i, int j) const {
+    return rgb.data() + (std::size_t(j - first_row) * nx + i) * 3;
+  }
 };
 
 // Checks before rendering that `path` can be written: a known extension, an existing folder we

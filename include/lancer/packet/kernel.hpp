@@ -720,6 +720,19 @@ struct Kernel {
     const unsigned hb = bits(hit);
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
+
+  static void occluded_packet(const Scene& s, const bool* valid, const T* rays, const T* tfar,
+                              bool* blocked_out) noexcept {
+    const M v = M::load_unaligned(valid);
+    const V o{B::load_unaligned(rays), B::load_unaligned(rays + W),
+              B::load_unaligned(rays + 2 * W)};
+    const V d{B::load_unaligned(rays + 3 * W), B::load_unaligned(rays + 4 * W),
+              B::load_unaligned(rays + 5 * W)};
+    RayCounts unused;
+    // No sphere is being left (-1): the rays start wherever the caller put them.
+    const unsigned bb = bits(occluded(s, v, o, d, B::load_unaligned(tfar), unused, B(T(-1))));
+    for (int k = 0; k < W; ++k) blocked_out[k] = (bb >> k) & 1u;
+  }
 };
 
 // The table of one instantiation, made on first use inside this ISA's own code: the dispatcher
@@ -733,7 +746,8 @@ const KernelTable<Real>* table() {
                                    &K::primary_rows,
                                    &K::camera_packets,
                                    &K::intersect_camera_packets,
-                                   &K::closest_hit_packet};
+                                   &K::closest_hit_packet,
+                                   &K::occluded_packet};
   return &t;
 }
 

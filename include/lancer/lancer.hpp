@@ -1,0 +1,165 @@
+// lancer's library API: a scene prepared once, then closest-hit and occlusion queries on packets
+// of world-space rays (after Embree's rtcIntersect4/8/16 and rtcOccluded4/8/16) and renders of
+// row ranges into the caller's buffer. Needs no ISA flags and shows no SIMD type: the kernels
+// are chosen at run time inside the library. See docs/api.md.
+//
+//   #include <lancer/lancer.hpp>
+//   lancer::api::Scene scene = lancer::api::Scene::load("scene.json");
+//   lancer::api::Ray16 rays = ...;        // world-space origins, unit directions, tfar
+//   lancer::api::Hit16 hits;
+//   scene.intersect(nullptr, rays, hits);  // hits.id[k]: object id, -1 for a miss
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lancer/error.hpp"      // InputError: bad input (a file, a description, an argument)
+#include "lancer/precision.hpp"  // Precision
+#include "lancer/scene.hpp"      // Scene, the description: a loaded file or built in code
+
+namespace lancer::api {
+
+// A scene description (lancer/scene.hpp): what load_scene() reads, or built in code.
+using SceneDescription = ::lancer::Scene;
+
+// How a scene is prepared. Decided once: every query and render of the scene uses it.
+struct Options {
+  // exact: IEEE float, identical at every width to the float reference. dbl: IEEE double.
+  // fast: float with FMA and approximate reciprocals (packets only). automatic: exact where the
+  // scene lies inside float's measured envelope, else double (what `lancer render` does).
+  Precision precision = Precision::automatic;
+  // The widest kernel the scene may use, in lanes: 0 = the widest this CPU and OS run; 1 = the
+  // scalar reference; else 4, 8, 16 (float) or 2, 4, 8 (double).
+  int width = 0;
+  // Threads of render_rows and primary_hits (0 = all cores). Ray queries run in the calling
+  // thread: call them from as many threads as you like (a Scene is immutable once made).
+  int threads = 0;
+};
+
+// What a scene chose, as resolved: never "auto".
+struct Info {
+  Precision precision = Precision::exact;
+  std::string precision_reason;  // why, when Options::precision was automatic
+  int width = 1;                 // widest kernel, in lanes of `precision`
+  std::string isa;               // "avx512f", "avx2", "sse4.2", "scalar", ...
+  int threads = 1;
+  int nx = 0, ny = 0, supersample = 1;  // the camera's image
+  int objects = 0;                      // ids 0 .. objects-1: spheres, then planes, in order
+};
+
+// N rays, structure-of-arrays. World-space origins, UNIT directions (within 1e-5 in |d|^2;
+// t is the distance along them), and tfar: a hit counts when epsilon < t < tfar, epsilon being
+// the scene's (there is no per-ray tnear). tfar may be infinity.
+template <int N>
+struct RayPacket {
+  static_assert(N == 1 || N == 4 || N == 8 || N == 16, "packets of 1, 4, 8 or 16 rays");
+  float org_x[N], org_y[N], org_z[N];
+  float dir_x[N], dir_y[N], dir_z[N];
+  float tfar[N];
+};
+
+// Closest hits of N rays. id: the object hit (Info::objects), -1 for a miss (then t is
+// infinity and ng zero). ng: the unit geometric normal at the hit, not turned towards the ray
+// (spheres: outward; planes: as described, normalised).
+template <int N>
+struct HitPacket {
+  float t[N];
+  int id[N];
+  float ng_x[N], ng_y[N], ng_z[N];
+};
+
+using Ray1 = RayPacket<1>;
+using Ray4 = RayPacket<4>;
+using Ray8 = RayPacket<8>;
+using Ray16 = RayPacket<16>;
+using Hit1 = HitPacket<1>;
+using Hit4 = HitPacket<4>;
+using Hit8 = HitPacket<8>;
+using Hit16 = HitPacket<16>;
+
+// Rays traced by kind, and the wall time of a render.
+struct RenderStats {
+  std::uint64_t camera = 0, shadow = 0, reflected = 0;
+  double seconds = 0;
+};
+
+// Per pixel, row-major from the top: the sum over its sub-samples of the camera rays' nearest
+// distances (infinity where a ray missed), and the object first hit by sub-sample (0, 0), -1
+// for none. What `lancer bench --mode primary` computes.
+struct PrimaryHits {
+  int nx = 0, ny = 0;
+  std::vector<float> t;
+  std::vector<int> id;
+};
+
+// A scene prepared once for a precision and width: structures built at construction and shared
+// by every query and render. Movable, not copyable; const methods are safe to call concurrently.
+class Scene {
+ public:
+  // InputError for a bad file (one line naming the place: "s.json: objects[2].radius: must be
+  // > 0"), a description breaking the scene rules, or options this machine cannot run.
+  static Scene load(const std::string& path, const Options& options = {});
+  // A description built in code is checked by the file loader's own rules and messages (it is
+  // written as a scene file and read back): objects are numbered spheres first, then planes,
+  // and materials are named m<index> (`materials.m02.kd: must be >= 0`).
+  static Scene from_description(const SceneDescription& description, const Options& options = {});
+
+  Scene(Scene&&) noexcept;
+  Scene& operator=(Scene&&) noexcept;
+  ~Scene();
+
+  const Info& info() const;
+  const SceneDescription& description() const;
+
+  // Closest hit of each active lane (valid[k] != 0; null: every lane). Inactive lanes of `hits`
+  // are left as they were. World-space origins are moved into the prepared frame (relative to
+  // the camera's position) by a subtraction in double, rounded once to the scene's precision;
+  // see docs/api.md for what float origins imply far from the world's origin. The kernel is the
+  // widest this machine runs up to min(N, Info::width) lanes (N = 1: the reference), applied to
+  // as many chunks as it takes: in exact and double precision every N gives the same bits.
+  // InputError for a non-finite origin, a direction that is not unit or a NaN tfar in an
+  // active lane; every lane is checked first, so that then nothing has been written.
+  template <int N>
+  void intersect(const int* valid, const RayPacket<N>& rays, HitPacket<N>& hits) const;
+  // Whether anything lies on each active lane's ray with epsilon < t < tfar: occluded[k] is
+  // 1 or 0; inactive lanes are left as they were. Same frame, kernels and errors as intersect.
+  template <int N>
+  void occluded(const int* valid, const RayPacket<N>& rays, int* occluded) const;
+
+  // The camera ray of pixel (i, j) at sub-sample (a, b) (0 <= a, b < supersample) in world
+  // space: the ray `lancer render` traces there, moved out of the prepared frame and rounded to
+  // float. Traced through intersect, it hits what the render hits wherever the rounding is
+  // exact: pinhole cameras at float-representable positions in exact precision.
+  void camera_ray(int i, int j, int a, int b, float org[3], float dir[3]) const;
+
+  // Renders rows [row_begin, row_end) of the image (0 at the top) into rgb: row j at
+  // rgb + (j - row_begin) * row_stride floats, nx pixels of 3 floats (linear radiance). The same
+  // bits as `lancer render` with the same precision and width, for any row range and threads.
+  // InputError for rows outside [0, ny] or row_stride < 3 nx.
+  RenderStats render_rows(int row_begin, int row_end, float* rgb, std::size_t row_stride) const;
+
+  // Camera rays and closest hits of the whole image (Options::threads threads).
+  PrimaryHits primary_hits() const;
+
+ private:
+  struct Impl;
+  explicit Scene(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+extern template void Scene::intersect<1>(const int*, const Ray1&, Hit1&) const;
+extern template void Scene::intersect<4>(const int*, const Ray4&, Hit4&) const;
+extern template void Scene::intersect<8>(const int*, const Ray8&, Hit8&) const;
+extern template void Scene::intersect<16>(const int*, const Ray16&, Hit16&) const;
+extern template void Scene::occluded<1>(const int*, const Ray1&, int*) const;
+extern template void Scene::occluded<4>(const int*, const Ray4&, int*) const;
+extern template void Scene::occluded<8>(const int*, const Ray8&, int*) const;
+extern template void Scene::occluded<16>(const int*, const Ray16&, int*) const;
+
+// The library's version, "major.minor.patch".
+const char* version();
+
+}  // namespace lancer::api

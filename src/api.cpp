@@ -1,0 +1,418 @@
+// The library API (include/lancer/lancer.hpp) over lancer's own machinery: the loader's rules,
+// prepare(), the dispatch point's kernel tables, the reference, and run_tiles.
+#include "lancer/packet/api.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "lancer/formulas.hpp"
+#include "lancer/image.hpp"
+#include "lancer/lancer.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/reference.hpp"
+#include "lancer/render.hpp"
+#include "lancer/tiles.hpp"
+
+namespace lancer::api {
+
+namespace {
+
+using json = nlohmann::json;
+
+json triple(double a, double b, double c) { return json::array({a, b, c}); }
+json point(const Vec3<double>& v) { return triple(v.x, v.y, v.z); }
+json colour(const Rgb& c) { return triple(c.r, c.g, c.b); }
+
+// m<index>, zero-padded so that the loader, which reads named materials in key order, keeps
+// the description's order.
+std::string material_name(std::size_t m, std::size_t count) {
+  const std::size_t digits = std::to_string(count > 1 ? count - 1 : 0).size();
+  const std::string n = std::to_string(m);
+  return "m" + std::string(digits - n.size(), '0') + n;
+}
+
+// The description as a scene file, for the loader to check by its own rules. Doubles are
+// written in their shortest round-trip form, so reading back gives the same values; NaN and
+// infinity become null, which the loader refuses by name.
+std::string to_scene_file(const SceneDescription& d, const std::string& name) {
+  json j;
+  const CameraSpec& c = d.camera;
+  json cam = {{"type", c.type == CameraType::pinhole ? "pinhole" : "orthographic"},
+              {"position", point(c.position)},
+              {"direction", point(c.direction)},
+              {"resolution", json::array({c.nx, c.ny})},
+              {"bounds", json::array({c.xmin, c.xmax, c.ymin, c.ymax})}};
+  if (c.type == CameraType::pinhole) cam["distance"] = c.distance;
+  j["camera"] = cam;
+  j["background"] = colour(d.background);
+  j["environment"] = colour(d.environment);
+  j["max_depth"] = d.max_depth;
+  j["epsilon"] = d.epsilon;
+  j["supersample"] = d.supersample;
+  json mats = json::object();
+  for (std::size_t m = 0; m < d.materials.size(); ++m) {
+    const Material& mt = d.materials[m];
+    mats[material_name(m, d.materials.size())] = {
+        {"color", colour(mt.color)}, {"ka", mt.ka},          {"kd", mt.kd}, {"ks", mt.ks},
+        {"shininess", mt.shininess}, {"reflect", mt.reflect}};
+  }
+  j["materials"] = mats;
+  json lights = json::array();
+  for (const Light& l : d.lights)
+    lights.push_back(
+        {{"position", point(l.position)}, {"intensity", l.intensity}, {"ambient", l.ambient}});
+  j["lights"] = lights;
+  json objects = json::array();
+  auto material = [&](int m, std::size_t k) {
+    if (m < 0 || std::size_t(m) >= d.materials.size())
+      throw InputError(name + ": objects[" + std::to_string(k) + "].material: no material " +
+                       std::to_string(m) + " (" + std::to_string(d.materials.size()) +
+                       " described)");
+    return material_name(std::size_t(m), d.materials.size());
+  };
+  for (const Sphere& s : d.spheres)
+    objects.push_back({{"type", "sphere"},
+                       {"center", point(s.center)},
+                       {"radius", s.radius},
+                       {"material", material(s.material, objects.size())}});
+  for (const Plane& p : d.planes)
+    objects.push_back({{"type", "plane"},
+                       {"point", point(p.point)},
+                       {"normal", point(p.normal)},
+                       {"material", material(p.material, objects.size())}});
+  j["objects"] = objects;
+  return j.dump();
+}
+
+template <class T>
+const packet::KernelTable<T>* kernels_of(int width, Precision p) {
+  if (width == 1) return nullptr;  // the reference
+  if constexpr (std::is_same_v<T, double>)
+    return packet::double_kernels(width);
+  else
+    return packet::float_kernels(width, p);
+}
+
+constexpr int kQueryWidths[] = {1, 4, 8, 16};
+constexpr int query_slot(int n) { return n == 1 ? 0 : n == 4 ? 1 : n == 8 ? 2 : 3; }
+
+template <class T>
+struct Engine {
+  PreparedScene<T> scene;
+  const packet::KernelTable<T>* render = nullptr;  // null: the reference
+  // Per RayPacket<N> (by query_slot): the kernel's lanes and table (null: the reference).
+  int query_width[4] = {1, 1, 1, 1};
+  const packet::KernelTable<T>* query[4] = {};
+};
+
+std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
+
+template <int N>
+void check_ray(const char* what, const RayPacket<N>& r, int k) {
+  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
+    throw InputError(std::string(what) + ": " + lane(k) + "org must be finite");
+  const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
+                    double(r.dir_z[k]) * r.dir_z[k];
+  if (!(std::fabs(d2 - 1.0) <= 1e-5))
+    throw InputError(std::string(what) + ": " + lane(k) +
+                     "dir must be unit length, |dir|^2 = " + std::to_string(d2));
+  if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
+}
+
+// Every active lane, before any is traced: on an error nothing has been written.
+template <int N>
+void check_rays(const char* what, const int* valid, const RayPacket<N>& r) {
+  for (int k = 0; k < N; ++k)
+    if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
+}
+
+// One chunk of a caller's packet at the kernel's width W, in the prepared frame.
+template <class T>
+struct Chunk {
+  alignas(64) T rays[6 * kMaxLanes];
+  alignas(64) T t[kMaxLanes];
+  alignas(64) T id[kMaxLanes];
+  bool valid[kMaxLanes];
+  bool out[kMaxLanes];
+};
+
+// Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
+// prepared frame in double and rounded once to T; inactive lanes get a harmless ray.
+template <class T, int N>
+int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
+         Chunk<T>& ch) {
+  int active = 0;
+  const Vec3<double>& w0 = s.world_origin;
+  for (int l = 0; l < w; ++l) {
+    const int k = c + l;
+    const bool on = k < N && (valid == nullptr || valid[k] != 0);
+    ch.valid[l] = on;
+    T o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, tfar = std::numeric_limits<T>::infinity();
+    if (on) {
+      ++active;
+      o[0] = T(double(r.org_x[k]) - w0.x);
+      o[1] = T(double(r.org_y[k]) - w0.y);
+      o[2] = T(double(r.org_z[k]) - w0.z);
+      d[0] = T(r.dir_x[k]), d[1] = T(r.dir_y[k]), d[2] = T(r.dir_z[k]);
+      tfar = T(r.tfar[k]);
+    }
+    for (int a = 0; a < 3; ++a) ch.rays[a * w + l] = o[a], ch.rays[(3 + a) * w + l] = d[a];
+    ch.t[l] = tfar;
+    ch.id[l] = T(-1);
+  }
+  return active;
+}
+
+template <class T>
+Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
+  return {ch.rays[first * w + l], ch.rays[(first + 1) * w + l], ch.rays[(first + 2) * w + l]};
+}
+
+template <class T, int N>
+void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
+  const PreparedScene<T>& s = e.scene;
+  const int w = e.query_width[query_slot(N)];
+  const packet::KernelTable<T>* k = e.query[query_slot(N)];
+  check_rays("intersect", valid, r);
+  Chunk<T> ch;
+  for (int c = 0; c < N; c += w) {
+    if (fill(s, valid, r, c, w, ch) == 0) continue;
+    if (k) {
+      k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
+    } else {  // the reference; its nearest hit counts where it lies before tfar
+      const reference::Hit<T> hit =
+          reference::closest_hit(s, lane_vec(ch, 1, 0, 0), lane_vec(ch, 1, 0, 3));
+      if (hit.id >= 0 && hit.t < ch.t[0]) ch.t[0] = hit.t, ch.id[0] = T(hit.id);
+    }
+    for (int l = 0; l < w && c + l < N; ++l) {
+      if (!ch.valid[l]) continue;
+      const int kk = c + l;
+      const int id = static_cast<int>(ch.id[l]);
+      h.id[kk] = id;
+      if (id < 0) {
+        h.t[kk] = std::numeric_limits<float>::infinity();
+        h.ng_x[kk] = h.ng_y[kk] = h.ng_z[kk] = 0;
+        continue;
+      }
+      h.t[kk] = static_cast<float>(ch.t[l]);
+      // The renderer's normal at the hit, before it is turned towards the ray.
+      Vec3<T> n;
+      if (id < s.num_spheres) {
+        const Vec3<T> p = along(lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l]);
+        n = sphere_normal(p, Vec3<T>{s.sphere_cx[id], s.sphere_cy[id], s.sphere_cz[id]});
+      } else {
+        const int q = id - s.num_spheres;
+        n = {s.plane_nx[q], s.plane_ny[q], s.plane_nz[q]};
+      }
+      h.ng_x[kk] = float(n.x), h.ng_y[kk] = float(n.y), h.ng_z[kk] = float(n.z);
+    }
+  }
+}
+
+template <class T, int N>
+void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, int* out) {
+  const PreparedScene<T>& s = e.scene;
+  const int w = e.query_width[query_slot(N)];
+  const packet::KernelTable<T>* k = e.query[query_slot(N)];
+  check_rays("occluded", valid, r);
+  Chunk<T> ch;
+  for (int c = 0; c < N; c += w) {
+    if (fill(s, valid, r, c, w, ch) == 0) continue;
+    if (k) {
+      k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);
+    } else {
+      // The reference answers by its closest hit: something lies in (epsilon, tfar) exactly
+      // when the nearest hit does, since both take each object's same nearest root.
+      const reference::Hit<T> hit =
+          reference::closest_hit(s, lane_vec(ch, 1, 0, 0), lane_vec(ch, 1, 0, 3));
+      ch.out[0] = hit.id >= 0 && hit.t < ch.t[0];
+    }
+    for (int l = 0; l < w && c + l < N; ++l)
+      if (ch.valid[l]) out[c + l] = ch.out[l] ? 1 : 0;
+  }
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+struct Scene::Impl {
+  SceneDescription desc;
+  Info info;
+  bool dbl = false;
+  Engine<float> f;   // exact and fast
+  Engine<double> d;  // double
+
+  template <class Fn>
+  decltype(auto) visit(Fn fn) const {
+    return dbl ? fn(d) : fn(f);
+  }
+};
+
+namespace {
+
+// The kernels of a prepared scene: its render width, and per query width N the widest kernel
+// up to min(N, render width) (the narrowest packet where none is: fast mode has no width 1).
+template <class T>
+void choose_widths(Engine<T>& e, const Info& info) {
+  const std::vector<int> widths = packet::supported_widths(info.precision);
+  for (int n : kQueryWidths) {
+    int w = widths.back();  // the narrowest (fast mode has no width 1)
+    for (int cand : widths)
+      if (cand <= n && cand <= info.width) {
+        w = cand;
+        break;
+      }
+    e.query_width[query_slot(n)] = w;
+    e.query[query_slot(n)] = kernels_of<T>(w, info.precision);
+  }
+  e.render = kernels_of<T>(info.width, info.precision);
+}
+
+}  // namespace
+
+Scene::Scene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Scene::Scene(Scene&&) noexcept = default;
+Scene& Scene::operator=(Scene&&) noexcept = default;
+Scene::~Scene() = default;
+
+Scene Scene::load(const std::string& path, const Options& options) {
+  return from_description(load_scene(path), options);
+}
+
+Scene Scene::from_description(const SceneDescription& description, const Options& options) {
+  const std::string name = description.name.empty() ? "scene" : description.name;
+  auto impl = std::make_unique<Impl>();
+  impl->desc = parse_scene(to_scene_file(description, name), name);
+  const SceneDescription& s = impl->desc;
+  Info& info = impl->info;
+  info.precision = options.precision;
+  if (info.precision == Precision::automatic) {
+    const PrecisionChoice c = choose_precision(s);
+    info.precision = c.precision;
+    info.precision_reason = c.reason;
+  }
+  info.width = resolve_width(options.width, info.precision, "width");
+  info.isa = packet::isa_name(info.width, info.precision);
+  if (options.threads < 0) throw InputError("threads: must be >= 0 (0 = all cores)");
+  info.threads = options.threads == 0 ? hardware_threads() : options.threads;
+  info.nx = s.camera.nx, info.ny = s.camera.ny, info.supersample = s.supersample;
+  info.objects = static_cast<int>(s.spheres.size() + s.planes.size());
+  impl->dbl = info.precision == Precision::dbl;
+  if (impl->dbl) {
+    impl->d.scene = prepare<double>(s);
+    choose_widths(impl->d, info);
+  } else {
+    impl->f.scene = prepare<float>(s);
+    choose_widths(impl->f, info);
+  }
+  return Scene(std::move(impl));
+}
+
+const Info& Scene::info() const { return impl_->info; }
+const SceneDescription& Scene::description() const { return impl_->desc; }
+
+template <int N>
+void Scene::intersect(const int* valid, const RayPacket<N>& rays, HitPacket<N>& hits) const {
+  impl_->visit([&](const auto& e) { intersect_impl(e, valid, rays, hits); });
+}
+
+template <int N>
+void Scene::occluded(const int* valid, const RayPacket<N>& rays, int* occluded) const {
+  impl_->visit([&](const auto& e) { occluded_impl(e, valid, rays, occluded); });
+}
+
+template void Scene::intersect<1>(const int*, const Ray1&, Hit1&) const;
+template void Scene::intersect<4>(const int*, const Ray4&, Hit4&) const;
+template void Scene::intersect<8>(const int*, const Ray8&, Hit8&) const;
+template void Scene::intersect<16>(const int*, const Ray16&, Hit16&) const;
+template void Scene::occluded<1>(const int*, const Ray1&, int*) const;
+template void Scene::occluded<4>(const int*, const Ray4&, int*) const;
+template void Scene::occluded<8>(const int*, const Ray8&, int*) const;
+template void Scene::occluded<16>(const int*, const Ray16&, int*) const;
+
+void Scene::camera_ray(int i, int j, int a, int b, float org[3], float dir[3]) const {
+  const Info& in = impl_->info;
+  if (i < 0 || i >= in.nx || j < 0 || j >= in.ny)
+    throw InputError("camera_ray: pixel (" + std::to_string(i) + ", " + std::to_string(j) +
+                     ") outside the " + std::to_string(in.nx) + "x" + std::to_string(in.ny) +
+                     " image");
+  if (a < 0 || a >= in.supersample || b < 0 || b >= in.supersample)
+    throw InputError("camera_ray: sub-sample (" + std::to_string(a) + ", " + std::to_string(b) +
+                     ") outside 0 .. " + std::to_string(in.supersample - 1));
+  impl_->visit([&](const auto& e) {
+    using T = std::decay_t<decltype(e.scene.epsilon)>;
+    const PreparedCamera<T>& cam = e.scene.camera;
+    Vec3<T> o, d;
+    // As reference::primary_rows makes it; the packets' screen tables hold the same values.
+    lancer::camera_ray(cam, screen_x(cam, T(i), cam.sub_offset[a]),
+                       screen_y(cam, T(j), cam.sub_offset[b]), o, d);
+    const Vec3<double>& w0 = e.scene.world_origin;
+    org[0] = float(double(o.x) + w0.x), org[1] = float(double(o.y) + w0.y);
+    org[2] = float(double(o.z) + w0.z);
+    dir[0] = float(d.x), dir[1] = float(d.y), dir[2] = float(d.z);
+  });
+}
+
+RenderStats Scene::render_rows(int row_begin, int row_end, float* rgb,
+                               std::size_t row_stride) const {
+  const Info& in = impl_->info;
+  if (row_begin < 0 || row_end < row_begin || row_end > in.ny)
+    throw InputError("render_rows: rows [" + std::to_string(row_begin) + ", " +
+                     std::to_string(row_end) + ") outside [0, " + std::to_string(in.ny) + ")");
+  if (row_stride < std::size_t(3) * in.nx)
+    throw InputError("render_rows: row_stride " + std::to_string(row_stride) +
+                     " is below 3 x nx = " + std::to_string(3 * in.nx) + " floats");
+  if (row_end > row_begin && rgb == nullptr) throw InputError("render_rows: rgb is null");
+  RenderStats stats;
+  const auto start = std::chrono::steady_clock::now();
+  const RayCounts counts = impl_->visit([&](const auto& e) {
+    // Tiles of the band over threads (run_tiles), each rendered into an image band by the
+    // renderer `lancer render` runs, then copied to the caller's rows.
+    return lancer::run_tiles(row_end - row_begin, in.threads, [&](int t0, int t1, RayCounts& c) {
+      Image band(in.nx, t1 - t0);
+      band.first_row = row_begin + t0;
+      if (e.render)
+        e.render->render_rows(e.scene, band, row_begin + t0, row_begin + t1, c);
+      else
+        reference::render_rows(e.scene, band, row_begin + t0, row_begin + t1, c);
+      const std::size_t row_floats = std::size_t(3) * in.nx;
+      for (int y = 0; y < t1 - t0; ++y)
+        std::memcpy(rgb + std::size_t(t0 + y) * row_stride, band.rgb.data() + y * row_floats,
+                    row_floats * sizeof(float));
+    });
+  });
+  stats.seconds = seconds_since(start);
+  stats.camera = counts.camera, stats.shadow = counts.shadow, stats.reflected = counts.reflected;
+  return stats;
+}
+
+PrimaryHits Scene::primary_hits() const {
+  const Info& in = impl_->info;
+  PrimaryHits out;
+  out.nx = in.nx, out.ny = in.ny;
+  const std::size_t pixels = std::size_t(in.nx) * in.ny;
+  out.t.assign(pixels, 0.0f);
+  std::vector<float> ids(pixels, -1.0f);
+  impl_->visit([&](const auto& e) {
+    lancer::run_tiles(in.ny, in.threads, [&](int r0, int r1, RayCounts& c) {
+      if (e.render)
+        e.render->primary_rows(e.scene, out.t.data(), ids.data(), r0, r1, c);
+      else
+        reference::primary_rows(e.scene, out.t.data(), ids.data(), r0, r1, c);
+    });
+  });
+  out.id.resize(pixels);
+  for (std::size_t p = 0; p < pixels; ++p) out.id[p] = static_cast<int>(ids[p]);
+  return out;
+}
+
+const char* version() { return LANCER_VERSION; }
+
+}  // namespace lancer::api
