@@ -83,7 +83,9 @@ void add_validate(CLI::App& app) {
                   "exact or double: the packets of that precision "
                   "against the reference of that precision")
       ->capture_default_str();
-  cmd->add_option("--threads", args->threads, "Threads (0 = all cores)");
+  cmd->add_option(
+      "--threads", args->threads,
+      "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   cmd->callback([args] {
