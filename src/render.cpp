@@ -96,6 +96,21 @@ PrecisionChoice choose_precision(const Scene& scene) {
   }
   constexpr double kMinFeature = 1e-4;
   char why[200];
+  // The camera's scale: a pixel's step across the window (a sub-sample's, with supersampling) is
+  // what separates neighbouring camera rays. Below 1e-18 its square is no normal float and float
+  // steps the window in subnormals (a window of +-1e-40 has 2^-149 steps a few at a time): the
+  // same bound the loader puts on radii and distances.
+  const CameraSpec& cam = scene.camera;
+  const double samples = std::max(1, scene.supersample);
+  const double step = std::min(std::fabs(cam.xmax - cam.xmin) / (cam.nx * samples),
+                               std::fabs(cam.ymax - cam.ymin) / (cam.ny * samples));
+  constexpr double kMinCameraStep = 1e-18;
+  if (step < kMinCameraStep) {
+    std::snprintf(why, sizeof why,
+                  "the camera's pixel step (%g) is below 1e-18, where float steps in subnormals",
+                  step);
+    return {Precision::dbl, why};
+  }
   if (std::isfinite(smallest) && extent > 0 && smallest < kMinFeature * extent) {
     std::snprintf(why, sizeof why,
                   "the smallest sphere (radius %g) is below 1e-4 of the scene's extent (%g)",
