@@ -45,7 +45,7 @@ int hardware_threads() { return std::max(1, tbb::info::default_concurrency()); }
 int resolve_threads(int requested, const std::string& option) {
   if (requested < 0 || requested > kMaxThreads)
     throw InputError(option + ": must be from 0 (all cores) to " + std::to_string(kMaxThreads) +
-                     ", not " + std::to_string(requested));
+                     ", not " + std::to_string(requested) + " (docs/limits.md)");
   const int cores = hardware_threads();
   return requested == 0 ? cores : std::min(requested, cores);
 }

@@ -41,7 +41,8 @@ void run_flux(const FluxArgs& a) {
           std::filesystem::absolute(p.path).lexically_normal() ==
               std::filesystem::absolute(q.path).lexically_normal())
         throw InputError(std::string(q.option) + " " + q.path + ": same file as " + p.option);
-  if (a.size < 100 || a.size > 8192) throw InputError("--size: must be from 100 to 8192");
+  if (a.size < 100 || a.size > 8192)
+    throw InputError("--size: must be from 100 to 8192 (docs/limits.md)");
 
   const flux::Profile profile = flux::flux_profile(fs.scene);
   const bool any_file = !a.csv.empty() || !a.plot.empty() || !a.diagram.empty();
@@ -67,7 +68,8 @@ void run_flux(const FluxArgs& a) {
       throw InputError("--diagram " + a.diagram + ": the scene's rays make " +
                        std::to_string(paths.log.segments.size()) +
                        " segments; a diagram draws at most " + std::to_string(kMaxDiagramSegments) +
-                       " (about 60 MB of SVG): trace fewer rays (resolution, lights, max_depth)");
+                       " (about 60 MB of SVG; docs/limits.md): trace fewer rays (resolution, "
+                       "lights, max_depth)");
     flux::DiagramOptions o;
     o.size = a.size;
     o.hits_only = a.hits_only;

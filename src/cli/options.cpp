@@ -79,7 +79,8 @@ std::vector<int> parse_int_list(const std::vector<std::string>& items, const std
 void apply_overrides(Scene& scene, const SceneOverrides& o) {
   if (o.supersample != kUnset) {
     if (o.supersample < 1 || o.supersample > kMaxSupersample)
-      throw InputError("--supersample: must be from 1 to " + std::to_string(kMaxSupersample));
+      throw InputError("--supersample: must be from 1 to " + std::to_string(kMaxSupersample) +
+                       " (docs/limits.md)");
     scene.supersample = o.supersample;
   }
   if (!o.resolution.empty()) {
@@ -89,7 +90,7 @@ void apply_overrides(Scene& scene, const SceneOverrides& o) {
     const int ny = parse_int(o.resolution.substr(x + 1), "--resolution");
     if (nx <= 0 || ny <= 0 || nx > kMaxResolution || ny > kMaxResolution)
       throw InputError("--resolution: each side must be from 1 to " +
-                       std::to_string(kMaxResolution));
+                       std::to_string(kMaxResolution) + " (docs/limits.md)");
     scene.camera.nx = nx;
     scene.camera.ny = ny;
   }
