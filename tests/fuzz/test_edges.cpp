@@ -287,6 +287,15 @@ TEST(Replace, ModeIsKept) {
   ASSERT_EQ(stat(out.c_str(), &st), 0);
   EXPECT_EQ(st.st_mode & 07777, 0640u);
   EXPECT_NE(slurp(out), "old");
+  // And the owner, where permitted (root may give a file to anyone).
+  if (getuid() == 0) {
+    ASSERT_EQ(chown(out.c_str(), 65534, 65534), 0);
+    render_to(out);
+    ASSERT_EQ(stat(out.c_str(), &st), 0);
+    EXPECT_EQ(st.st_uid, 65534u);
+    EXPECT_EQ(st.st_gid, 65534u);
+    EXPECT_EQ(st.st_mode & 07777, 0640u);
+  }
   // A new file gets the umask's permissions, not mkstemp's 0600.
   const mode_t mask = umask(022);
   render_to(dir.file("new.png"));
@@ -330,6 +339,29 @@ TEST(Replace, LongestLegalNamesWork) {
     EXPECT_TRUE(fs::is_regular_file(dir.file(name))) << len;
   }
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 3);
+}
+
+// The new file reaches the disk before the rename, and the rename after it (the folder fsynced),
+// as strace sees the system calls.
+TEST(Replace, FileIsSyncedBeforeTheRenameAndTheFolderAfter) {
+  if (testing::run_command("strace -V").status != 0) GTEST_SKIP() << "no strace";
+  TempDir dir;
+  const std::string log = dir.file("trace.log");
+  const CommandResult r = testing::run_command(
+      "strace -f -e trace=fsync,rename,renameat,renameat2 -o '" + log + "' '" + testing::cli() +
+      "' render " + scene("lorenzi-shadows.json") + " -o " + dir.file("x.png") + kSmall);
+  if (r.status != 0 && r.out.find("ptrace") != std::string::npos)
+    GTEST_SKIP() << "strace cannot trace here: " << r.out;
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::string calls;  // the sequence: f for fsync, r for rename
+  std::istringstream lines(slurp(log));
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find("fsync(") != std::string::npos && line.find("= 0") != std::string::npos)
+      calls += 'f';
+    if (line.find("rename") != std::string::npos && line.find("x.png") != std::string::npos)
+      calls += 'r';
+  }
+  EXPECT_EQ(calls, "frf");
 }
 
 // --- 9. auto precision covers the camera's scale ------------------------------------------------
