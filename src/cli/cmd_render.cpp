@@ -51,8 +51,11 @@ void add_render(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand("render", "Render a scene to an image file");
   cmd->add_option("scene", args->scene, "Scene file (JSON, see SCENE-MODEL.md)")->required();
-  cmd->add_option("-o,--output", args->output,
-                  "Output image; format from the extension: .png .exr .tif .jpg .ppm .pfm ...")
+  cmd->add_option(
+         "-o,--output", args->output,
+         "Output image; format from the extension: .png .jpg .jpeg .ppm .bmp .tga (8-bit), .exr "
+         ".tif .tiff .hdr .pfm (float); a symbolic link's target is replaced, keeping its "
+         "mode (docs/limits.md)")
       ->required();
   cmd->add_option("--width", args->width,
                   "Lanes per packet: auto (widest this CPU runs), 1 (scalar reference), 4, 8, 16 "
