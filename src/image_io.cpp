@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <climits>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -34,9 +35,32 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+// The formats lancer writes: each one checked to write a real file of its kind that reads back
+// (tests/test_image.cpp). OpenImageIO offers more, but some of them write nothing (.jp2 leaves 0
+// bytes, .term prints to the terminal, .null writes no file), and .pgm/.pbm would get colour.
+constexpr ImageFormat kFormats[] = {
+    {".png", "png", false},    {".jpg", "jpeg", false}, {".jpeg", "jpeg", false},
+    {".ppm", "pnm", false},    {".bmp", "bmp", false},  {".tga", "targa", false},
+    {".exr", "openexr", true}, {".tif", "tiff", true},  {".tiff", "tiff", true},
+    {".hdr", "hdr", true},     {".pfm", "pnm", true},
+};
+
+const ImageFormat* find_format(const std::string& ext) {
+  for (const ImageFormat& f : kFormats)
+    if (ext == f.extension) return &f;
+  return nullptr;
+}
+
+std::string known_extensions() {
+  std::string out;
+  for (const ImageFormat& f : kFormats) out += (out.empty() ? "" : " ") + std::string(f.extension);
+  return out;
+}
+
 // Formats that keep radiance as floats, unclamped; the rest are 8-bit, clamped and rounded.
 bool is_float_format(const std::string& ext) {
-  return ext == ".pfm" || ext == ".exr" || ext == ".hdr" || ext == ".tif" || ext == ".tiff";
+  const ImageFormat* f = find_format(ext);
+  return f && f->is_float;
 }
 
 // The temporary file being written, so that a signal handler can remove it. One write at a time
@@ -69,12 +93,16 @@ class HoldTerminationSignals {
 };
 
 // A fresh temporary file beside `target`, so that the final rename stays on one file system:
-// `.<name>.lancer-XXXXXX` (`.<name>.lancer-probe-XXXXXX` for the writability probe). It is the
+// `.<name>.lancer-XXXXXX` (`.<name>.lancer-probe-XXXXXX` for the writability probe), <name> cut
+// short where the whole would exceed NAME_MAX, so that every legal target name has one. It is the
 // pending file from the moment it exists.
 std::string make_pending_beside(const std::string& target, const char* kind = "lancer-") {
   fs::path t(target);
   fs::path dir = t.parent_path().empty() ? fs::path(".") : t.parent_path();
-  std::string pattern = (dir / ("." + t.filename().string() + "." + kind + "XXXXXX")).string();
+  std::string name = t.filename().string();
+  const std::size_t room = NAME_MAX - (2 + std::strlen(kind) + 6);  // "." "." kind "XXXXXX"
+  if (name.size() > room) name.resize(room);
+  std::string pattern = (dir / ("." + name + "." + kind + "XXXXXX")).string();
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
   const HoldTerminationSignals hold;
@@ -102,8 +130,8 @@ void write_pfm(const Image& im, const std::string& path) {
 }
 
 void write_oiio(const Image& im, const std::string& format_path, const std::string& path) {
-  auto out = OIIO::ImageOutput::create(format_path);
-  if (!out) throw InputError(format_path + ": unknown image format");
+  auto out = OIIO::ImageOutput::create(find_format(lower_extension(format_path))->oiio_name);
+  if (!out) throw InputError(format_path + ": this OpenImageIO cannot write the format");
   const std::string ext = lower_extension(format_path);
   if (is_float_format(ext)) {
     OIIO::ImageSpec spec(im.nx, im.ny, 3, OIIO::TypeDesc::FLOAT);
@@ -131,56 +159,116 @@ void remove_pending_outputs() noexcept {
   if (g_has_pending.exchange(false)) unlink(g_pending);  // async-signal-safe
 }
 
-void check_writable_target(const std::string& path, const std::string& scene_path) {
-  if (path.empty()) throw InputError("output path is empty");
+std::string output_target(const std::string& path) {
+  fs::path p(path);
+  for (int hops = 0; hops < 40; ++hops) {  // Linux's own limit on links followed
+    struct stat st;
+    if (lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return p.string();
+    std::error_code ec;
+    const fs::path link = fs::read_symlink(p, ec);
+    if (ec) throw InputError(path + ": cannot read the symbolic link: " + ec.message());
+    p = link.is_absolute() ? link : p.parent_path() / link;
+  }
+  throw InputError(path + ": too many levels of symbolic links");
+}
+
+void check_writable_target(const std::string& given, const std::string& scene_path) {
+  if (given.empty()) throw InputError("output path is empty");
+  if (given == "-") throw InputError("-: this output is a file, not stdout: give a file name");
   std::error_code ec;
-  if (!scene_path.empty() && fs::exists(path, ec) && fs::equivalent(path, scene_path, ec))
-    throw InputError(path + ": would overwrite the scene file");
+  if (!scene_path.empty() && fs::exists(given, ec) && fs::equivalent(given, scene_path, ec))
+    throw InputError(given + ": would overwrite the scene file");
+  const std::string path = output_target(given);  // a symbolic link: its target is written
   fs::path p(path);
   fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
   if (!fs::is_directory(dir, ec))
-    throw InputError(path + ": folder " + dir.string() + " does not exist");
+    throw InputError(given + ": folder " + dir.string() + " does not exist");
   if (access(dir.c_str(), W_OK) != 0)
-    throw InputError(path + ": folder " + dir.string() + " is not writable");
-  if (fs::is_directory(p, ec)) throw InputError(path + ": is a folder");
-  if (fs::exists(p, ec) && access(path.c_str(), W_OK) != 0)
-    throw InputError(path + ": exists and is not writable");
+    throw InputError(given + ": folder " + dir.string() + " is not writable");
+  if (fs::is_directory(p, ec)) throw InputError(given + ": is a folder");
+  struct stat st;
+  if (stat(path.c_str(), &st) == 0) {
+    if (!S_ISREG(st.st_mode))
+      throw InputError(given + ": exists and is not a regular file (a device, pipe or socket)");
+    if (access(path.c_str(), W_OK) != 0) throw InputError(given + ": exists and is not writable");
+    // The new file replaces this name only: the other names would keep the old contents.
+    if (st.st_nlink > 1)
+      throw InputError(given + ": has " + std::to_string(st.st_nlink) +
+                       " hard links, which replacing it would split (the others keeping the old "
+                       "contents): remove it first or write elsewhere");
+  }
   // access() is no answer for root, who passes it for /proc, /sys or a read-only mount: create the
   // file the write will create (and remove it), so that the failure comes before the work.
   make_pending_beside(path, "lancer-probe-");
   remove_pending_outputs();
 }
 
+const std::vector<ImageFormat>& image_formats() {
+  static const std::vector<ImageFormat> all(std::begin(kFormats), std::end(kFormats));
+  return all;
+}
+
 void check_output_path(const std::string& path, const std::string& scene_path) {
   if (path.empty()) throw InputError("-o: output path is empty");
+  if (path == "-") throw InputError("-: images are written to files, not stdout: give a file name");
   std::error_code ec;
   // First, so that `-o scene.json` says what is wrong rather than that .json is no image format.
   if (!scene_path.empty() && fs::exists(path, ec) && fs::equivalent(path, scene_path, ec))
     throw InputError(path + ": would overwrite the scene file");
   const std::string ext = lower_extension(path);
-  if (ext.empty()) throw InputError(path + ": no extension to choose an image format from");
-  if (ext != ".pfm") {
-    auto probe = OIIO::ImageOutput::create(path);
-    if (!probe) throw InputError(path + ": unknown image format '" + ext + "'");
-  }
+  if (ext.empty())
+    throw InputError(path + ": no extension to choose an image format from (" + known_extensions() +
+                     ")");
+  if (ext == ".pgm" || ext == ".pbm")
+    throw InputError(path + ": " + ext + " holds grey or black and white, and lancer renders " +
+                     "colour: use .ppm");
+  if (!find_format(ext))
+    throw InputError(path + ": lancer does not write '" + ext + "' images (it writes " +
+                     known_extensions() + ")");
   check_writable_target(path, scene_path);
 }
 
-void write_file_atomically(const std::string& path,
+void write_file_atomically(const std::string& given,
                            const std::function<void(const std::string&)>& write) {
+  const std::string path = output_target(given);
+  struct stat old;
+  const bool replacing = stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);
   const std::string tmp = make_pending_beside(path);
   try {
     write(tmp);
-    // mkstemp makes the file 0600; give it the permissions an ordinary new file would get.
-    const mode_t mask = umask(0);
-    umask(mask);
-    chmod(tmp.c_str(), 0666 & ~mask);
+    const int fd = open(tmp.c_str(), O_RDWR | O_CLOEXEC);
+    if (fd < 0)
+      throw InputError(given + ": cannot reopen the written file: " + std::strerror(errno));
+    if (replacing) {
+      // The replaced file's owner and group where the system lets us (root; a group we are in),
+      // then its mode (chown clears set-id bits, so the mode comes second).
+      if (fchown(fd, old.st_uid, old.st_gid) != 0) (void)!fchown(fd, -1, old.st_gid);
+      fchmod(fd, old.st_mode & 07777);
+    } else {
+      // mkstemp makes the file 0600; give it the permissions an ordinary new file would get.
+      const mode_t mask = umask(0);
+      umask(mask);
+      fchmod(fd, 0666 & ~mask);
+    }
+    // On disk before the rename, so that a crash leaves the old file or the new one, whole.
+    const bool synced = fsync(fd) == 0;
+    const int sync_errno = errno;
+    close(fd);
+    if (!synced) throw InputError(given + ": cannot write to disk: " + std::strerror(sync_errno));
     if (std::rename(tmp.c_str(), path.c_str()) != 0)
-      throw InputError(path + ": cannot rename into place: " + std::strerror(errno));
+      throw InputError(given + ": cannot rename into place: " + std::strerror(errno));
     clear_pending();
   } catch (...) {
     remove_pending_outputs();
     throw;
+  }
+  // And the rename itself on disk.
+  const fs::path dir =
+      fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+  const int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    fsync(dfd);
+    close(dfd);
   }
 }
 

@@ -1,5 +1,7 @@
 #include "lancer/render.hpp"
 
+#include <tbb/info.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -36,7 +38,17 @@ Precision parse_precision(const std::string& text, const std::string& option) {
   throw InputError(option + ": must be exact, double, fast or auto, not '" + text + "'");
 }
 
-int hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
+// TBB's count: the CPUs this process may run on (affinity mask, cgroup quota), which is also the
+// most threads a TBB arena ever runs at once.
+int hardware_threads() { return std::max(1, tbb::info::default_concurrency()); }
+
+int resolve_threads(int requested, const std::string& option) {
+  if (requested < 0 || requested > kMaxThreads)
+    throw InputError(option + ": must be from 0 (all cores) to " + std::to_string(kMaxThreads) +
+                     ", not " + std::to_string(requested) + " (docs/limits.md)");
+  const int cores = hardware_threads();
+  return requested == 0 ? cores : std::min(requested, cores);
+}
 
 int resolve_width(int requested, Precision precision, const std::string& option) {
   LANCER_CHECK(precision != Precision::automatic);
@@ -84,6 +96,21 @@ PrecisionChoice choose_precision(const Scene& scene) {
   }
   constexpr double kMinFeature = 1e-4;
   char why[200];
+  // The camera's scale: a pixel's step across the window (a sub-sample's, with supersampling) is
+  // what separates neighbouring camera rays. Below 1e-18 its square is no normal float and float
+  // steps the window in subnormals (a window of +-1e-40 has 2^-149 steps a few at a time): the
+  // same bound the loader puts on radii and distances.
+  const CameraSpec& cam = scene.camera;
+  const double samples = std::max(1, scene.supersample);
+  const double step = std::min(std::fabs(cam.xmax - cam.xmin) / (cam.nx * samples),
+                               std::fabs(cam.ymax - cam.ymin) / (cam.ny * samples));
+  constexpr double kMinCameraStep = 1e-18;
+  if (step < kMinCameraStep) {
+    std::snprintf(why, sizeof why,
+                  "the camera's pixel step (%g) is below 1e-18, where float steps in subnormals",
+                  step);
+    return {Precision::dbl, why};
+  }
   if (std::isfinite(smallest) && extent > 0 && smallest < kMinFeature * extent) {
     std::snprintf(why, sizeof why,
                   "the smallest sphere (radius %g) is below 1e-4 of the scene's extent (%g)",
@@ -127,11 +154,6 @@ RayCounts run_tiles(int ny, int threads, const RenderOptions& opt, Body body) {
     const int done = rows_done += rows;
     if (opt.on_progress) opt.on_progress(done, ny);
   });
-}
-
-int resolve_threads(int requested) {
-  if (requested < 0) throw InputError("--threads: must be >= 0 (0 = all cores)");
-  return requested == 0 ? hardware_threads() : requested;
 }
 
 // The rows renderer of a resolved precision and width: the reference at width 1, else the

@@ -23,6 +23,19 @@ struct Image {
   }
 };
 
+// A format lancer writes: its extension (lower case, with the dot), OpenImageIO's name for it
+// (what reading the file back reports), and whether it keeps floats.
+struct ImageFormat {
+  const char* extension;
+  const char* oiio_name;
+  bool is_float;
+};
+// Every format write_image accepts; each is tested to write a file of its kind that reads back.
+const std::vector<ImageFormat>& image_formats();
+
+// The file a write to `path` replaces: `path` itself, or where its symbolic links lead.
+std::string output_target(const std::string& path);
+
 // Checks before rendering that `path` can be written: a known extension, an existing folder we
 // may write to, and not the scene file itself. Throws InputError naming the path.
 void check_output_path(const std::string& path, const std::string& scene_path = "");
@@ -33,6 +46,10 @@ void check_writable_target(const std::string& path, const std::string& scene_pat
 
 // Runs write(tmp) on a temporary file beside `path`, then renames it into place: the file appears
 // whole or not at all, and a SIGINT/SIGTERM/SIGHUP meanwhile removes the temporary file.
+// Replacing an existing file (docs/limits.md, "Output files"): a symbolic link is followed and
+// its target replaced; the replaced file's mode (and owner and group, where permitted) carry
+// over; the file is fsynced before the rename and the folder after it. check_writable_target
+// refuses a target with other hard links, which a rename would split.
 void write_file_atomically(const std::string& path,
                            const std::function<void(const std::string& tmp)>& write);
 

@@ -84,6 +84,14 @@ int resolve_width(int requested, Precision precision, const std::string& option 
 // Primary mode with the closest-hit ids too (for lancer trade's hit mismatch); slower.
 PrimaryResult render_primary_with_ids(const Scene& scene, const RenderOptions& options);
 
+// The CPUs this process may run on (TBB's default concurrency: affinity and cgroup quota).
 int hardware_threads();
+
+// More threads than this is a typing error, not a machine (docs/limits.md).
+inline constexpr int kMaxThreads = 4096;
+// The threads a render asked for `requested` runs on: 0 is every core; more than the cores is
+// capped at the cores (TBB runs no more at once, and a summary reports what ran); negative or
+// above kMaxThreads is an InputError naming `option`.
+int resolve_threads(int requested, const std::string& option = "--threads");
 
 }  // namespace lancer

@@ -126,7 +126,15 @@ void run_bench_cmd(const BenchArgs& a) {
     opt.widths.push_back(parse_width_list(a.widths, "--width", precision));
   }
   if (opt.precisions.empty()) throw InputError("--precision: no precision given");
-  opt.threads = parse_int_list(a.threads, "--threads", 1);
+  // The thread counts that will run (0 = all cores, more than the cores capped), each once.
+  for (int t : parse_int_list(a.threads, "--threads", 0)) {
+    const int ran = resolve_threads(t);
+    if (ran != t && t != 0)
+      std::fprintf(stderr, "lancer: --threads %d: this machine runs %d at once; rows say %d\n", t,
+                   ran, ran);
+    if (std::find(opt.threads.begin(), opt.threads.end(), ran) == opt.threads.end())
+      opt.threads.push_back(ran);
+  }
   if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
   opt.repeat = a.repeat;
   opt.modes.clear();
@@ -163,7 +171,9 @@ void add_bench(CLI::App& app) {
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_option("--width", args->widths,
                   "Widths, e.g. 1,4,8,16 or all (default: all this CPU runs; 1 = reference)");
-  cmd->add_option("--threads", args->threads, "Thread counts, e.g. 1,2 (default 1)");
+  cmd->add_option("--threads", args->threads,
+                  "Thread counts, e.g. 1,2 (default 1; 0 = all cores; more than the cores is "
+                  "capped at the cores)");
   cmd->add_option("--mode", args->modes,
                   "primary, full and/or kernel (the primary intersection kernel alone, packets "
                   "only; default primary,full)");

@@ -1,5 +1,6 @@
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include "commands.hpp"
 #include "lancer/image.hpp"
@@ -30,8 +31,12 @@ void run_render(const RenderArgs& a) {
   std::printf("lancer: %s -> %s\n", a.scene.c_str(), a.output.c_str());
   std::printf("  image    %d x %d, %d sample%s per pixel\n", c.nx, c.ny,
               scene.supersample * scene.supersample, scene.supersample > 1 ? "s" : "");
-  std::printf("  engine   width %d (%s), %s precision, %d thread%s\n", r.width, r.isa.c_str(),
-              to_string(r.precision), r.threads, r.threads > 1 ? "s" : "");
+  const std::string capped =
+      a.threads > r.threads
+          ? " (" + std::to_string(a.threads) + " asked: this machine runs no more at once)"
+          : "";
+  std::printf("  engine   width %d (%s), %s precision, %d thread%s%s\n", r.width, r.isa.c_str(),
+              to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
   std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu in all\n",
@@ -46,8 +51,11 @@ void add_render(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand("render", "Render a scene to an image file");
   cmd->add_option("scene", args->scene, "Scene file (JSON, see SCENE-MODEL.md)")->required();
-  cmd->add_option("-o,--output", args->output,
-                  "Output image; format from the extension: .png .exr .tif .jpg .ppm .pfm ...")
+  cmd->add_option(
+         "-o,--output", args->output,
+         "Output image; format from the extension: .png .jpg .jpeg .ppm .bmp .tga (8-bit), .exr "
+         ".tif .tiff .hdr .pfm (float); a symbolic link's target is replaced, keeping its "
+         "mode (docs/limits.md)")
       ->required();
   cmd->add_option("--width", args->width,
                   "Lanes per packet: auto (widest this CPU runs), 1 (scalar reference), 4, 8, 16 "
@@ -58,7 +66,10 @@ void add_render(CLI::App& app) {
                   "(IEEE float, bit-identical at every width), double, or fast (FMA and refined "
                   "approximate reciprocals, packets only)")
       ->capture_default_str();
-  cmd->add_option("--threads", args->threads, "Threads (0 = all cores)")->capture_default_str();
+  cmd->add_option(
+         "--threads", args->threads,
+         "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)")
+      ->capture_default_str();
   cmd->add_option("--supersample", args->overrides.supersample,
                   "Sub-samples per axis (overrides the scene)");
   cmd->add_option("--resolution", args->overrides.resolution,

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 
@@ -33,6 +34,13 @@ void run_validate(const ValidateArgs& a, int& status) {
   } else {
     widths = parse_width_list(a.widths, "--width", precision);
   }
+  // A validate that compared no packet width proved nothing: it must not pass.
+  if (std::none_of(widths.begin(), widths.end(), [](int w) { return w > 1; }))
+    throw InputError(a.widths.empty()
+                         ? "validate: no packet width to compare with the reference (this CPU "
+                           "runs none, or LANCER_MAX_WIDTH=1)"
+                         : "--width: validate compares packet widths with the reference (width "
+                           "1): give at least one of 4, 8, 16 (double: 2, 4, 8)");
   RenderOptions ref_opt;
   ref_opt.width = 1;
   ref_opt.precision = precision;
@@ -59,7 +67,7 @@ void run_validate(const ValidateArgs& a, int& status) {
                 same_rays ? "" : "  (ray counts differ)");
   }
   std::printf("%s\n", all_identical ? "identical" : "DIFFERENT");
-  status = all_identical ? 0 : 1;
+  status = all_identical ? kExitOk : kExitDifferent;
 }
 }  // namespace
 
@@ -75,13 +83,15 @@ void add_validate(CLI::App& app) {
                   "exact or double: the packets of that precision "
                   "against the reference of that precision")
       ->capture_default_str();
-  cmd->add_option("--threads", args->threads, "Threads (0 = all cores)");
+  cmd->add_option(
+      "--threads", args->threads,
+      "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   cmd->callback([args] {
     int status = 0;
     run_validate(*args, status);
-    if (status != 0) std::exit(status);
+    g_exit_status = status;
   });
 }
 

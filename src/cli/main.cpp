@@ -1,7 +1,10 @@
 // lancer: a ray tracer built to be measured.
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <string>
 
 #include "commands.hpp"
 #include "lancer/error.hpp"
@@ -16,6 +19,25 @@ extern "C" void on_signal(int sig) {
   std::raise(sig);
 }
 
+// stdout is where validate's verdict, profile's JSON and flux's CSV go: output lost there (a full
+// disk, a closed pipe) is a failure, not a success that printed nothing.
+int flush_stdout(int status) {
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    const int err = errno;
+    std::fprintf(stderr, "lancer: stdout: write failed: %s\n",
+                 err ? std::strerror(err) : "output error");
+    return lancer::cli::kExitOutputLost;
+  }
+  return status;
+}
+
+const char* const kFooter =
+    "Exit status: 0 done; 1 validate found a width that differs from the reference; 2 bad input\n"
+    "(scene, option or output path; one line on stderr, nothing written); 3 out of memory; 4\n"
+    "output lost (stdout could not be written); 5 internal error. Limits: docs/limits.md.\n"
+    "Environment: LANCER_MAX_WIDTH=1|4|8|16 caps the packet widths offered (to run as a CPU\n"
+    "without AVX-512 or AVX2 would); any other value is refused (exit 2).";
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -28,6 +50,7 @@ int main(int argc, char** argv) {
       "A scalar reference and SIMD ray packets (4, 8, 16 lanes) over one scene model;\n"
       "exact mode is bit-identical across every width. Scene format: SCENE-MODEL.md."};
   app.require_subcommand(1);
+  app.footer(kFooter);
   app.set_version_flag("--version", "lancer 0.1.0");
   lancer::cli::add_render(app);
   lancer::cli::add_validate(app);
@@ -36,26 +59,45 @@ int main(int argc, char** argv) {
   lancer::cli::add_profile(app);
   lancer::cli::add_flux(app);
 
+  using namespace lancer::cli;
+  // CLI11 takes an unknown first word for a missing subcommand: name it.
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    std::string names;
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      known = known || sub->get_name() == argv[1];
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      std::fprintf(stderr, "lancer: unknown command '%s' (commands: %s; see lancer --help)\n",
+                   argv[1], names.c_str());
+      return kExitBadInput;
+    }
+  }
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
+    return flush_stdout(app.exit(e));
   } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
+    return flush_stdout(app.exit(e));
   } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
+    return flush_stdout(app.exit(e));
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "lancer: %s (see lancer --help)\n", e.what());
-    return 2;
+    return kExitBadInput;
   } catch (const lancer::InputError& e) {
     std::fprintf(stderr, "lancer: %s\n", e.what());
-    return 2;
+    return kExitBadInput;
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "lancer: out of memory\n");
-    return 1;
+    std::fprintf(stderr, "lancer: out of memory (limits: docs/limits.md)\n");
+    return kExitOutOfMemory;
+  } catch (const std::length_error& e) {  // a size beyond what a container can hold
+    std::fprintf(stderr, "lancer: out of memory: %s (limits: docs/limits.md)\n", e.what());
+    return kExitOutOfMemory;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "lancer: error: %s\n", e.what());
-    return 1;
+    std::fprintf(stderr, "lancer: internal error: %s\n", e.what());
+    return kExitInternal;
   }
-  return 0;
+  return flush_stdout(g_exit_status);
 }

@@ -1,7 +1,9 @@
 #include "options.hpp"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <mutex>
@@ -77,7 +79,8 @@ std::vector<int> parse_int_list(const std::vector<std::string>& items, const std
 void apply_overrides(Scene& scene, const SceneOverrides& o) {
   if (o.supersample != kUnset) {
     if (o.supersample < 1 || o.supersample > kMaxSupersample)
-      throw InputError("--supersample: must be from 1 to " + std::to_string(kMaxSupersample));
+      throw InputError("--supersample: must be from 1 to " + std::to_string(kMaxSupersample) +
+                       " (docs/limits.md)");
     scene.supersample = o.supersample;
   }
   if (!o.resolution.empty()) {
@@ -87,14 +90,35 @@ void apply_overrides(Scene& scene, const SceneOverrides& o) {
     const int ny = parse_int(o.resolution.substr(x + 1), "--resolution");
     if (nx <= 0 || ny <= 0 || nx > kMaxResolution || ny > kMaxResolution)
       throw InputError("--resolution: each side must be from 1 to " +
-                       std::to_string(kMaxResolution));
+                       std::to_string(kMaxResolution) + " (docs/limits.md)");
     scene.camera.nx = nx;
     scene.camera.ny = ny;
   }
   const auto& c = scene.camera;
   if (static_cast<long long>(c.nx) * c.ny * scene.supersample * scene.supersample > kMaxSamples)
     throw InputError("--resolution/--supersample: more than " + std::to_string(kMaxSamples) +
-                     " samples");
+                     " samples (docs/limits.md)");
+  check_memory(scene);
+}
+
+void check_memory(const Scene& scene) {
+  // What every command holds per pixel: the float RGB image (12 bytes) and, for an 8-bit file,
+  // its bytes (3), beside what this process may use: physical memory, or less under ulimit -v.
+  constexpr double kBytesPerPixel = 15;
+  const double pixels = double(scene.camera.nx) * scene.camera.ny;
+  const double needed = pixels * kBytesPerPixel;
+  double available = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGESIZE));
+  rlimit limit{};
+  if (getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
+    available = std::min(available, double(limit.rlim_cur));
+  if (available > 0 && needed > available) {
+    char msg[200];
+    std::snprintf(msg, sizeof msg,
+                  "%d x %d pixels: the image needs %.1f GB (15 bytes a pixel) and this process "
+                  "may use %.1f GB (docs/limits.md)",
+                  scene.camera.nx, scene.camera.ny, needed * 1e-9, available * 1e-9);
+    throw InputError(msg);
+  }
 }
 
 void attach_progress(RenderOptions& options) {

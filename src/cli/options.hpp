@@ -26,7 +26,12 @@ struct SceneOverrides {
   int supersample = kUnset;
   std::string resolution;  // "NXxNY"
 };
+// Applies the overrides, then checks the sample cap and check_memory.
 void apply_overrides(Scene& scene, const SceneOverrides& o);
+
+// Refuses (InputError) an image whose pixels alone need more memory than this process may use
+// (physical memory, or the ulimit -v), before any work.
+void check_memory(const Scene& scene);
 
 // A progress bar on stderr when it is a terminal; nothing otherwise.
 void attach_progress(RenderOptions& options);
