@@ -125,7 +125,8 @@ std::string scene_json(const Options& o) {
     const Micro y = r + static_cast<Micro>(rng.below(kHeight - 2 * r));
     const Micro z = kFar + r + static_cast<Micro>(rng.below(kNear - kFar - 2 * r));
     const int m = static_cast<int>(rng.below(kMaterials));
-    out += first ? "    {\"type\":\"sphere\",\"center\":[" : ",\n    {\"type\":\"sphere\",\"center\":[";
+    out += first ? "    {\"type\":\"sphere\",\"center\":["
+                 : ",\n    {\"type\":\"sphere\",\"center\":[";
     first = false;
     put_micro(out, x);
     out += ',';

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -43,6 +44,9 @@ constexpr double kMaxShininess = 1e6;
 // A key or name taken from the file, made fit for a one-line message: control characters escaped
 // (a key may hold "\n"), and very long ones cut (on a UTF-8 character boundary).
 std::string printable(const std::string& s, std::size_t max_shown = 64) {
+  if (s.size() <= max_shown &&
+      std::all_of(s.begin(), s.end(), [](char c) { return c >= 0x20 && c != 0x7f; }))
+    return s;  // the common case, for every field read
   std::string out;
   for (std::size_t i = 0; i < s.size(); ++i) {
     const unsigned char ch = static_cast<unsigned char>(s[i]);
@@ -292,11 +296,13 @@ class ValueBuilder {
   static constexpr std::size_t kMaxKeysKept = 32;
 
   // keep = false: parse the value and store nothing (a value already known to be an error).
-  void begin(std::string path, bool keep) {
-    path_ = std::move(path);
+  // The place is given as a function, called only for a message: no string per value.
+  template <class Place>
+  void begin(const Place& place, bool keep) {
+    place_ = place;
     root_ = json();
     stack_.clear();
-    parts_.clear();
+    slot_ = nullptr;
     depth_ = 0;
     discard_at_ = keep ? -1 : 0;
     error_.clear();
@@ -311,11 +317,9 @@ class ValueBuilder {
   }
   void open(json::value_t kind) {
     if (discard_at_ < 0) {
-      json* slot = slot_for_value();
-      if (slot) {
+      if (json* slot = slot_for_value()) {
         *slot = json(kind);
         stack_.push_back(slot);
-        parts_.push_back(std::move(part_));
       } else {
         discard_at_ = depth_;
       }
@@ -328,22 +332,25 @@ class ValueBuilder {
       if (depth_ == discard_at_ && depth_ > 0) discard_at_ = -1;
     } else {
       stack_.pop_back();
-      parts_.pop_back();
     }
     return done_if(depth_ == 0);
   }
   // A key of the innermost object. A duplicate stops the building; error() says where.
-  void key(const std::string& k) {
+  void key(std::string& k) {
     if (discard_at_ >= 0) return;
-    json& object = *stack_.back();
-    if (object.contains(k) || object.size() >= kMaxKeysKept) {
-      error_ = where() + ": " +
-               (object.contains(k) ? "duplicate key \"" + printable(k) + "\""
-                                   : "more than " + std::to_string(kMaxKeysKept) + " keys");
-      discard_at_ = 0;
-      return;
+    auto& object = stack_.back()->get_ref<json::object_t&>();
+    const bool full = object.size() >= kMaxKeysKept;
+    if (!full) {
+      auto [it, added] = object.try_emplace(std::move(k), nullptr);  // k kept if present
+      if (added) {
+        slot_ = &it->second;
+        return;
+      }
     }
-    key_ = k;
+    error_ = where() + ": " +
+             (full ? "more than " + std::to_string(kMaxKeysKept) + " keys"
+                   : "duplicate key \"" + printable(k) + "\"");
+    discard_at_ = 0;
   }
   const std::string& error() const { return error_; }
   json& value() { return root_; }
@@ -358,25 +365,32 @@ class ValueBuilder {
     json& parent = *stack_.back();
     if (parent.is_array()) {
       if (parent.size() >= kMaxArrayKept) return nullptr;
-      part_ = "[" + std::to_string(parent.size()) + "]";
       parent.push_back(nullptr);
       return &parent.back();
     }
-    part_ = "." + printable(key_);
-    return &parent[key_];
+    return slot_;  // made by key()
   }
-  // The innermost object's place, for messages: `objects[3].material`.
+  // The innermost object's place, for messages: `objects[3].material`. Found by looking each
+  // open container up in its parent, so that building keeps no path.
   std::string where() const {
-    std::string w = path_;
-    for (std::size_t i = 1; i < parts_.size(); ++i) w += parts_[i];
+    std::string w = place_();
+    for (std::size_t i = 1; i < stack_.size(); ++i) {
+      const json& parent = *stack_[i - 1];
+      if (parent.is_array()) {
+        for (std::size_t k = 0; k < parent.size(); ++k)
+          if (&parent[k] == stack_[i]) w = index_path(w, k);
+      } else {
+        for (auto it = parent.begin(); it != parent.end(); ++it)
+          if (&it.value() == stack_[i]) w = key_path(w, it.key());
+      }
+    }
     return w.empty() ? "(top level)" : w;
   }
 
-  std::string path_;
+  std::function<std::string()> place_;
   json root_;
   std::vector<json*> stack_;
-  std::vector<std::string> parts_;  // ".key" or "[i]" of each open container below the root
-  std::string key_, part_;
+  json* slot_ = nullptr;  // the object member the next value goes to
   int depth_ = 0;
   int discard_at_ = -1;  // >= 0: storing nothing until the depth is back to this
   std::string error_;
@@ -391,9 +405,10 @@ class MaterialTable {
   // A reference from an object: a code that finish() turns into an index.
   // Once the file's "materials" are all read, an unknown name fails at once, at its object.
   int reference(const std::string& name, std::size_t object, const std::string& where) {
-    if (closed_ && !defined(name))
-      fail(where, "material \"" + printable(name) + "\" is not defined");
-    const int id = id_of(name);
+    auto it = ids_.find(name);  // one look-up: this runs for every object
+    if (it != ids_.end() && defined_[it->second]) return -1 - it->second;
+    if (closed_) fail(where, "material \"" + printable(name) + "\" is not defined");
+    const int id = it != ids_.end() ? it->second : id_of(name);
     if (first_use_[id] < 0) first_use_[id] = static_cast<long long>(object);
     return -1 - id;
   }
@@ -553,7 +568,6 @@ void check_radiance(const Scene& s, const std::vector<std::string>& material_whe
   fail(b.material >= 0 ? material_where[b.material] : std::string("background"), what);
 }
 
-
 // The first error of one part of the file. Errors are kept, not thrown, while the file is read,
 // so that a syntax error anywhere still wins and the parts are reported in the order the loader
 // always checked them (camera first, objects last), whatever order the file has.
@@ -649,8 +663,8 @@ class SceneSax {
 
  private:
   enum class Place { top_value, top, objects, lights, materials, done };
-  static constexpr const char* kSmallKeys[] = {"camera",     "background", "environment",
-                                               "max_depth",  "epsilon",    "supersample"};
+  static constexpr const char* kSmallKeys[] = {"camera",    "background", "environment",
+                                               "max_depth", "epsilon",    "supersample"};
 
   void enter() {
     if (depth_ >= kMaxJsonDepth)
@@ -725,24 +739,24 @@ class SceneSax {
           structure("objects: more than " + std::to_string(kMaxObjects) + " objects");
         kept_ = !skipping_all() && !objects_error_.set() && !lights_error_.set() &&
                 !materials_error_.set();
-        if (kept_) value_.begin(index_path("objects", index_), true);
+        if (kept_) value_.begin([i = index_] { return index_path("objects", i); }, true);
         break;
       case Place::lights:
         index_ = lights_++;
         if (lights_ > kMaxLights)
           structure("lights: more than " + std::to_string(kMaxLights) + " lights");
         kept_ = !skipping_all() && !lights_error_.set() && !materials_error_.set();
-        if (kept_) value_.begin(index_path("lights", index_), true);
+        if (kept_) value_.begin([i = index_] { return index_path("lights", i); }, true);
         break;
       case Place::materials:
         kept_ = !skipping_all();
-        if (kept_) value_.begin(key_path("materials", key_), true);
+        if (kept_) value_.begin([k = key_] { return key_path("materials", k); }, true);
         break;
       case Place::done:
         break;
     }
-    if (place_ == Place::top && kept_) value_.begin(key_, true);
-    if (!kept_) value_.begin("", false);
+    if (place_ == Place::top && kept_) value_.begin([k = key_] { return k; }, true);
+    if (!kept_) value_.begin([] { return std::string(); }, false);
     return true;
   }
 

@@ -12,7 +12,7 @@ namespace lancer::generate {
 struct Options {
   long long spheres = 1024;
   std::uint64_t seed = 1;
-  double reflect = 0;             // every sphere's reflectivity
+  double reflect = 0;              // every sphere's reflectivity
   double transmit = -1, ior = -1;  // emitted only when given (>= 0)
   bool plane = true;               // a ground plane under the box
   int nx = 600, ny = 400;          // camera resolution
