@@ -27,11 +27,14 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
   std::unique_ptr<peer::EmbreeScene> embree;
   for (const std::string& p : opt.peers) {
     if (p != "embree") throw InputError("--peer: unknown peer '" + p + "' (known: embree)");
-    if (!embree) embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
+    if (!embree)
+      embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env(), "",
+                                                   peer::embree_config_from_env());
   }
   if (opt.widths.size() != opt.precisions.size())
     throw std::logic_error("run_bench: one list of widths per precision");
   BenchResult out;
+  if (embree) out.peer_build_seconds = embree->build_seconds();
   std::vector<BenchRow>& rows = out.rows;
   std::vector<Precision> row_precision;  // what each row renders with (exact for the peer)
   bool peer_rows_added = false;
@@ -60,6 +63,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
             r.engine = "embree";
             r.isa = "embree";
             r.precision = "float";  // Embree's own single-precision arithmetic
+            r.config = embree->config().name();
             rows.push_back(r);
             row_precision.push_back(Precision::exact);
           }

@@ -23,6 +23,7 @@ struct BenchRow {
   int width = 1;    // lanes; for embree the packet call rtcIntersect1/4/8/16
   std::string isa;  // "embree" for the peer (Embree picks its own ISA inside)
   std::string precision = "exact";
+  std::string config;  // the peer's setup (peer::EmbreeConfig::name), "" for lancer
   int threads = 1;
   std::uint64_t rays = 0;  // per run
   double seconds = 0;      // per render, median over the repeats
@@ -61,7 +62,8 @@ struct BenchOptions {
 
 struct BenchResult {
   std::vector<BenchRow> rows;
-  std::vector<PeakRow> peaks;  // with options.peak, by width
+  std::vector<PeakRow> peaks;      // with options.peak, by width
+  double peer_build_seconds = -1;  // Embree's scene build (device, geometry, BVH); -1 if none
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);
