@@ -51,11 +51,12 @@ for n in "${sizes[@]}"; do
   # One row per lancer configuration; Embree's best row (and its name, when the bench gives it).
   jq -r --arg n "$n" '
     def num(x): if x == null then "" else (x * 1000 | round / 1000 | tostring) end;
-    (.results | map(select(.engine == "embree")) | max_by(.mrays_per_s)) as $e
+    .peer_build_seconds as $pb
+    | (.results | map(select(.engine == "embree")) | max_by(.mrays_per_s)) as $e
     | (.structure // {}) as $s
     | .results[] | select(.engine != "embree")
     | [$n, "\(.precision) w\(.width) \(.isa)", num(.mrays_per_s), num($e.mrays_per_s),
-       ($e.config // $e.configuration // ""), num(.peer_build_seconds // $e.build_seconds),
+       ($e.config // $e.configuration // ""), num($e.build_seconds // $pb),
        ($s.kind // ""), num($s.build_seconds),
        (if $s.bytes != null and ($s.objects // 0) > 0 then num($s.bytes / $s.objects) else "" end)]
     | @csv' "$json" | tr -d '"' | tee -a "$csv" |

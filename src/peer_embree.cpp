@@ -320,7 +320,6 @@ struct EmbreeScene::Impl {
   }
 
   void build(const Scene& src, const std::string& device_config) {
-    const auto start = Clock::now();
     s = prepare<float>(src);
     plane_half = kPlaneExtent * scene_size(src);
     std::string cfg = device_config;
@@ -330,6 +329,8 @@ struct EmbreeScene::Impl {
     if (!device)
       throw std::runtime_error("embree: rtcNewDevice failed (error " +
                                std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+    // Build time: the geometry and the BVH, not the device (its threads start once per process).
+    const auto start = Clock::now();
     scene = rtcNewScene(device);
     check("rtcNewScene");
     rtcSetSceneBuildQuality(
@@ -803,6 +804,16 @@ EmbreeConfig embree_config_from_env() {
     start = comma + 1;
   }
   return c;
+}
+
+std::vector<EmbreeConfig> embree_setups() {
+  if (std::getenv("LANCER_EMBREE_SETUP")) return {embree_config_from_env()};
+  std::vector<EmbreeConfig> out(5);
+  out[1].high_quality = true;
+  out[2].user_spheres = true;
+  out[3].user_spheres = out[3].high_quality = true;
+  out[4].user_spheres = out[4].tiles = true;
+  return out;
 }
 
 std::string EmbreeConfig::name() const {

@@ -74,6 +74,10 @@ struct EmbreeConfig {
 // From LANCER_EMBREE_SETUP, comma-separated words: user-spheres, high, tiles, compact
 // (unset: the defaults). Throws InputError on an unknown word.
 EmbreeConfig embree_config_from_env();
+// The setups lancer bench tries, each a row of its own, keeping the fastest per row: only
+// LANCER_EMBREE_SETUP's when it is set, else sphere points and user spheres, each at build
+// quality MEDIUM and HIGH, and user spheres with 4x4 packets.
+std::vector<EmbreeConfig> embree_setups();
 
 class EmbreeScene {
  public:

@@ -101,10 +101,21 @@ void print_json(const std::string& scene, const BenchResult& result,
         {"isa", r.isa},       {"precision", r.precision}, {"threads", r.threads},
         {"rays", r.rays},     {"seconds", r.seconds},     {"mrays_per_s", r.mrays_per_s()}};
     if (!r.config.empty()) row["config"] = r.config;
+    if (r.build_seconds >= 0) row["build_seconds"] = r.build_seconds;
     if (r.gflops) row["gflops"] = *r.gflops;
     if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
     if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;
     out["results"].push_back(row);
+  }
+  if (!result.peer_setups.empty()) {
+    out["peer_setups"] = nlohmann::json::array();
+    for (const BenchRow& r : result.peer_setups)
+      out["peer_setups"].push_back({{"mode", r.mode},
+                                    {"width", r.width},
+                                    {"threads", r.threads},
+                                    {"config", r.config},
+                                    {"build_seconds", r.build_seconds},
+                                    {"mrays_per_s", r.mrays_per_s()}});
   }
   if (peaks) {
     out["peak"] = nlohmann::json::array();
