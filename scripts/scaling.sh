@@ -48,19 +48,21 @@ for n in "${sizes[@]}"; do
   json="$out/bench-$n.json"
   "$lancer" bench "$scene" --mode primary --width 16 --threads 1 --peer embree --json \
     --repeat "$repeat" >"$json"
-  # One row per lancer configuration; Embree's best row (and its name, when the bench gives it).
-  jq -r --arg n "$n" '
+  # One row per lancer configuration; Embree's best row (and its setup, when the bench names it).
+  rows="$(jq -c --arg n "$n" '
     def num(x): if x == null then "" else (x * 1000 | round / 1000 | tostring) end;
+    def sec(x): if x == null then "" else (x * 100000 | round / 100000 | tostring) end;
     .peer_build_seconds as $pb
     | (.results | map(select(.engine == "embree")) | max_by(.mrays_per_s)) as $e
     | (.structure // {}) as $s
     | .results[] | select(.engine != "embree")
     | [$n, "\(.precision) w\(.width) \(.isa)", num(.mrays_per_s), num($e.mrays_per_s),
-       ($e.config // $e.configuration // ""), num($e.build_seconds // $pb),
-       ($s.kind // ""), num($s.build_seconds),
+       ($e.config // ""), sec($e.build_seconds // $pb),
+       ($s.kind // ""), sec($s.build_seconds),
        (if $s.bytes != null and ($s.objects // 0) > 0 then num($s.bytes / $s.objects) else "" end)]
-    | @csv' "$json" | tr -d '"' | tee -a "$csv" |
-    awk -F, '{printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", $1,$2,$3,$4,$5,$6,$7,$8,$9}' >>"$md"
+    ' "$json")"
+  jq -r '@csv' <<<"$rows" >>"$csv"
+  jq -r '"| " + join(" | ") + " |"' <<<"$rows" >>"$md"
 done
 cat "$md"
 echo "scaling.sh: wrote $csv and $md"
