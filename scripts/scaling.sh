@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Mrays/s against the number of spheres, lancer and Embree on the same rays (issue 12).
 #
-#   scripts/scaling.sh [--million] [--repeat R] [--out DIR] [--lancer PATH]
+#   scripts/scaling.sh [--million] [--sizes "N ..."] [--repeat R] [--out DIR] [--lancer PATH]
 #
 # For N in 4 64 1024 16384 65536 (and 1048576 with --million): `lancer generate --spheres N
 # --seed 1` (spheres in a box on a ground plane, the same file on any machine), then
@@ -19,6 +19,7 @@ sizes=(4 64 1024 16384 65536)
 while [ $# -gt 0 ]; do
   case "$1" in
     --million) sizes+=(1048576) ;;
+    --sizes) read -r -a sizes <<<"$2"; shift ;;
     --repeat) repeat="$2"; shift ;;
     --out) out="$2"; shift ;;
     --lancer) lancer="$2"; shift ;;
