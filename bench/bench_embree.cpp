@@ -22,15 +22,27 @@ namespace {
 
 using namespace lancer;
 
+// One scene in one Embree setup (peer::embree_setups: the setups lancer bench tries).
 struct EmbreeCase {
-  Scene scene;
+  const Scene* scene;
+  peer::EmbreeConfig how;
   std::unique_ptr<peer::EmbreeScene> embree;  // built on first use
 
   const peer::EmbreeScene& get() {
-    if (!embree) embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
+    if (!embree)
+      embree = std::make_unique<peer::EmbreeScene>(*scene, peer::plane_mode_from_env(), "", how);
     return *embree;
   }
 };
+
+// "user-spheres-high-tiles": a setup as a benchmark name's last part.
+std::string slug(const peer::EmbreeConfig& how) {
+  std::string s = how.user_spheres ? "user-spheres" : "sphere-points";
+  if (how.high_quality) s += "-high";
+  if (how.tiles) s += "-tiles";
+  if (how.compact) s += "-compact";
+  return s;
+}
 
 void embree_primary(benchmark::State& state, EmbreeCase* c, int width) {
   const peer::EmbreeScene& e = c->get();
@@ -41,7 +53,7 @@ void embree_primary(benchmark::State& state, EmbreeCase* c, int width) {
     rays += r.rays.total();
   }
   state.SetItemsProcessed(static_cast<int64_t>(rays));
-  state.SetLabel("embree");
+  state.SetLabel("embree: " + c->how.name());
 }
 
 void embree_full(benchmark::State& state, EmbreeCase* c, int width) {
@@ -52,7 +64,7 @@ void embree_full(benchmark::State& state, EmbreeCase* c, int width) {
     rays += r.rays.total();
   }
   state.SetItemsProcessed(static_cast<int64_t>(rays));
-  state.SetLabel("embree");
+  state.SetLabel("embree: " + c->how.name());
 }
 
 }  // namespace
@@ -60,16 +72,22 @@ void embree_full(benchmark::State& state, EmbreeCase* c, int width) {
 // Registers the Embree cases of one scene file; nothing when lancer was built without Embree.
 void register_embree_benchmarks(const std::string& scene_path) {
   if (!peer::embree_available()) return;
+  static std::vector<std::unique_ptr<Scene>> scenes;
   static std::vector<std::unique_ptr<EmbreeCase>> cases;
-  cases.push_back(std::make_unique<EmbreeCase>(EmbreeCase{load_scene(scene_path), nullptr}));
-  EmbreeCase* c = cases.back().get();
+  scenes.push_back(std::make_unique<Scene>(load_scene(scene_path)));
   const std::string name = std::filesystem::path(scene_path).stem().string();
-  for (int width : peer::embree_widths(packet::supported_widths())) {
-    const std::string w = "/w" + std::to_string(width);
-    benchmark::RegisterBenchmark(("primary/" + name + w + "/embree").c_str(), embree_primary, c,
-                                 width)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("full/" + name + w + "/embree").c_str(), embree_full, c, width)
-        ->Unit(benchmark::kMillisecond);
+  for (const peer::EmbreeConfig& how : peer::embree_setups()) {
+    cases.push_back(std::make_unique<EmbreeCase>(EmbreeCase{scenes.back().get(), how, nullptr}));
+    EmbreeCase* c = cases.back().get();
+    for (int width : peer::embree_widths(packet::supported_widths())) {
+      const std::string w = "/w" + std::to_string(width);
+      if (how.tiles && width != 16) continue;  // 4x4 packets: width 16 only
+      const std::string tail = "/embree/" + slug(how);
+      benchmark::RegisterBenchmark(("primary/" + name + w + tail).c_str(), embree_primary, c, width)
+          ->Unit(benchmark::kMillisecond);
+      if (how.tiles) continue;  // 4x4 packets are for camera rays only
+      benchmark::RegisterBenchmark(("full/" + name + w + tail).c_str(), embree_full, c, width)
+          ->Unit(benchmark::kMillisecond);
+    }
   }
 }

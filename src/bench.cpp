@@ -23,22 +23,28 @@ double median(std::vector<double> v) {
 }
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
-  // Peers: their scene (Embree's BVH) is built once, here, untimed.
-  std::unique_ptr<peer::EmbreeScene> embree;
+  // Peers: their scenes (Embree's BVH, once per setup) are built once, here, untimed. Every
+  // setup runs as a row of its own, interleaved with the rest; the fastest per row is kept.
+  std::vector<std::unique_ptr<peer::EmbreeScene>> embrees;
   for (const std::string& p : opt.peers) {
     if (p != "embree") throw InputError("--peer: unknown peer '" + p + "' (known: embree)");
-    if (!embree) embree = std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env());
+    if (embrees.empty())
+      for (const peer::EmbreeConfig& how : peer::embree_setups())
+        embrees.push_back(
+            std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env(), "", how));
   }
+  const bool have_peer = !embrees.empty();
   if (opt.widths.size() != opt.precisions.size())
     throw std::logic_error("run_bench: one list of widths per precision");
   BenchResult out;
+  std::vector<int> row_setup;  // index into embrees of each row, -1 for lancer's
   std::vector<BenchRow>& rows = out.rows;
   std::vector<Precision> row_precision;  // what each row renders with (exact for the peer)
   bool peer_rows_added = false;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k) {
     const Precision precision = opt.precisions[k];
     // The peer's rows once, beside lancer's first precision.
-    const bool with_peer = embree && !peer_rows_added;
+    const bool with_peer = have_peer && !peer_rows_added;
     peer_rows_added = peer_rows_added || with_peer;
     const std::vector<int> embree_widths =
         with_peer ? peer::embree_widths(opt.widths[k]) : std::vector<int>{};
@@ -54,14 +60,23 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
           r.isa = packet::isa_name(width, precision);
           rows.push_back(r);
           row_precision.push_back(precision);
-          // The peer's row of the same mode, width and threads right after lancer's.
+          row_setup.push_back(-1);
+          // The peer's rows of the same mode, width and threads right after lancer's.
           if (!kernel &&
               std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
             r.engine = "embree";
             r.isa = "embree";
             r.precision = "float";  // Embree's own single-precision arithmetic
-            rows.push_back(r);
-            row_precision.push_back(Precision::exact);
+            for (std::size_t e = 0; e < embrees.size(); ++e) {
+              const peer::EmbreeConfig& how = embrees[e]->config();
+              // 4x4 packets exist for width-16 camera rays only: elsewhere a duplicate.
+              if (how.tiles && (width != 16 || mode != "primary") && embrees.size() > 1) continue;
+              r.config = how.name();
+              r.build_seconds = embrees[e]->build_seconds();
+              rows.push_back(r);
+              row_precision.push_back(Precision::exact);
+              row_setup.push_back(static_cast<int>(e));
+            }
           }
         }
   }
@@ -82,8 +97,9 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     ro.precision = row_precision[k];
     if (row.engine == "lancer" && row.mode == "kernel")
       kernels[k] = std::make_unique<PrimaryKernelRun>(scene, ro);
-    run.push_back([&scene, &embree, &row, ro, kernel = kernels[k].get()]() -> double {
-      if (row.engine == "embree") {
+    const peer::EmbreeScene* embree = row_setup[k] >= 0 ? embrees[row_setup[k]].get() : nullptr;
+    run.push_back([&scene, embree, &row, ro, kernel = kernels[k].get()]() -> double {
+      if (embree) {
         if (row.mode == "primary") {
           const PrimaryResult p = embree->primary(row.width, row.threads);
           return row.rays = p.rays.total(), p.seconds;
@@ -131,13 +147,33 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
 
   const std::vector<double> seconds = time_interleaved(run, opt.repeat, opt.min_seconds);
   for (std::size_t k = 0; k < rows.size(); ++k) rows[k].seconds = seconds[k];
+  // Of the peer's setups, the fastest of each row stays; all are kept in peer_setups.
+  std::vector<BenchRow> kept;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].engine == "lancer") {
+      kept.push_back(rows[k]);
+      continue;
+    }
+    out.peer_setups.push_back(rows[k]);
+    BenchRow* same = kept.empty() ? nullptr : &kept.back();
+    const bool same_row = same && same->engine == rows[k].engine && same->mode == rows[k].mode &&
+                          same->width == rows[k].width && same->threads == rows[k].threads;
+    if (!same_row)
+      kept.push_back(rows[k]);
+    else if (rows[k].seconds < same->seconds)
+      *same = rows[k];
+  }
+  for (const BenchRow& r : kept)
+    if (r.engine != "lancer" && out.peer_build_seconds < 0)
+      out.peer_build_seconds = r.build_seconds;
   for (std::size_t k = 0; k < peak_runs.size(); ++k) {
     const PeakRun& p = peak_runs[k];
-    const double gflops = p.flops / seconds[rows.size() + k] * 1e-9;
+    const double gflops = p.flops / seconds[rows.size() + k] * 1e-9;  // before rows shrink
     PeakRow& peak = out.peaks[p.row];
     (p.fma ? peak.gflops : peak.muladd_gflops) = gflops;
     if (peak.width < 8) peak.muladd_gflops = peak.gflops;  // one kernel: mul+add
   }
+  rows = std::move(kept);
   return out;
 }
 

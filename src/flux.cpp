@@ -4,10 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <limits>
-#include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "lancer/error.hpp"
 #include "lancer/prepared.hpp"
@@ -17,28 +14,11 @@ namespace lancer::flux {
 
 namespace {
 
-// objects[k] of each sphere and plane, from the file's order of objects; "spheres[k]" style
-// names if the text cannot be read again (it parsed once already, so it always can).
-ObjectNames names_from_text(const std::string& text, const Scene& scene) {
+// objects[k] of each sphere and plane, from the file's order of objects.
+ObjectNames names_from_order(const std::vector<bool>& is_plane) {
   ObjectNames n;
-  const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_object() && j.contains("objects") && j["objects"].is_array()) {
-    const auto& objects = j["objects"];
-    for (std::size_t k = 0; k < objects.size(); ++k) {
-      const auto& o = objects[k];
-      if (!o.is_object() || !o.contains("type") || !o["type"].is_string()) continue;
-      const std::string name = "objects[" + std::to_string(k) + "]";
-      if (o["type"] == "sphere") n.spheres.push_back(name);
-      if (o["type"] == "plane") n.planes.push_back(name);
-    }
-  }
-  if (n.spheres.size() != scene.spheres.size() || n.planes.size() != scene.planes.size()) {
-    n = {};
-    for (std::size_t k = 0; k < scene.spheres.size(); ++k)
-      n.spheres.push_back("spheres[" + std::to_string(k) + "]");
-    for (std::size_t k = 0; k < scene.planes.size(); ++k)
-      n.planes.push_back("planes[" + std::to_string(k) + "]");
-  }
+  for (std::size_t k = 0; k < is_plane.size(); ++k)
+    (is_plane[k] ? n.planes : n.spheres).push_back("objects[" + std::to_string(k) + "]");
   return n;
 }
 
@@ -57,18 +37,14 @@ std::string show(double v) {
 
 FluxScene parse_flux_scene(const std::string& text, const std::string& name) {
   FluxScene f;
-  f.scene = parse_scene(text, name);
-  f.names = names_from_text(text, f.scene);
+  std::vector<bool> is_plane;
+  f.scene = parse_scene(text, name, &is_plane);
+  f.names = names_from_order(is_plane);
   return f;
 }
 
 FluxScene load_flux_scene(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open scene file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": cannot read scene file");
-  return parse_flux_scene(text.str(), path);
+  return parse_flux_scene(read_scene_file(path), path);
 }
 
 RayPlane ray_plane(const Scene& scene, const ObjectNames& names) {

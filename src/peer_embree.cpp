@@ -170,6 +170,8 @@ struct EmbreeScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   unsigned sphere_geom = RTC_INVALID_GEOMETRY_ID, plane_geom = RTC_INVALID_GEOMETRY_ID;
+  EmbreeConfig config;
+  double build_seconds = 0;
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -254,20 +256,100 @@ struct EmbreeScene::Impl {
     }
   }
 
-  void build(const Scene& src, const std::string& config) {
+  // ---- spheres as user geometry: one callback for a whole packet of N rays ---------------
+  // SPHERE_POINT leaves are tested one lane at a time in Embree 3.13; this callback gets the N
+  // rays of a packet against one sphere in one call, a loop the compiler vectorises.
+  static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
+    const PreparedScene<float>& s = static_cast<const Impl*>(args->geometryUserPtr)->s;
+    const unsigned k = args->primID;
+    const float r = s.sphere_r[k];
+    RTCBounds* b = args->bounds_o;
+    b->lower_x = s.sphere_cx[k] - r, b->lower_y = s.sphere_cy[k] - r;
+    b->lower_z = s.sphere_cz[k] - r;
+    b->upper_x = s.sphere_cx[k] + r, b->upper_y = s.sphere_cy[k] + r;
+    b->upper_z = s.sphere_cz[k] + r;
+  }
+  // The nearest root of |o + t d - c| = r within (tnear, tfar), Embree's own formula family
+  // (b^2 - a (|oc|^2 - r^2)), not lancer's: the peer's arithmetic stays the peer's.
+  static bool sphere_t(const PreparedScene<float>& s, unsigned k, RTCRayN* ray, unsigned N,
+                       unsigned i, float& t) {
+    const float ox = RTCRayN_org_x(ray, N, i) - s.sphere_cx[k];
+    const float oy = RTCRayN_org_y(ray, N, i) - s.sphere_cy[k];
+    const float oz = RTCRayN_org_z(ray, N, i) - s.sphere_cz[k];
+    const float dx = RTCRayN_dir_x(ray, N, i), dy = RTCRayN_dir_y(ray, N, i),
+                dz = RTCRayN_dir_z(ray, N, i);
+    const float a = dx * dx + dy * dy + dz * dz;
+    const float b = ox * dx + oy * dy + oz * dz;
+    const float r = s.sphere_r[k];
+    const float c = ox * ox + oy * oy + oz * oz - r * r;
+    const float disc = b * b - a * c;
+    if (!(disc >= 0.0f)) return false;
+    const float q = std::sqrt(disc);
+    const float tnear = RTCRayN_tnear(ray, N, i), tfar = RTCRayN_tfar(ray, N, i);
+    const float t0 = (-b - q) / a, t1 = (-b + q) / a;
+    t = t0 > tnear ? t0 : t1;
+    return t > tnear && t < tfar;
+  }
+  static void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
+    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
+    const unsigned N = args->N, k = args->primID;
+    RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, N);
+    RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, N);
+    for (unsigned i = 0; i < N; ++i) {
+      float t;
+      if (args->valid[i] != -1 || !sphere_t(im.s, k, ray, N, i, t)) continue;
+      RTCRayN_tfar(ray, N, i) = t;
+      RTCHitN_Ng_x(hit, N, i) = 0.0f;  // lancer computes its own normal from the hit point
+      RTCHitN_Ng_y(hit, N, i) = 0.0f;
+      RTCHitN_Ng_z(hit, N, i) = 1.0f;
+      RTCHitN_u(hit, N, i) = 0.0f;
+      RTCHitN_v(hit, N, i) = 0.0f;
+      RTCHitN_primID(hit, N, i) = k;
+      RTCHitN_geomID(hit, N, i) = args->geomID;
+      RTCHitN_instID(hit, N, i, 0) = args->context->instID[0];
+    }
+  }
+  static void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
+    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
+    const unsigned N = args->N, k = args->primID;
+    for (unsigned i = 0; i < N; ++i) {
+      float t;
+      if (args->valid[i] != -1 || !sphere_t(im.s, k, args->ray, N, i, t)) continue;
+      RTCRayN_tfar(args->ray, N, i) = -kInf;
+    }
+  }
+
+  void build(const Scene& src, const std::string& device_config) {
     s = prepare<float>(src);
     plane_half = kPlaneExtent * scene_size(src);
-    std::string cfg = config;
+    std::string cfg = device_config;
     if (cfg.empty())
       if (const char* env = std::getenv("LANCER_EMBREE_CONFIG")) cfg = env;
     device = rtcNewDevice(cfg.empty() ? nullptr : cfg.c_str());
     if (!device)
       throw std::runtime_error("embree: rtcNewDevice failed (error " +
                                std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+    // Build time: the geometry and the BVH, not the device (its threads start once per process).
+    const auto start = Clock::now();
     scene = rtcNewScene(device);
     check("rtcNewScene");
+    rtcSetSceneBuildQuality(
+        scene, config.high_quality ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM);
+    rtcSetSceneFlags(scene, config.compact ? RTC_SCENE_FLAG_COMPACT : RTC_SCENE_FLAG_NONE);
 
-    if (s.num_spheres > 0) {
+    if (s.num_spheres > 0 && config.user_spheres) {
+      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
+      rtcSetGeometryUserPrimitiveCount(g, unsigned(s.num_spheres));
+      rtcSetGeometryUserData(g, this);
+      rtcSetGeometryBoundsFunction(g, &Impl::sphere_bounds, this);
+      rtcSetGeometryIntersectFunction(g, &Impl::sphere_intersect);
+      rtcSetGeometryOccludedFunction(g, &Impl::sphere_occluded);
+      if (config.high_quality) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+      rtcCommitGeometry(g);
+      sphere_geom = rtcAttachGeometry(scene, g);
+      rtcReleaseGeometry(g);
+      check("spheres");
+    } else if (s.num_spheres > 0) {
       RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
       auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
           g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), s.num_spheres));
@@ -278,6 +360,7 @@ struct EmbreeScene::Impl {
         v[4 * i + 2] = s.sphere_cz[i];
         v[4 * i + 3] = s.sphere_r[i];
       }
+      if (config.high_quality) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
       rtcCommitGeometry(g);
       sphere_geom = rtcAttachGeometry(scene, g);
       rtcReleaseGeometry(g);
@@ -328,6 +411,7 @@ struct EmbreeScene::Impl {
     }
     rtcCommitScene(scene);
     check("rtcCommitScene");
+    build_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   }
 
   // ---- camera rays -----------------------------------------------------------------------
@@ -380,6 +464,46 @@ struct EmbreeScene::Impl {
         for (int k = 0; k < lanes; ++k) row[k] = sum[k];
       }
     }
+  }
+
+  // Width 16 as 4x4-pixel packets (rows r0..r1 come in tiles of 4 rows): rays of a square
+  // diverge less than those of a row, so Embree's packet traversal keeps more lanes together.
+  void primary_tiles16(float* t_out, int r0, int r1, RayCounts& counts) const {
+    const PreparedCamera<float>& cam = s.camera;
+    alignas(64) RTCRayHit16 rh;
+    alignas(64) int valid[16];
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTCRayHitN* rhn = reinterpret_cast<RTCRayHitN*>(&rh);
+    RTCRayN* ray = RTCRayHitN_RayN(rhn, 16);
+    RTCHitN* hit = RTCRayHitN_HitN(rhn, 16);
+    float sum[16];
+    for (int j0 = r0; j0 < r1; j0 += 4)
+      for (int i0 = 0; i0 < cam.nx; i0 += 4) {
+        for (float& v : sum) v = 0.0f;
+        for (int b = 0; b < cam.samples; ++b)
+          for (int a = 0; a < cam.samples; ++a) {
+            Vec3<float> o, d, o0, d0;
+            int lanes = 0;
+            for (int k = 0; k < 16; ++k) {
+              const int i = i0 + k % 4, j = j0 + k / 4;
+              const bool in = i < cam.nx && j < r1;
+              if (in) camera_ray_of(i, j, a, b, o, d), ++lanes;
+              if (k == 0) o0 = o, d0 = d;
+              valid[k] = in ? -1 : 0;
+              set_ray<16>(ray, k, in ? o : o0, in ? d : d0, s.epsilon, kInf);
+              clear_hit<16>(hit, k);
+            }
+            counts.camera += lanes;
+            rtcIntersect16(valid, scene, &ctx, &rh);
+            for (int k = 0; k < 16; ++k) sum[k] = sum[k] + RTCRayN_tfar(ray, 16, k);
+          }
+        for (int k = 0; k < 16; ++k) {
+          const int i = i0 + k % 4, j = j0 + k / 4;
+          if (i < cam.nx && j < r1) t_out[std::size_t(j) * cam.nx + i] = sum[k];
+        }
+      }
   }
 
   template <int W>
@@ -513,11 +637,16 @@ struct EmbreeScene::Impl {
   }
 };
 
-EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config)
+EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config,
+                         const EmbreeConfig& how)
     : impl_(std::make_unique<Impl>()) {
   impl_->mode = planes;
+  impl_->config = how;
   impl_->build(scene, config);
 }
+
+double EmbreeScene::build_seconds() const { return impl_->build_seconds; }
+const EmbreeConfig& EmbreeScene::config() const { return impl_->config; }
 
 EmbreeScene::~EmbreeScene() = default;
 
@@ -553,7 +682,10 @@ PrimaryResult EmbreeScene::primary(int width, int threads) const {
         im.primary_rows<8>(res.t.data(), r0, r1, c);
         break;
       default:
-        im.primary_rows<16>(res.t.data(), r0, r1, c);
+        if (im.config.tiles)
+          im.primary_tiles16(res.t.data(), r0, r1, c);
+        else
+          im.primary_rows<16>(res.t.data(), r0, r1, c);
         break;
     }
   });
@@ -620,13 +752,18 @@ std::string embree_version() { return ""; }
 
 struct EmbreeScene::Impl {};
 
-EmbreeScene::EmbreeScene(const Scene&, PlaneMode, const std::string&) {
+EmbreeScene::EmbreeScene(const Scene&, PlaneMode, const std::string&, const EmbreeConfig&) {
   throw InputError(
       "--peer embree: this lancer was built without Embree (install libembree-dev and "
       "configure with -DLANCER_WITH_EMBREE=ON)");
 }
 EmbreeScene::~EmbreeScene() = default;
 PlaneMode EmbreeScene::plane_mode() const { return PlaneMode::user; }
+double EmbreeScene::build_seconds() const { return 0; }
+const EmbreeConfig& EmbreeScene::config() const {
+  static const EmbreeConfig none;
+  return none;
+}
 PrimaryResult EmbreeScene::primary(int, int) const { return {}; }
 EmbreeScene::RaysResult EmbreeScene::trace_all(int, int) const { return {}; }
 std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
@@ -643,6 +780,48 @@ PlaneMode plane_mode_from_env() {
   if (v.empty() || v == "user") return PlaneMode::user;
   if (v == "quad") return PlaneMode::quad;
   throw InputError("LANCER_EMBREE_PLANES: must be user or quad, not '" + v + "'");
+}
+
+EmbreeConfig embree_config_from_env() {
+  EmbreeConfig c;
+  const char* env = std::getenv("LANCER_EMBREE_SETUP");
+  std::string v = env ? env : "";
+  std::size_t start = 0;
+  while (start <= v.size() && !v.empty()) {
+    const std::size_t comma = std::min(v.find(',', start), v.size());
+    const std::string word = v.substr(start, comma - start);
+    if (word == "user-spheres")
+      c.user_spheres = true;
+    else if (word == "high")
+      c.high_quality = true;
+    else if (word == "tiles")
+      c.tiles = true;
+    else if (word == "compact")
+      c.compact = true;
+    else if (!word.empty())
+      throw InputError("LANCER_EMBREE_SETUP: unknown word '" + word +
+                       "' (known: user-spheres, high, tiles, compact)");
+    start = comma + 1;
+  }
+  return c;
+}
+
+std::vector<EmbreeConfig> embree_setups() {
+  if (std::getenv("LANCER_EMBREE_SETUP")) return {embree_config_from_env()};
+  std::vector<EmbreeConfig> out(5);
+  out[1].high_quality = true;
+  out[2].user_spheres = true;
+  out[3].user_spheres = out[3].high_quality = true;
+  out[4].user_spheres = out[4].tiles = true;
+  return out;
+}
+
+std::string EmbreeConfig::name() const {
+  std::string n = user_spheres ? "user spheres" : "sphere points";
+  n += high_quality ? ", build high" : ", build medium";
+  if (tiles) n += ", 4x4 packets";
+  if (compact) n += ", compact";
+  return n;
 }
 
 std::vector<int> embree_widths(const std::vector<int>& requested) {

@@ -23,6 +23,8 @@ struct BenchRow {
   int width = 1;    // lanes; for embree the packet call rtcIntersect1/4/8/16
   std::string isa;  // "embree" for the peer (Embree picks its own ISA inside)
   std::string precision = "exact";
+  std::string config;         // the peer's setup (peer::EmbreeConfig::name), "" for lancer
+  double build_seconds = -1;  // the peer's scene build with that setup
   int threads = 1;
   std::uint64_t rays = 0;  // per run
   double seconds = 0;      // per render, median over the repeats
@@ -62,6 +64,10 @@ struct BenchOptions {
 struct BenchResult {
   std::vector<BenchRow> rows;
   std::vector<PeakRow> peaks;  // with options.peak, by width
+  // Embree's scene build (device, geometry, BVH) with the setup of its first row; -1 if none.
+  double peer_build_seconds = -1;
+  // Every setup the peer ran, each row of it, before the fastest per row was kept.
+  std::vector<BenchRow> peer_setups;
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);

@@ -59,13 +59,36 @@ struct PeerHit {
   int id;
 };
 
+// How the peer builds and traces, to find Embree's fastest setup on these rays (issue 12):
+// spheres as RTC_GEOMETRY_TYPE_SPHERE_POINT (Embree 3.13 tests their leaves one lane at a
+// time) or as a user geometry whose callback takes a whole packet; build quality MEDIUM
+// (Embree's default) or HIGH (spatial splits: a better tree, a slower build); width-16 camera
+// packets as a row's 16 columns or 4x4-pixel squares; RTC_SCENE_FLAG_COMPACT.
+struct EmbreeConfig {
+  bool user_spheres = false;
+  bool high_quality = false;
+  bool tiles = false;
+  bool compact = false;
+  std::string name() const;  // "user spheres, build high, 4x4 packets"
+};
+// From LANCER_EMBREE_SETUP, comma-separated words: user-spheres, high, tiles, compact
+// (unset: the defaults). Throws InputError on an unknown word.
+EmbreeConfig embree_config_from_env();
+// The setups lancer bench tries, each a row of its own, keeping the fastest per row: only
+// LANCER_EMBREE_SETUP's when it is set, else sphere points and user spheres, each at build
+// quality MEDIUM and HIGH, and user spheres with 4x4 packets.
+std::vector<EmbreeConfig> embree_setups();
+
 class EmbreeScene {
  public:
   // Builds the Embree device and scene (BVH) once; throws InputError naming --peer when lancer
   // was built without Embree. `config` goes to rtcNewDevice (e.g. "isa=avx2"); the environment
   // variable LANCER_EMBREE_CONFIG is used when it is empty.
   explicit EmbreeScene(const Scene& scene, PlaneMode planes = PlaneMode::user,
-                       const std::string& config = "");
+                       const std::string& config = "", const EmbreeConfig& how = {});
+  // Seconds the constructor took to build Embree's device, geometry and BVH.
+  double build_seconds() const;
+  const EmbreeConfig& config() const;
   ~EmbreeScene();
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;

@@ -1,6 +1,7 @@
 // The scene as read from a file: the model of SCENE-MODEL.md in double precision, validated.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -67,10 +68,26 @@ inline constexpr int kMaxDepth = 64;
 inline constexpr long long kMaxSamples = 1LL << 30;  // nx * ny * supersample^2
 inline constexpr int kMaxResolution = 1 << 16;       // per axis
 inline constexpr int kMaxSupersample = 64;
+// Counts in a scene file. Objects: above 2^24 (indices are 32-bit integers, never floats), and
+// about what 1 GiB of JSON can hold (a minimal sphere takes 46 bytes: 23 million) at some 150
+// bytes each once loaded, prepared in both precisions and indexed. Lights are visited by every
+// shading point, so tens of thousands are already far beyond any useful render; named materials
+// likewise.
+inline constexpr std::size_t kMaxObjects = std::size_t(1) << 25;
+inline constexpr std::size_t kMaxLights = std::size_t(1) << 16;
+inline constexpr std::size_t kMaxNamedMaterials = std::size_t(1) << 16;
 
 // Throws InputError with a one-line message naming the place: `objects[2].radius: must be > 0`
 // or `scene.json:14: syntax error ...`.
+// The file is parsed as a stream: each object, light and material is converted as soon as it
+// is read, and nothing proportional to the document's size but the scene itself is kept.
 Scene parse_scene(const std::string& text, const std::string& name);
 Scene load_scene(const std::string& path);
+// Also records, for each entry of the file's "objects" in order, whether it is a plane (lancer
+// flux names objects by their place in the file).
+Scene parse_scene(const std::string& text, const std::string& name, std::vector<bool>* is_plane);
+// The one reader of scene files for every command: refuses folders and files over 1 GiB (also
+// when the size is not known beforehand: /dev/zero, pipes).
+std::string read_scene_file(const std::string& path);
 
 }  // namespace lancer

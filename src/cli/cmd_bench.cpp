@@ -75,6 +75,7 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
     if (peak && r.gflops)
       std::printf(" %9.2f %11.2f %6.1f%%", *r.gflops, *r.lane_gflops,
                   100 * r.peak_fraction.value_or(0));
+    if (!r.config.empty()) std::printf("  (%s)", r.config.c_str());
     std::printf("\n");
   }
   if (peak)
@@ -87,20 +88,34 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
         "kernel the intersection\n  kernel alone, over camera rays made beforehand.\n");
 }
 
-void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
+void print_json(const std::string& scene, const BenchResult& result,
                 const std::vector<PeakRow>* peaks) {
+  const std::vector<BenchRow>& rows = result.rows;
   nlohmann::json out;
   out["scene"] = scene;
+  if (result.peer_build_seconds >= 0) out["peer_build_seconds"] = result.peer_build_seconds;
   out["results"] = nlohmann::json::array();
   for (const BenchRow& r : rows) {
     nlohmann::json row{
         {"engine", r.engine}, {"mode", r.mode},           {"width", r.width},
         {"isa", r.isa},       {"precision", r.precision}, {"threads", r.threads},
         {"rays", r.rays},     {"seconds", r.seconds},     {"mrays_per_s", r.mrays_per_s()}};
+    if (!r.config.empty()) row["config"] = r.config;
+    if (r.build_seconds >= 0) row["build_seconds"] = r.build_seconds;
     if (r.gflops) row["gflops"] = *r.gflops;
     if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
     if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;
     out["results"].push_back(row);
+  }
+  if (!result.peer_setups.empty()) {
+    out["peer_setups"] = nlohmann::json::array();
+    for (const BenchRow& r : result.peer_setups)
+      out["peer_setups"].push_back({{"mode", r.mode},
+                                    {"width", r.width},
+                                    {"threads", r.threads},
+                                    {"config", r.config},
+                                    {"build_seconds", r.build_seconds},
+                                    {"mrays_per_s", r.mrays_per_s()}});
   }
   if (peaks) {
     out["peak"] = nlohmann::json::array();
@@ -156,7 +171,7 @@ void run_bench_cmd(const BenchArgs& a) {
   BenchResult result = run_bench(scene, opt);
   if (a.peak) add_flops(scene, result.peaks, result.rows);
   if (a.json) {
-    print_json(a.scene, result.rows, a.peak ? &result.peaks : nullptr);
+    print_json(a.scene, result, a.peak ? &result.peaks : nullptr);
   } else {
     print_table(a.scene, result.rows, a.repeat, a.peak);
     if (a.peak) print_peaks(result.peaks);

@@ -25,5 +25,6 @@ void add_bench(CLI::App& app);
 void add_trade(CLI::App& app);
 void add_profile(CLI::App& app);
 void add_flux(CLI::App& app);
+void add_generate(CLI::App& app);
 
 }  // namespace lancer::cli

@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
   lancer::cli::add_trade(app);
   lancer::cli::add_profile(app);
   lancer::cli::add_flux(app);
+  lancer::cli::add_generate(app);
 
   using namespace lancer::cli;
   // CLI11 takes an unknown first word for a missing subcommand: name it.

@@ -1,0 +1,37 @@
+// Random-sphere scenes for scaling measurements (`lancer generate`): N spheres in a box the
+// camera sees, on a ground plane, under two lights. The same options give the same bytes on any
+// machine and compiler: an own PRNG (splitmix64), integer coordinates in millionths, and no
+// std:: distribution or libm call (their results are implementation-defined).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace lancer::generate {
+
+struct Options {
+  long long spheres = 1024;
+  std::uint64_t seed = 1;
+  double reflect = 0;              // every sphere's reflectivity
+  double transmit = -1, ior = -1;  // emitted only when given (>= 0)
+  bool plane = true;               // a ground plane under the box
+  int nx = 600, ny = 400;          // camera resolution
+};
+
+// Checks the options (InputError naming the option) and returns the scene as JSON text.
+std::string scene_json(const Options& o);
+
+// The deterministic generator: splitmix64 (Steele, Lea, Flood 2014).
+struct SplitMix64 {
+  std::uint64_t state;
+  std::uint64_t next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  // Uniform in [0, n), n > 0, without modulo bias.
+  std::uint64_t below(std::uint64_t n);
+};
+
+}  // namespace lancer::generate

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Mrays/s against the number of spheres, lancer and Embree on the same rays (issue 12).
+#
+#   scripts/scaling.sh [--million] [--sizes "N ..."] [--repeat R] [--out DIR] [--lancer PATH]
+#
+# For N in 4 64 1024 16384 65536 (and 1048576 with --million): `lancer generate --spheres N
+# --seed 1` (spheres in a box on a ground plane, the same file on any machine), then
+# `lancer bench SCENE --mode primary --width 16 --threads 1 --peer embree --json --repeat R`.
+# Writes DIR/scaling.csv and DIR/scaling.md (default DIR: out/scaling), and prints the table.
+# Columns the bench JSON does not have yet (Embree's configuration and build time, the
+# acceleration structure's "structure" object) are left empty.
+set -euo pipefail
+
+root="$(cd "$(dirname "$0")/.." && pwd)"
+lancer="$root/build/lancer"
+out="$root/out/scaling"
+repeat=5
+sizes=(4 64 1024 16384 65536)
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --million) sizes+=(1048576) ;;
+    --sizes) read -r -a sizes <<<"$2"; shift ;;
+    --repeat) repeat="$2"; shift ;;
+    --out) out="$2"; shift ;;
+    --lancer) lancer="$2"; shift ;;
+    -h|--help) sed -n 2,11p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "scaling.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+command -v jq >/dev/null || { echo "scaling.sh: needs jq (apt-get install jq)" >&2; exit 2; }
+[ -x "$lancer" ] || { echo "scaling.sh: no lancer at $lancer (build first)" >&2; exit 2; }
+mkdir -p "$out"
+
+cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')"
+csv="$out/scaling.csv"
+md="$out/scaling.md"
+echo "spheres,path,mrays_per_s,embree_mrays_per_s,embree_config,embree_build_s,structure,build_s,bytes_per_sphere" >"$csv"
+{
+  echo "Primary rays, 1 thread, $cpu, medians of $repeat (scripts/scaling.sh):"
+  echo
+  echo "| spheres | lancer path | lancer Mrays/s | Embree Mrays/s | Embree configuration | Embree build s | structure | build s | bytes/sphere |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+} >"$md"
+
+for n in "${sizes[@]}"; do
+  scene="$out/spheres-$n.json"
+  "$lancer" generate --spheres "$n" --seed 1 -o "$scene" >/dev/null
+  json="$out/bench-$n.json"
+  "$lancer" bench "$scene" --mode primary --width 16 --threads 1 --peer embree --json \
+    --repeat "$repeat" >"$json"
+  # One row per lancer configuration; Embree's best row (and its setup, when the bench names it).
+  rows="$(jq -c --arg n "$n" '
+    def num(x): if x == null then "" else (x * 1000 | round / 1000 | tostring) end;
+    def sec(x): if x == null then "" else (x * 100000 | round / 100000 | tostring) end;
+    .peer_build_seconds as $pb
+    | (.results | map(select(.engine == "embree")) | max_by(.mrays_per_s)) as $e
+    | (.structure // {}) as $s
+    | .results[] | select(.engine != "embree")
+    | [$n, "\(.precision) w\(.width) \(.isa)", num(.mrays_per_s), num($e.mrays_per_s),
+       ($e.config // ""), sec($e.build_seconds // $pb),
+       ($s.kind // ""), sec($s.build_seconds),
+       (if $s.bytes != null and ($s.objects // 0) > 0 then num($s.bytes / $s.objects) else "" end)]
+    ' "$json")"
+  jq -r '@csv' <<<"$rows" >>"$csv"
+  jq -r '"| " + join(" | ") + " |"' <<<"$rows" >>"$md"
+done
+cat "$md"
+echo "scaling.sh: wrote $csv and $md"
