@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "lancer/bench.hpp"
 #include "lancer/error.hpp"
+#include "lancer/mpi.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/peak.hpp"
 #include "lancer/peer.hpp"
@@ -113,6 +114,27 @@ void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
   std::printf("%s\n", out.dump(2).c_str());
 }
 
+// Under mpirun: full renders on 1..N ranks (src/mpi, docs/mpi.md), one precision and width.
+void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
+  if (opt.precisions.size() != 1 || opt.widths[0].size() != 1 || !opt.peers.empty() || opt.peak)
+    throw InputError(
+        "bench under mpirun: measures full renders across ranks at one --precision and one "
+        "--width, without --peer or --peak");
+  mpi::BenchJob job;
+  job.load = [&a] {
+    Scene s = load_scene(a.scene);
+    apply_overrides(s, a.overrides);
+    return s;
+  };
+  job.scene_path = a.scene;
+  job.precision = opt.precisions[0];
+  job.width = opt.widths[0][0];
+  job.threads_list = opt.threads;
+  job.repeat = opt.repeat;
+  job.json = a.json;
+  mpi::bench_command(job);
+}
+
 void run_bench_cmd(const BenchArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
@@ -145,6 +167,7 @@ void run_bench_cmd(const BenchArgs& a) {
     opt.peers.push_back(p);
   }
   opt.peak = a.peak;
+  if (mpi::launch_from_environment().size > 1) return run_bench_mpi(a, opt);
   BenchResult result = run_bench(scene, opt);
   if (a.peak) add_flops(scene, result.peaks, result.rows);
   if (a.json) {
