@@ -55,6 +55,8 @@ if(NOT LANCER_MPI STREQUAL "OFF")
                    "(apt-get install libopenmpi-dev openmpi-bin, or -DLANCER_MPI=OFF to silence)")
   endif()
 endif()
+# Cached so that scripts (.ci/mpi.sh) can tell from CMakeCache.txt.
+set(LANCER_HAVE_MPI ${LANCER_HAVE_MPI} CACHE INTERNAL "lancer built with MPI")
 
 if(LANCER_BUILD_TESTS)
   find_package(GTest REQUIRED)
