@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -114,13 +115,18 @@ void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
   std::printf("%s\n", out.dump(2).c_str());
 }
 
-// Under mpirun: full renders on 1..N ranks (src/mpi, docs/mpi.md), one precision and width.
+// Under mpirun: full renders on 1..N ranks (src/mpi, docs/mpi.md), one precision and width
+// (default: the widest every rank runs).
 void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
-  if (opt.precisions.size() != 1 || opt.widths[0].size() != 1 || !opt.peers.empty() || opt.peak)
+  mpi::BenchJob job;
+  const bool default_width = a.widths == std::vector<std::string>{"all"};
+  if (mpi::built_with_mpi() && (opt.precisions.size() != 1 || !opt.peers.empty() || opt.peak ||
+                                (!default_width && opt.widths[0].size() != 1))) {
+    if (mpi::launch_from_environment().rank != 0) std::exit(2);  // rank 0 says why
     throw InputError(
         "bench under mpirun: measures full renders across ranks at one --precision and one "
         "--width, without --peer or --peak");
-  mpi::BenchJob job;
+  }
   job.load = [&a] {
     Scene s = load_scene(a.scene);
     apply_overrides(s, a.overrides);
@@ -128,11 +134,11 @@ void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
   };
   job.scene_path = a.scene;
   job.precision = opt.precisions[0];
-  job.width = opt.widths[0][0];
+  job.width = default_width ? 0 : opt.widths[0][0];
   job.threads_list = opt.threads;
   job.repeat = opt.repeat;
   job.json = a.json;
-  mpi::bench_command(job);
+  mpi::bench_command(job);  // without MPI: refuses, saying how to get it
 }
 
 void run_bench_cmd(const BenchArgs& a) {
