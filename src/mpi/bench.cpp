@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <nlohmann/json.hpp>
 
 #include "comm.hpp"
@@ -18,14 +19,23 @@ struct Config {
   int ranks = 1, threads = 1;
   MPI_Comm comm = MPI_COMM_NULL;  // the first `ranks` ranks; null on the others
   // Per render, one entry per repeat (rank 0 only).
-  std::vector<double> seconds, compute_max, compute_mean, gather;
+  std::vector<double> seconds, compute_max, compute_mean, gather, cpu;
   double gather_bytes = 0;
 };
 
 struct Timed {
   double seconds = 0, compute_max = 0, compute_mean = 0, gather = 0, gather_bytes = 0;
+  double cpu = 0;  // CPU seconds of rendering, summed over the ranks (every thread)
   RayCounts rays;
 };
+
+// The CPU time of this process, every thread: on a shared machine the wall time of a rank counts
+// the other processes' turns too, its CPU time only its own work.
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + ts.tv_nsec * 1e-9;
+}
 
 // `reps` renders of the frame on c's ranks. Collective over c.comm.
 Timed run(const Frame& f, Config& c, Image& image, int reps) {
@@ -33,13 +43,14 @@ Timed run(const Frame& f, Config& c, Image& image, int reps) {
   MPI_Comm_rank(c.comm, &rank);
   const RowShare share{f.scene.camera.ny, rank, c.ranks};
   Timed t;
-  double compute = 0;
+  double compute = 0, cpu = 0;
   MPI_Barrier(c.comm);
   const double start = now();
   for (int i = 0; i < reps; ++i) {
-    const double r0 = now();
+    const double r0 = now(), c0 = process_cpu_seconds();
     t.rays = render_share(*f.engine, share, image, c.threads);
     compute += now() - r0;
+    cpu += process_cpu_seconds() - c0;
     quiet_barrier(c.comm);
     const double g0 = now();
     t.gather_bytes = gather_image(c.comm, share, image);
@@ -48,6 +59,8 @@ Timed run(const Frame& f, Config& c, Image& image, int reps) {
   t.seconds = (now() - start) / reps;
   t.gather /= reps;
   compute /= reps;
+  cpu /= reps;
+  MPI_Reduce(&cpu, &t.cpu, 1, MPI_DOUBLE, MPI_SUM, 0, c.comm);
   MPI_Reduce(&compute, &t.compute_max, 1, MPI_DOUBLE, MPI_MAX, 0, c.comm);
   MPI_Reduce(&compute, &t.compute_mean, 1, MPI_DOUBLE, MPI_SUM, 0, c.comm);
   t.compute_mean /= c.ranks;
@@ -107,6 +120,7 @@ void bench_command(const BenchJob& job) {
       c.compute_max.push_back(t.compute_max);
       c.compute_mean.push_back(t.compute_mean);
       c.gather.push_back(t.gather);
+      c.cpu.push_back(t.cpu);
       c.gather_bytes = t.gather_bytes;
     }
   for (int k = 1; k <= mpi.size; ++k)
@@ -118,6 +132,11 @@ void bench_command(const BenchJob& job) {
   auto base = [&](const Config& c) {
     for (const Config& b : configs)
       if (b.ranks == 1 && b.threads == c.threads) return mrays(b);
+    return 0.0;
+  };
+  auto cpu_base = [&](const Config& c) {
+    for (const Config& b : configs)
+      if (b.ranks == 1 && b.threads == c.threads) return median_of(b.cpu);
     return 0.0;
   };
   const char* isa = f.engine->isa();
@@ -140,6 +159,8 @@ void bench_command(const BenchJob& job) {
                                 {"efficiency", mrays(c) / (c.ranks * base(c))},
                                 {"compute_seconds", median_of(c.compute_max)},
                                 {"compute_mean_seconds", median_of(c.compute_mean)},
+                                {"compute_cpu_seconds", median_of(c.cpu)},
+                                {"cpu_efficiency", cpu_base(c) / median_of(c.cpu)},
                                 {"comm_seconds", median_of(c.gather)},
                                 {"gather_bytes", c.gather_bytes}});
     std::printf("%s\n", out.dump(2).c_str());
@@ -149,20 +170,24 @@ void bench_command(const BenchJob& job) {
       "lancer bench across MPI ranks: %s, full renders, %s precision, width %d (%s), median of %d "
       "runs of %d renders, configurations interleaved\n",
       job.scene_path.c_str(), to_string(f.precision), f.width, isa, job.repeat, reps);
-  std::printf("  %5s %7s %12s %10s %10s %10s %10s %9s %10s %9s\n", "ranks", "threads", "rays",
-              "seconds", "Mrays/s", "efficiency", "compute", "imbalance", "comm", "gather MB");
+  std::printf("  %5s %7s %12s %10s %10s %10s %10s %9s %10s %9s %10s %8s\n", "ranks", "threads",
+              "rays", "seconds", "Mrays/s", "efficiency", "compute", "imbalance", "comm",
+              "gather MB", "CPU s", "CPU eff");
   for (const Config& c : configs) {
     const double cm = median_of(c.compute_mean);
-    std::printf("  %5d %7d %12llu %10.5f %10.2f %9.1f%% %10.5f %8.2fx %10.5f %9.2f\n", c.ranks,
-                c.threads, (unsigned long long)rays.total(), median_of(c.seconds), mrays(c),
-                100 * mrays(c) / (c.ranks * base(c)), median_of(c.compute_max),
-                cm > 0 ? median_of(c.compute_max) / cm : 1.0, median_of(c.gather),
-                c.gather_bytes * 1e-6);
+    std::printf(
+        "  %5d %7d %12llu %10.5f %10.2f %9.1f%% %10.5f %8.2fx %10.5f %9.2f %10.5f %7.1f%%\n",
+        c.ranks, c.threads, (unsigned long long)rays.total(), median_of(c.seconds), mrays(c),
+        100 * mrays(c) / (c.ranks * base(c)), median_of(c.compute_max),
+        cm > 0 ? median_of(c.compute_max) / cm : 1.0, median_of(c.gather), c.gather_bytes * 1e-6,
+        median_of(c.cpu), 100 * cpu_base(c) / median_of(c.cpu));
   }
   std::printf(
       "  efficiency: Mrays/s / (ranks x the 1-rank Mrays/s at the same threads). compute: the "
       "slowest rank's rendering;\n  imbalance: slowest / mean rank. comm: the gather onto rank 0 "
-      "after every rank finished (the time in communication).\n");
+      "after every rank finished (the time in communication).\n  CPU s: CPU "
+      "seconds of rendering summed over the ranks; CPU eff: the 1-rank CPU s over this (work "
+      "added by splitting,\n  free of the other processes' turns on a shared machine).\n");
 }
 
 }  // namespace lancer::mpi
