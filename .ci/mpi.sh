@@ -46,7 +46,22 @@ done
 "$lancer" render scenes/lorenzi-reflections.json -o "$out/r1.png" --resolution 64x48 >/dev/null
 run -np 3 "$lancer" render scenes/lorenzi-reflections.json -o "$out/r3.png" --resolution 64x48 >/dev/null
 cmp -s "$out/r1.png" "$out/r3.png" || fail "PNG at -np 3 differs"
-[ $status -eq 0 ] && echo "mpi: -np 2 and -np 4 byte-identical to the single-process render on every scene, exact and double"
+# Ranks on different CPUs (LANCER_MAX_WIDTH=8 makes rank 1 an AVX2 machine; Open MPI's MPMD
+# syntax): auto width is the narrowest rank's widest, so even fast mode, whose bits depend on
+# the width, gives the single-process width-8 file; exact gives the widest single-process file.
+mixed() { run -np 1 "$lancer" "$@" : -np 1 -x LANCER_MAX_WIDTH=8 "$lancer" "$@"; }
+small=(--resolution 90x70 --threads 1)
+if [ "$(LANCER_MAX_WIDTH=16 "$lancer" validate scenes/lorenzi-diffuse.json | grep -c '^ *16 ')" -gt 0 ]; then
+  "$lancer" render scenes/lorenzi-reflections.json -o "$out/f8.pfm" --precision fast --width 8 "${small[@]}" >/dev/null
+  mixed render scenes/lorenzi-reflections.json -o "$out/fm.pfm" --precision fast "${small[@]}" >/dev/null
+  cmp -s "$out/f8.pfm" "$out/fm.pfm" || fail "mixed CPUs: fast mode differs from the width-8 render"
+  "$lancer" render scenes/lorenzi-reflections.json -o "$out/e1.pfm" --precision exact "${small[@]}" >/dev/null
+  mixed render scenes/lorenzi-reflections.json -o "$out/em.pfm" --precision exact "${small[@]}" >/dev/null
+  cmp -s "$out/e1.pfm" "$out/em.pfm" || fail "mixed CPUs: exact differs from the single-process render"
+else
+  echo "mpi: this CPU lacks width 16: the mixed-CPU case is not run"
+fi
+[ $status -eq 0 ] && echo "mpi: -np 2 and -np 4 byte-identical to the single-process render on every scene, exact and double; mixed-CPU ranks agree on the width"
 
 # 2. Failures: exit status, exactly one stderr line, no output file, within the timeout.
 expect_failure() {  # name, expected status, expected text, then the command
@@ -67,6 +82,12 @@ expect_failure "unwritable output" 2 "no-such-folder" \
   run -np 4 "$lancer" render scenes/lorenzi-diffuse.json -o "$out/dir/no-such-folder/x.png"
 expect_failure "bad width" 2 "--width" \
   run -np 2 "$lancer" render scenes/lorenzi-diffuse.json -o "$out/dir/x.png" --width 3
+expect_failure "bad resolution" 2 "--resolution" \
+  run -np 2 "$lancer" render scenes/lorenzi-diffuse.json -o "$out/dir/x.png" --resolution 0x9
+# A width one rank's CPU lacks: that rank's message, naming it.
+[ "$(LANCER_MAX_WIDTH=16 "$lancer" validate scenes/lorenzi-diffuse.json | grep -c '^ *16 ')" -gt 0 ] &&
+  expect_failure "width a rank lacks" 2 "rank 1: --width: width 16" \
+    mixed render scenes/lorenzi-diffuse.json -o "$out/dir/x.png" --width 16
 
 # A killed rank: SIGKILL rank 1 mid-render; mpirun must end the job (its one line names the rank
 # and the signal; -q would hide it), rank 0 must not write the file.
@@ -92,5 +113,5 @@ else
   grep -q "rank 1 .*signal 9" "$out/stderr" || { fail "killed rank: no message naming rank 1"; cat "$out/stderr"; }
   [ -z "$(ls -A "$out/dir")" ] || fail "killed rank: left files: $(ls -A "$out/dir")"
 fi
-[ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width and a killed rank each end the job with one message, no file, no hang"
+[ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width or resolution, a width one rank lacks, a killed rank: each ends the job with one message, no file, no hang"
 exit $status
