@@ -1,6 +1,9 @@
 #include "comm.hpp"
 
+#include <unistd.h>
+
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <new>
@@ -9,6 +12,25 @@
 #include "lancer/error.hpp"
 
 namespace lancer::mpi {
+
+namespace {
+void (*previous_term)(int) = nullptr;
+
+// mpirun ends the surviving ranks with SIGTERM when one dies: rank 0 says so (mpirun -q says
+// nothing itself), then the CLI's handler removes any temporary output and the signal ends it.
+extern "C" void on_term(int sig) {
+  static const char message[] =
+      "lancer: the MPI job was ended (a rank died or the job was cancelled); no output written\n";
+  ssize_t ignored = write(STDERR_FILENO, message, sizeof message - 1);
+  (void)ignored;
+  if (previous_term && previous_term != SIG_IGN && previous_term != SIG_DFL) {
+    previous_term(sig);
+  } else {
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+  }
+}
+}  // namespace
 
 Session::Session() {
   int initialized = 0;
@@ -24,6 +46,7 @@ Session::Session() {
   MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &node);
   MPI_Comm_size(node, &local_size);
   MPI_Comm_free(&node);
+  if (rank == 0) previous_term = std::signal(SIGTERM, on_term);
 }
 
 Session::~Session() {
@@ -47,6 +70,7 @@ void agree(MPI_Comm comm, const std::function<void()>& fn) {
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
+  quiet_barrier(comm);  // ranks waiting for rank 0's write (or load) sleep, not spin, beside it
   int mine[2] = {status, status ? -rank : -size}, all[2];
   // Max of the status and of -rank: the highest status and the lowest failing rank.
   MPI_Allreduce(mine, all, 2, MPI_INT, MPI_MAX, comm);
