@@ -110,7 +110,7 @@ else
   rc=0; wait $job || rc=$?
   [ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] || fail "killed rank: status $rc (0 = finished anyway, 124 = hung)"
   [ "$(wc -l <"$out/stderr")" -eq 1 ] && grep -q "MPI job was ended" "$out/stderr" ||
-    { fail "killed rank: expected one line saying the job was ended"; cat "$out/stderr"; }
+    { fail "killed rank: expected one line saying the job was ended, got:"; cat "$out/stderr"; }
   [ -z "$(ls -A "$out/dir")" ] || fail "killed rank: left files: $(ls -A "$out/dir")"
 fi
 [ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width or resolution, a width one rank lacks, a killed rank: each ends the job with one message, no file, no hang"

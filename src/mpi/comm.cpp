@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "lancer/error.hpp"
+#include "lancer/mpi.hpp"
 
 namespace lancer::mpi {
 
@@ -33,6 +34,8 @@ extern "C" void on_term(int sig) {
 }  // namespace
 
 Session::Session() {
+  // Before MPI_Init, which takes seconds on a loaded machine: the rank from the environment.
+  if (launch_from_environment().rank == 0) previous_term = std::signal(SIGTERM, on_term);
   int initialized = 0;
   MPI_Initialized(&initialized);
   if (!initialized) {
@@ -46,7 +49,6 @@ Session::Session() {
   MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &node);
   MPI_Comm_size(node, &local_size);
   MPI_Comm_free(&node);
-  if (rank == 0) previous_term = std::signal(SIGTERM, on_term);
 }
 
 Session::~Session() {
