@@ -121,12 +121,10 @@ void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
   mpi::BenchJob job;
   const bool default_width = a.widths == std::vector<std::string>{"all"};
   if (mpi::built_with_mpi() && (opt.precisions.size() != 1 || !opt.peers.empty() || opt.peak ||
-                                (!default_width && opt.widths[0].size() != 1))) {
-    if (mpi::launch_from_environment().rank != 0) std::exit(2);  // rank 0 says why
+                                (!default_width && opt.widths[0].size() != 1)))
     throw InputError(
         "bench under mpirun: measures full renders across ranks at one --precision and one "
         "--width, without --peer or --peak");
-  }
   job.load = [&a] {
     Scene s = load_scene(a.scene);
     apply_overrides(s, a.overrides);
@@ -208,7 +206,15 @@ void add_bench(CLI::App& app) {
                 "primary and kernel rows' intersection GFLOP/s against it");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
-  cmd->callback([args] { run_bench_cmd(*args); });
+  cmd->callback([args] {
+    try {
+      run_bench_cmd(*args);
+    } catch (const InputError&) {
+      // Under mpirun every rank meets the same bad option or scene: rank 0 alone says so.
+      if (mpi::launch_from_environment().rank != 0) std::exit(2);
+      throw;
+    }
+  });
 }
 
 }  // namespace lancer::cli
