@@ -35,6 +35,29 @@ if(LANCER_WITH_EMBREE)
   endif()
 endif()
 
+# Open MPI (Debian: libopenmpi-dev openmpi-bin) for `mpirun -np N lancer render|bench`
+# (docs/mpi.md). AUTO builds it when found; ON requires it; OFF leaves it out, and lancer then
+# refuses to run under mpirun with a message saying how to get it.
+set(LANCER_MPI AUTO CACHE STRING "Build the MPI renderer: AUTO, ON or OFF")
+set_property(CACHE LANCER_MPI PROPERTY STRINGS AUTO ON OFF)
+set(LANCER_HAVE_MPI OFF)
+if(NOT LANCER_MPI STREQUAL "OFF")
+  if(LANCER_MPI STREQUAL "ON")
+    find_package(MPI REQUIRED COMPONENTS CXX)
+  else()
+    find_package(MPI QUIET COMPONENTS CXX)
+  endif()
+  if(MPI_CXX_FOUND)
+    set(LANCER_HAVE_MPI ON)
+    message(STATUS "MPI ${MPI_CXX_VERSION}: mpirun -np N lancer render is built")
+  else()
+    message(STATUS "MPI not found: lancer is built without MPI "
+                   "(apt-get install libopenmpi-dev openmpi-bin, or -DLANCER_MPI=OFF to silence)")
+  endif()
+endif()
+# Cached so that scripts (.ci/mpi.sh) can tell from CMakeCache.txt.
+set(LANCER_HAVE_MPI ${LANCER_HAVE_MPI} CACHE INTERNAL "lancer built with MPI")
+
 if(LANCER_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)

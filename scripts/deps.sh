@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
   clang libclang-rt-14-dev  # libFuzzer and the sanitizer runtimes
+  libopenmpi-dev openmpi-bin  # mpirun -np N lancer render (docs/mpi.md; optional at build time)
   qemu-user               # runs the binary as CPUs without AVX / AVX-512 (.ci/qemu.sh)
 )
 

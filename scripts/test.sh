@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The second command: every test. Installs what is missing and builds first, so it works on a
 # fresh clone. Stages: the Release suite (ctest), validate on every scene, the binary under
-# emulated SSE4.2-only and AVX2-only CPUs, then, unless --quick, the same suite under
+# emulated SSE4.2-only and AVX2-only CPUs, renders across MPI ranks, then, unless --quick, the same suite under
 # ASan+UBSan and a bounded fuzzing run of the scene loader.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,6 +21,9 @@ echo "validate: every scene in scenes/ bit-identical at every width this CPU run
 
 # The installed package, used from outside the tree (find_package(lancer); about 10 s).
 .ci/consumer.sh build
+
+# mpirun -np 2 and 4 byte-identical to one process; failures end every rank (skipped without MPI).
+.ci/mpi.sh build
 
 if [ "$quick" -eq 0 ]; then
   [ -x .ci/sanitize.sh ] && .ci/sanitize.sh

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -7,6 +8,7 @@
 #include "commands.hpp"
 #include "lancer/bench.hpp"
 #include "lancer/error.hpp"
+#include "lancer/mpi.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/peak.hpp"
 #include "lancer/peer.hpp"
@@ -128,6 +130,30 @@ void print_json(const std::string& scene, const BenchResult& result,
   std::printf("%s\n", out.dump(2).c_str());
 }
 
+// Under mpirun: full renders on 1..N ranks (src/mpi, docs/mpi.md), one precision and width
+// (default: the widest every rank runs).
+void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
+  mpi::BenchJob job;
+  const bool default_width = a.widths == std::vector<std::string>{"all"};
+  if (mpi::built_with_mpi() && (opt.precisions.size() != 1 || !opt.peers.empty() || opt.peak ||
+                                (!default_width && opt.widths[0].size() != 1)))
+    throw InputError(
+        "bench under mpirun: measures full renders across ranks at one --precision and one "
+        "--width, without --peer or --peak");
+  job.load = [&a] {
+    Scene s = load_scene(a.scene);
+    apply_overrides(s, a.overrides);
+    return s;
+  };
+  job.scene_path = a.scene;
+  job.precision = opt.precisions[0];
+  job.width = default_width ? 0 : opt.widths[0][0];
+  job.threads_list = opt.threads;
+  job.repeat = opt.repeat;
+  job.json = a.json;
+  mpi::bench_command(job);  // without MPI: refuses, saying how to get it
+}
+
 void run_bench_cmd(const BenchArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
@@ -168,6 +194,7 @@ void run_bench_cmd(const BenchArgs& a) {
     opt.peers.push_back(p);
   }
   opt.peak = a.peak;
+  if (mpi::launch_from_environment().size > 1) return run_bench_mpi(a, opt);
   BenchResult result = run_bench(scene, opt);
   if (a.peak) add_flops(scene, result.peaks, result.rows);
   if (a.json) {
@@ -204,7 +231,15 @@ void add_bench(CLI::App& app) {
                 "primary and kernel rows' intersection GFLOP/s against it");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
-  cmd->callback([args] { run_bench_cmd(*args); });
+  cmd->callback([args] {
+    try {
+      run_bench_cmd(*args);
+    } catch (const InputError&) {
+      // Under mpirun every rank meets the same bad option or scene: rank 0 alone says so.
+      if (mpi::launch_from_environment().rank != 0) std::exit(2);
+      throw;
+    }
+  });
 }
 
 }  // namespace lancer::cli

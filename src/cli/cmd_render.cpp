@@ -1,9 +1,12 @@
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
 #include "commands.hpp"
+#include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/mpi.hpp"
 #include "lancer/render.hpp"
 #include "options.hpp"
 
@@ -16,17 +19,7 @@ struct RenderArgs {
   SceneOverrides overrides;
 };
 
-void run_render(const RenderArgs& a) {
-  Scene scene = load_scene(a.scene);
-  apply_overrides(scene, a.overrides);
-  check_output_path(a.output, a.scene);  // before rendering, not after
-  RenderOptions opt;
-  opt.precision = parse_precision(a.precision, "--precision");
-  opt.width = parse_width(a.width, "--width");
-  opt.threads = a.threads;
-  attach_progress(opt);
-  const RenderResult r = render(scene, opt);
-  write_image(r.image, a.output);
+void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& r) {
   const auto& c = scene.camera;
   std::printf("lancer: %s -> %s\n", a.scene.c_str(), a.output.c_str());
   std::printf("  image    %d x %d, %d sample%s per pixel\n", c.nx, c.ny,
@@ -44,6 +37,53 @@ void run_render(const RenderArgs& a) {
               (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.total());
   std::printf("  time     %.4f s, %.2f Mrays/s\n", r.seconds,
               r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0);
+}
+
+// Under mpirun: the same render across the ranks (src/mpi, docs/mpi.md).
+void run_render_mpi(const RenderArgs& a) {
+  mpi::RenderJob job;
+  job.load = [&a] {
+    Scene scene = load_scene(a.scene);
+    apply_overrides(scene, a.overrides);
+    return scene;
+  };
+  job.scene_path = a.scene;
+  job.output = a.output;
+  job.options.precision = Precision::automatic;
+  job.options.width = 0;
+  job.options.threads = a.threads;
+  // Option errors are the same on every rank: each exits 2, rank 0 alone says why.
+  try {
+    job.options.precision = parse_precision(a.precision, "--precision");
+    job.options.width = parse_width(a.width, "--width");
+  } catch (const InputError&) {
+    if (mpi::launch_from_environment().rank == 0) throw;
+    std::exit(2);
+  }
+  mpi::render_command(job, [&](const Scene& scene, const RenderResult& r, const mpi::RankStats& s) {
+    print_summary(a, scene, r);
+    std::printf(
+        "  ranks    %d x %d thread%s; slowest rank: load+prepare %.4f s, render %.4f s "
+        "(%.2fx the mean); gather %.4f s, %.2f MB\n",
+        s.ranks, s.threads, s.threads > 1 ? "s" : "", s.load_seconds, s.compute_seconds,
+        s.compute_mean_seconds > 0 ? s.compute_seconds / s.compute_mean_seconds : 1.0,
+        s.gather_seconds, s.gather_bytes * 1e-6);
+  });
+}
+
+void run_render(const RenderArgs& a) {
+  if (mpi::launch_from_environment().size > 1) return run_render_mpi(a);
+  Scene scene = load_scene(a.scene);
+  apply_overrides(scene, a.overrides);
+  check_output_path(a.output, a.scene);  // before rendering, not after
+  RenderOptions opt;
+  opt.precision = parse_precision(a.precision, "--precision");
+  opt.width = parse_width(a.width, "--width");
+  opt.threads = a.threads;
+  attach_progress(opt);
+  const RenderResult r = render(scene, opt);
+  write_image(r.image, a.output);
+  print_summary(a, scene, r);
 }
 }  // namespace
 

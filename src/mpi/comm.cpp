@@ -1,0 +1,112 @@
+#include "comm.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+#include <thread>
+
+#include "lancer/error.hpp"
+#include "lancer/mpi.hpp"
+
+namespace lancer::mpi {
+
+namespace {
+void (*previous_term)(int) = nullptr;
+
+// mpirun ends the surviving ranks with SIGTERM when one dies: rank 0 says so (mpirun -q says
+// nothing itself), then the CLI's handler removes any temporary output and the signal ends it.
+extern "C" void on_term(int sig) {
+  static const char message[] =
+      "lancer: the MPI job was ended (a rank died or the job was cancelled); no output written\n";
+  ssize_t ignored = write(STDERR_FILENO, message, sizeof message - 1);
+  (void)ignored;
+  if (previous_term && previous_term != SIG_IGN && previous_term != SIG_DFL) {
+    previous_term(sig);
+  } else {
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+  }
+}
+}  // namespace
+
+Session::Session() {
+  // Before MPI_Init, which takes seconds on a loaded machine: the rank from the environment.
+  if (launch_from_environment().rank == 0) previous_term = std::signal(SIGTERM, on_term);
+  int initialized = 0;
+  MPI_Initialized(&initialized);
+  if (!initialized) {
+    int provided = 0;
+    MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+  }
+  // Errors in MPI calls end the job (the default), which is what a lost rank should do.
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  MPI_Comm node;
+  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &node);
+  MPI_Comm_size(node, &local_size);
+  MPI_Comm_free(&node);
+}
+
+Session::~Session() {
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  if (!finalized) MPI_Finalize();
+}
+
+void agree(MPI_Comm comm, const std::function<void()>& fn) {
+  int status = 0;
+  std::string message;
+  try {
+    fn();
+  } catch (const InputError& e) {
+    status = 2, message = e.what();
+  } catch (const std::bad_alloc&) {
+    status = 1, message = "out of memory";
+  } catch (const std::exception& e) {
+    status = 1, message = std::string("error: ") + e.what();
+  }
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  quiet_barrier(comm);  // ranks waiting for rank 0's write (or load) sleep, not spin, beside it
+  int mine[2] = {status, status ? -rank : -size}, all[2];
+  // Max of the status and of -rank: the highest status and the lowest failing rank.
+  MPI_Allreduce(mine, all, 2, MPI_INT, MPI_MAX, comm);
+  if (all[0] == 0) return;
+  if (-all[1] == rank) {
+    // Rank 0's message is the single-process one; another rank's says where it came from.
+    if (rank == 0)
+      std::fprintf(stderr, "lancer: %s\n", message.c_str());
+    else
+      std::fprintf(stderr, "lancer: rank %d: %s\n", rank, message.c_str());
+  }
+  std::fflush(stdout);
+  std::fflush(stderr);
+  MPI_Finalize();
+  std::exit(all[0]);
+}
+
+void abort_job(const std::string& message, int status) {
+  std::fprintf(stderr, "lancer: %s\n", message.c_str());
+  std::fflush(stderr);
+  MPI_Abort(MPI_COMM_WORLD, status);
+  std::abort();  // not reached
+}
+
+void quiet_barrier(MPI_Comm comm) {
+  MPI_Request request;
+  MPI_Ibarrier(comm, &request);
+  for (int done = 0;;) {
+    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+    if (done) return;
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+}
+
+double now() { return MPI_Wtime(); }
+
+}  // namespace lancer::mpi

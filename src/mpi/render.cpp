@@ -1,0 +1,137 @@
+// `mpirun -np N lancer render`: every rank loads and prepares, renders its interleaved tiles,
+// rank 0 gathers and alone writes the file.
+#include <algorithm>
+#include <climits>
+
+#include "comm.hpp"
+#include "lancer/error.hpp"
+#include "lancer/mpi.hpp"
+#include "lancer/packet/api.hpp"
+#include "rows.hpp"
+
+namespace lancer::mpi {
+
+bool built_with_mpi() { return true; }
+
+Frame set_up(const std::function<Scene()>& load, Precision precision, int width, int threads,
+             int local_ranks, const std::function<void(const Scene&)>& check) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  Frame f;
+  const double t0 = now();
+  // Every rank loads: parsing is needed in every address space anyway, and a scene file is read
+  // in milliseconds (docs/mpi.md has the figures).
+  agree(MPI_COMM_WORLD, [&] { f.scene = load(); });
+  agree(MPI_COMM_WORLD, [&] {
+    if (rank == 0 && check) check(f.scene);
+    if (threads < 0) throw InputError("--threads: must be >= 0 (0 = all cores)");
+  });
+  // auto: rank 0 chooses and says why; the others take its choice.
+  int p = int(precision);
+  if (precision == Precision::automatic && rank == 0) {
+    const PrecisionChoice c = choose_precision(f.scene);
+    p = int(c.precision);
+    f.precision_reason = c.reason;
+  }
+  MPI_Bcast(&p, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  f.precision = Precision(p);
+  // auto width: the narrowest of the ranks' widest, so that ranks on different CPUs run the same
+  // kernels (exact and double are the same bits at every width; fast is not).
+  int w = width;
+  if (width == 0) {
+    int widest = packet::supported_widths(f.precision).front();
+    MPI_Allreduce(&widest, &w, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  }
+  agree(MPI_COMM_WORLD, [&] {
+    f.width = resolve_width(w, f.precision);
+    f.engine = std::make_unique<RowEngine>(f.scene, f.precision, f.width);
+  });
+  f.threads = threads > 0 ? threads : std::max(1, hardware_threads() / std::max(1, local_ranks));
+  f.load_seconds = now() - t0;
+  return f;
+}
+
+double gather_image(MPI_Comm comm, const RowShare& mine, Image& image) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  // Counted in rows, so that a frame of more than INT_MAX floats still gathers.
+  MPI_Datatype row;
+  MPI_Type_contiguous(image.nx * 3, MPI_FLOAT, &row);
+  MPI_Type_commit(&row);
+  std::vector<float> send;
+  if (rank != 0) pack_rows(image, mine, send);
+  std::vector<int> counts(size), displs(size);
+  std::size_t total = 0;
+  for (int k = 0; k < size; ++k) {
+    counts[k] = k == 0 ? 0 : RowShare{image.ny, k, size}.rows();
+    displs[k] = int(total);
+    total += std::size_t(counts[k]);
+  }
+  std::vector<float> recv(rank == 0 ? total * std::size_t(image.nx) * 3 : 0);
+  MPI_Gatherv(send.data(), rank == 0 ? 0 : mine.rows(), row, recv.data(), counts.data(),
+              displs.data(), row, 0, comm);
+  MPI_Type_free(&row);
+  if (rank != 0) return 0;
+  for (int k = 1; k < size; ++k)
+    unpack_rows(recv.data() + std::size_t(displs[k]) * image.nx * 3, RowShare{image.ny, k, size},
+                image);
+  return double(recv.size()) * sizeof(float);
+}
+
+void render_command(
+    const RenderJob& job,
+    const std::function<void(const Scene&, const RenderResult&, const RankStats&)>& report) {
+  Session mpi;
+  const Frame f =
+      set_up(job.load, job.options.precision, job.options.width, job.options.threads,
+             mpi.local_size, [&](const Scene&) { check_output_path(job.output, job.scene_path); });
+  const CameraSpec& cam = f.scene.camera;
+  RenderResult res;
+  RankStats st;
+  st.ranks = mpi.size;
+  st.threads = f.threads;
+  const RowShare share{cam.ny, mpi.rank, mpi.size};
+  // Every rank holds a full frame and fills its rows: what the kernels' render_rows writes into.
+  res.image = Image(cam.nx, cam.ny);
+  double compute = 0, gather_start = 0, end = 0;
+  try {
+    MPI_Barrier(MPI_COMM_WORLD);
+    const double start = now();
+    res.rays = render_share(*f.engine, share, res.image, f.threads);
+    compute = now() - start;
+    quiet_barrier(MPI_COMM_WORLD);  // ranks done early sleep, not spin, beside ranks still busy
+    gather_start = now();
+    st.gather_bytes = gather_image(MPI_COMM_WORLD, share, res.image);
+    end = now();
+    res.seconds = end - start;
+  } catch (const std::bad_alloc&) {
+    abort_job(mpi.rank ? "rank " + std::to_string(mpi.rank) + ": out of memory" : "out of memory",
+              1);
+  } catch (const std::exception& e) {
+    abort_job("rank " + std::to_string(mpi.rank) + ": error: " + e.what(), 1);
+  }
+  st.gather_seconds = end - gather_start;
+  // The counts and times of every rank, summed or maxed onto rank 0.
+  std::uint64_t rays[3] = {res.rays.camera, res.rays.shadow, res.rays.reflected}, sum[3];
+  MPI_Reduce(rays, sum, 3, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
+  res.rays.camera = sum[0], res.rays.shadow = sum[1], res.rays.reflected = sum[2];
+  double times[2] = {compute, f.load_seconds}, max_times[2];
+  MPI_Reduce(times, max_times, 2, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+  MPI_Reduce(&compute, &st.compute_mean_seconds, 1, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+  st.compute_seconds = max_times[0];
+  st.load_seconds = max_times[1];
+  st.compute_mean_seconds /= mpi.size;
+  res.width = f.width;
+  res.threads = f.threads;
+  res.isa = f.engine->isa();
+  res.precision = f.precision;
+  res.precision_reason = f.precision_reason;
+  // Rank 0 writes while the others wait to learn whether it worked.
+  agree(MPI_COMM_WORLD, [&] {
+    if (mpi.rank == 0) write_image(res.image, job.output);
+  });
+  if (mpi.rank == 0 && report) report(f.scene, res, st);
+}
+
+}  // namespace lancer::mpi
