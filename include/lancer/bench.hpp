@@ -2,6 +2,8 @@
 // each repeat (so that machine noise falls on all alike), then the median of the repeats.
 #pragma once
 
+#include "lancer/render.hpp"
+
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -57,11 +59,13 @@ struct BenchOptions {
   // Also time each ISA's peak, as one more configuration of the same rounds, so that the
   // fraction of peak compares figures the machine's noise fell on alike.
   bool peak = false;
+  Accel accel = Accel::automatic;  // lancer's structure over the spheres
 };
 
 struct BenchResult {
   std::vector<BenchRow> rows;
   std::vector<PeakRow> peaks;  // with options.peak, by width
+  StructureInfo structure;     // as lancer's renders built it
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);
