@@ -41,6 +41,10 @@ struct Bvh {
   double build_seconds = 0;
 
   static constexpr int kMaxDepth = 96;
+  // Rays from beyond origin_limit traverse boxes grown by kOriginPad |origin| (max-norm), up to
+  // kFarLimit; beyond that they loop over all spheres. The slab products stay finite below it.
+  static constexpr double kOriginPad = 1024.0 * (sizeof(T) == 4 ? 0x1p-24 : 0x1p-53);
+  static constexpr double kFarLimit = 1e18;
   bool active() const { return !nodes.empty(); }
   std::size_t bytes() const;
 };

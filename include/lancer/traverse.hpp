@@ -24,12 +24,17 @@ class RayTraversal {
     auto rcp = [](T x) { return T(1) / (std::fabs(x) < T(0x1p-64) ? T(0x1p-64) : x); };
     inv_ = {rcp(d.x), rcp(d.y), rcp(d.z)};
     oi_ = {o.x * inv_.x, o.y * inv_.y, o.z * inv_.z};
+    // Beyond the origin limit, boxes grow with |origin| (as the packets' padded traversal).
+    const T m = std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)});
+    const T far = m > h.origin_limit ? m * T(Bvh<T>::kOriginPad) : T(0);
+    pad_ = {far * std::fabs(inv_.x), far * std::fabs(inv_.y), far * std::fabs(inv_.z)};
     up_[0] = d.x >= T(0), up_[1] = d.y >= T(0), up_[2] = d.z >= T(0);
   }
 
-  // Whether the ray starts beyond the hierarchy's origin limit (the caller then loops).
+  // Whether the ray starts beyond Bvh::kFarLimit (the caller then loops over all spheres).
   static bool beyond(const Bvh<T>& h, const Vec3<T>& o) {
-    return std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)}) > h.origin_limit;
+    return h.active() &&
+           std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)}) > T(Bvh<T>::kFarLimit);
   }
 
   // leaf(first, count) tests leaf-order spheres [first, first + count), lowering best_t.
@@ -106,13 +111,15 @@ class RayTraversal {
     const T x0 = n.lo_x[k] * inv_.x - oi_.x, x1 = n.hi_x[k] * inv_.x - oi_.x;
     const T y0 = n.lo_y[k] * inv_.y - oi_.y, y1 = n.hi_y[k] * inv_.y - oi_.y;
     const T z0 = n.lo_z[k] * inv_.z - oi_.z, z1 = n.hi_z[k] * inv_.z - oi_.z;
-    tnear = std::max({std::min(x0, x1), std::min(y0, y1), std::min(z0, z1), T(0)});
-    const T tfar = std::min({std::max(x0, x1), std::max(y0, y1), std::max(z0, z1), tmax});
+    tnear = std::max({std::min(x0, x1) - pad_.x, std::min(y0, y1) - pad_.y,
+                      std::min(z0, z1) - pad_.z, T(0)});
+    const T tfar = std::min({std::max(x0, x1) + pad_.x, std::max(y0, y1) + pad_.y,
+                             std::max(z0, z1) + pad_.z, tmax});
     return tnear <= tfar;
   }
 
   const Bvh<T>& h_;
-  Vec3<T> inv_, oi_;
+  Vec3<T> inv_, oi_, pad_;
   bool up_[3];
 };
 

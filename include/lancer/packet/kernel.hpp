@@ -361,13 +361,18 @@ struct Kernel {
   static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, I& best_id,
                        RayCounts& counts, const I& leaving = I(Id(-1))) noexcept {
     if (s.features.spheres) {
-      if (s.bvh.active() && (kFromEye || !Tr::beyond(s.bvh, valid, o))) {
+      const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
+      if (reach < 2) {
         const Spheres sp = leaf_spheres(s);
-        Tr::closest(s.bvh, valid, o, d, best_t, [&](int first, int n, const M& m) {
+        auto leaf = [&](int first, int n, const M& m) {
           leaf_visit(counts, m);
           spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t, best_id,
                                            counts, leaving);
-        });
+        };
+        if (reach == 0)
+          Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf);
+        else
+          Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
       } else {
         spheres_closest<kFromEye, true>(s, all_spheres(s), 0, s.num_spheres, valid, o, d, best_t,
                                         best_id, counts, leaving);
@@ -424,13 +429,15 @@ struct Kernel {
     };
     M pending = valid;
     if (s.features.spheres) {
-      if (s.bvh.active() && !Tr::beyond(s.bvh, valid, p)) {
+      const int reach = s.bvh.active() ? Tr::reach(s.bvh, valid, p) : 2;
+      if (reach < 2) {
         const Spheres sp = leaf_spheres(s);
-        pending = Tr::any(s.bvh, valid, p, l, dist,
-                          [&](int first, int n, const M& mask, const M& pend) {
-                            leaf_visit(counts, mask & pend);
-                            return spheres(sp, first, first + n, mask, pend);
-                          });
+        auto leaf = [&](int first, int n, const M& mask, const M& pend) {
+          leaf_visit(counts, mask & pend);
+          return spheres(sp, first, first + n, mask, pend);
+        };
+        pending = reach == 0 ? Tr::template any<false>(s.bvh, valid, p, l, dist, leaf)
+                             : Tr::template any<true>(s.bvh, valid, p, l, dist, leaf);
       } else {
         pending = spheres(all_spheres(s), 0, s.num_spheres, valid, valid);
       }

@@ -29,8 +29,9 @@ struct Traversal {
   // The slab test's form of a ray: t = lo * inv - o * inv, one fused operation per plane. A zero
   // (or tiny) direction component becomes 2^-64: the reciprocal stays finite, so no 0 * inf NaN,
   // and every product stays below FLT_MAX for the loader's coordinates (|x| <= 1e18).
+  // pad: per axis, how far (in t) each slab widens for this ray (kPadded traversals only).
   struct Ray {
-    V inv, oi;
+    V inv, oi, pad;
   };
   static Ray slab_ray(const V& o, const V& d) noexcept {
     const B tiny(T(0x1p-64));
@@ -40,26 +41,39 @@ struct Traversal {
     Ray r;
     r.inv = V{rcp(d.x), rcp(d.y), rcp(d.z)};
     r.oi = V{o.x * r.inv.x, o.y * r.inv.y, o.z * r.inv.z};
+    // Rays from beyond the origin limit (hits on a far plane): the sphere test's rounding
+    // grows with |origin|, so the boxes grow by Bvh::kOriginPad |origin| for them.
+    const B far = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z)) *
+                  B(T(Bvh<T>::kOriginPad));
+    r.pad = V{far * xsimd::abs(r.inv.x), far * xsimd::abs(r.inv.y), far * xsimd::abs(r.inv.z)};
     return r;
   }
 
   // The lanes of `active` whose ray meets child k's box within [0, tmax]; tnear: where it enters.
+  template <bool kPadded>
   static M child_hit(const Node& n, int k, const Ray& r, const M& active, const B& tmax,
                      B& tnear) noexcept {
     const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
     const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
     const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
-    tnear = xsimd::max(xsimd::max(xsimd::min(x0, x1), xsimd::min(y0, y1)),
-                       xsimd::max(xsimd::min(z0, z1), B(T(0))));
-    const B tfar = xsimd::min(xsimd::min(xsimd::max(x0, x1), xsimd::max(y0, y1)),
-                              xsimd::min(xsimd::max(z0, z1), tmax));
+    B nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
+    B fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
+    if constexpr (kPadded) {
+      nx = nx - r.pad.x, ny = ny - r.pad.y, nz = nz - r.pad.z;
+      fx = fx + r.pad.x, fy = fy + r.pad.y, fz = fz + r.pad.z;
+    }
+    tnear = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, B(T(0))));
+    const B tfar = xsimd::min(xsimd::min(fx, fy), xsimd::min(fz, tmax));
     return active & (tnear <= tfar);
   }
 
-  // Whether any lane is beyond the hierarchy's origin limit (the caller then loops instead).
-  static bool beyond(const Bvh<T>& h, const M& valid, const V& o) noexcept {
+  // How a packet from origins o traverses: 0 as built, 1 with boxes padded per lane, 2 not at
+  // all (some lane beyond Bvh::kFarLimit, where the slab products could overflow: the caller
+  // loops over all spheres instead).
+  static int reach(const Bvh<T>& h, const M& valid, const V& o) noexcept {
     const B m = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z));
-    return xsimd::any(valid & (m > B(h.origin_limit)));
+    if (!xsimd::any(valid & (m > B(h.origin_limit)))) return 0;
+    return xsimd::any(valid & (m > B(T(Bvh<T>::kFarLimit)))) ? 2 : 1;
   }
 
   struct Entry {
@@ -70,7 +84,7 @@ struct Traversal {
 
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
   // lowering best_t (read here to cull).
-  template <class Leaf>
+  template <bool kPadded, class Leaf>
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
                       Leaf&& leaf) noexcept {
     const Ray r = slab_ray(o, d);
@@ -93,8 +107,8 @@ struct Traversal {
         const Node& n = h.nodes[std::size_t(child)];
         const int near = up[n.axis] ? 0 : 1, far = 1 - near;
         B tn_near, tn_far;
-        const M m_near = child_hit(n, near, r, mask, best_t, tn_near);
-        const M m_far = child_hit(n, far, r, mask, best_t, tn_far);
+        const M m_near = child_hit<kPadded>(n, near, r, mask, best_t, tn_near);
+        const M m_far = child_hit<kPadded>(n, far, r, mask, best_t, tn_far);
         const bool a_near = xsimd::any(m_near), a_far = xsimd::any(m_far);
         if (a_near) {
           if (a_far) stack[sp++] = {n.child[far], n.count[far], m_far, tn_far};
@@ -122,7 +136,7 @@ struct Traversal {
 
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
   // others). Returns the lanes of `valid` still pending at the end.
-  template <class Leaf>
+  template <bool kPadded, class Leaf>
   static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax,
                Leaf&& leaf) noexcept {
     const Ray r = slab_ray(o, d);
@@ -134,8 +148,8 @@ struct Traversal {
       if (count < 0) {
         const Node& n = h.nodes[std::size_t(child)];
         B tn0, tn1;
-        const M m0 = child_hit(n, 0, r, mask, tmax, tn0);
-        const M m1 = child_hit(n, 1, r, mask, tmax, tn1);
+        const M m0 = child_hit<kPadded>(n, 0, r, mask, tmax, tn0);
+        const M m1 = child_hit<kPadded>(n, 1, r, mask, tmax, tn1);
         const bool a0 = xsimd::any(m0), a1 = xsimd::any(m1);
         if (a0) {
           if (a1) stack[sp++] = {n.child[1], n.count[1], m1, tn1};
