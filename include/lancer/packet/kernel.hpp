@@ -298,7 +298,7 @@ struct Kernel {
   // sequential loop's result); else, in any order, the lexicographic minimum of (t, id).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
   template <bool kFromEye, bool kIdOrder>
-  static void spheres_closest(const Scene& s, const Spheres& sp, int begin, int end, M valid,
+  [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin, int end, M valid,
                               const V& o, const V& d, B& best_t, I& best_id, RayCounts& counts,
                               const I& leaving) noexcept {
     const B eps(s.epsilon);
@@ -407,7 +407,7 @@ struct Kernel {
   // hierarchy's fixed depth-first order or id order, then planes), and returns the lanes of
   // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit.
   template <class Step>
-  static M any_hit(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
+  [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
                    RayCounts& counts, const I& leaving, Step&& step) noexcept {
     const B eps(s.epsilon);
     auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
