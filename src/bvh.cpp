@@ -59,8 +59,8 @@ struct Box {
 };
 
 constexpr int kBins = 16;
-constexpr int kMaxLeaf = 4;      // always a leaf at or below
-constexpr int kMaxSahLeaf = 8;   // a leaf up to here where the SAH says a split does not pay
+constexpr int kMaxLeaf = 4;             // always a leaf at or below
+constexpr int kMaxSahLeaf = 8;          // a leaf up to here where the SAH says a split does not pay
 constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
 
 template <class T>
@@ -137,7 +137,8 @@ class Builder {
     for (int a = 0; a < 3; ++a) cmin[a] = INFINITY, cmax[a] = -INFINITY;
     for (int k = begin; k < end; ++k) {
       const float* c = &centroid_[3 * std::size_t(idx_[std::size_t(k)])];
-      for (int a = 0; a < 3; ++a) cmin[a] = std::min(cmin[a], c[a]), cmax[a] = std::max(cmax[a], c[a]);
+      for (int a = 0; a < 3; ++a)
+        cmin[a] = std::min(cmin[a], c[a]), cmax[a] = std::max(cmax[a], c[a]);
     }
     Box<T> bin_box[3][kBins];
     int bin_count[3][kBins] = {};
@@ -273,7 +274,7 @@ template Bvh<float> build_bvh<float>(const std::vector<float>&, const std::vecto
                                      const std::vector<float>&, const std::vector<float>&, int,
                                      std::vector<std::int32_t>&);
 template Bvh<double> build_bvh<double>(const std::vector<double>&, const std::vector<double>&,
-                                       const std::vector<double>&, const std::vector<double>&,
-                                       int, std::vector<std::int32_t>&);
+                                       const std::vector<double>&, const std::vector<double>&, int,
+                                       std::vector<std::int32_t>&);
 
 }  // namespace lancer

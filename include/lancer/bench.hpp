@@ -2,8 +2,6 @@
 // each repeat (so that machine noise falls on all alike), then the median of the repeats.
 #pragma once
 
-#include "lancer/render.hpp"
-
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -11,6 +9,7 @@
 #include <vector>
 
 #include "lancer/precision.hpp"
+#include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer {

@@ -30,7 +30,7 @@ struct StructureInfo {
 };
 
 struct RenderOptions {
-  int width = 0;  // 0: the widest this machine runs (auto); 1: the reference
+  int width = 0;                   // 0: the widest this machine runs (auto); 1: the reference
   Accel accel = Accel::automatic;  // the spheres' structure (auto: by their count)
   Precision precision = Precision::exact;
   int threads = 0;  // 0: all cores

@@ -111,10 +111,10 @@ class RayTraversal {
     const T x0 = n.lo_x[k] * inv_.x - oi_.x, x1 = n.hi_x[k] * inv_.x - oi_.x;
     const T y0 = n.lo_y[k] * inv_.y - oi_.y, y1 = n.hi_y[k] * inv_.y - oi_.y;
     const T z0 = n.lo_z[k] * inv_.z - oi_.z, z1 = n.hi_z[k] * inv_.z - oi_.z;
-    tnear = std::max({std::min(x0, x1) - pad_.x, std::min(y0, y1) - pad_.y,
-                      std::min(z0, z1) - pad_.z, T(0)});
-    const T tfar = std::min({std::max(x0, x1) + pad_.x, std::max(y0, y1) + pad_.y,
-                             std::max(z0, z1) + pad_.z, tmax});
+    tnear = std::max(
+        {std::min(x0, x1) - pad_.x, std::min(y0, y1) - pad_.y, std::min(z0, z1) - pad_.z, T(0)});
+    const T tfar = std::min(
+        {std::max(x0, x1) + pad_.x, std::max(y0, y1) + pad_.y, std::max(z0, z1) + pad_.z, tmax});
     return tnear <= tfar;
   }
 

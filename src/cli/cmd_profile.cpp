@@ -18,8 +18,8 @@ struct ProfileArgs {
 void run_profile(const ProfileArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
-  const ProfileResult r = profile_render(scene, parse_width(a.width, "--width"),
-                                         parse_accel(a.accel, "--accel"));
+  const ProfileResult r =
+      profile_render(scene, parse_width(a.width, "--width"), parse_accel(a.accel, "--accel"));
   double staged = 0;
   for (const auto& st : r.stages) staged += st.seconds;
   if (a.json) {
@@ -65,7 +65,8 @@ void run_profile(const ProfileArgs& a) {
   bool leaves = false;
   for (const auto& st : r.stages)
     if (st.leaves) {
-      if (!leaves) std::printf("  hierarchy leaves: visits and lane occupancy in them, per stage\n");
+      if (!leaves)
+        std::printf("  hierarchy leaves: visits and lane occupancy in them, per stage\n");
       leaves = true;
       std::printf("  %-22s %12llu leaves %6.1f%%\n", st.name.c_str(), (unsigned long long)st.leaves,
                   100 * st.leaf_occupancy);

@@ -42,8 +42,8 @@ void run_validate(const ValidateArgs& a, int& status) {
   const RenderResult ref = render(scene, ref_opt);
   std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n", a.scene.c_str(),
               scene.camera.nx, scene.camera.ny, to_string(precision));
-  std::printf("  structure %s\n", ref.structure.kind == "bvh" ? "bvh (reference and packets)"
-                                                             : "none: plain loop");
+  std::printf("  structure %s\n",
+              ref.structure.kind == "bvh" ? "bvh (reference and packets)" : "none: plain loop");
   std::printf("  %-6s %-8s %10s %10s  %s\n", "width", "isa", "differing", "max ulps",
               "first differing pixel");
   bool all_identical = true;

@@ -283,13 +283,13 @@ struct Kernel {
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
   };
   static Spheres all_spheres(const Scene& s) noexcept {
-    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(), s.sphere_r2.data(),
-            s.eye.fx.data(),    s.eye.fy.data(),    s.eye.fz.data(),    s.eye.c.data(),
-            nullptr};
+    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(),
+            s.sphere_r2.data(), s.eye.fx.data(),    s.eye.fy.data(),
+            s.eye.fz.data(),    s.eye.c.data(),     nullptr};
   }
   static Spheres leaf_spheres(const Scene& s) noexcept {
     const Bvh<T>& h = s.bvh;
-    return {h.cx.data(),     h.cy.data(),     h.cz.data(),     h.r2.data(), h.eye_fx.data(),
+    return {h.cx.data(),     h.cy.data(),     h.cz.data(),    h.r2.data(), h.eye_fx.data(),
             h.eye_fy.data(), h.eye_fz.data(), h.eye_c.data(), h.id.data()};
   }
 
@@ -298,9 +298,10 @@ struct Kernel {
   // sequential loop's result); else, in any order, the lexicographic minimum of (t, id).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
   template <bool kFromEye, bool kIdOrder>
-  [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin, int end, M valid,
-                              const V& o, const V& d, B& best_t, I& best_id, RayCounts& counts,
-                              const I& leaving) noexcept {
+  [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin,
+                                                     int end, M valid, const V& o, const V& d,
+                                                     B& best_t, I& best_id, RayCounts& counts,
+                                                     const I& leaving) noexcept {
     const B eps(s.epsilon);
     const T no_c(0);
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
@@ -407,8 +408,9 @@ struct Kernel {
   // hierarchy's fixed depth-first order or id order, then planes), and returns the lanes of
   // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit.
   template <class Step>
-  [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
-                   RayCounts& counts, const I& leaving, Step&& step) noexcept {
+  [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
+                                          const B& dist, RayCounts& counts, const I& leaving,
+                                          Step&& step) noexcept {
     const B eps(s.epsilon);
     auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
       for (int j = begin; j < end; ++j) {
@@ -568,8 +570,8 @@ struct Kernel {
     I here(Id(-1));
     if constexpr (kFast)
       if (s.features.spheres)
-        here = xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id,
-                             here);
+        here =
+            xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id, here);
 
     const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);

@@ -35,9 +35,7 @@ struct Traversal {
   };
   static Ray slab_ray(const V& o, const V& d) noexcept {
     const B tiny(T(0x1p-64));
-    auto rcp = [&](const B& x) {
-      return B(T(1)) / xsimd::select(xsimd::abs(x) < tiny, tiny, x);
-    };
+    auto rcp = [&](const B& x) { return B(T(1)) / xsimd::select(xsimd::abs(x) < tiny, tiny, x); };
     Ray r;
     r.inv = V{rcp(d.x), rcp(d.y), rcp(d.z)};
     r.oi = V{o.x * r.inv.x, o.y * r.inv.y, o.z * r.inv.z};
