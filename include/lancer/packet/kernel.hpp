@@ -197,6 +197,22 @@ struct Kernel {
     return M(r);
   }
 
+  // Ids as Real and back, lane by lane: only for the id outputs of tests and lancer trade.
+  static B id_to_real(const I& id) noexcept {
+    alignas(64) Id in[W];
+    alignas(64) T out[W];
+    id.store_aligned(in);
+    for (int k = 0; k < W; ++k) out[k] = static_cast<T>(in[k]);
+    return B::load_aligned(out);
+  }
+  static I real_to_id(const B& v) noexcept {
+    alignas(64) T in[W];
+    alignas(64) Id out[W];
+    v.store_aligned(in);
+    for (int k = 0; k < W; ++k) out[k] = static_cast<Id>(in[k]);
+    return I::load_aligned(out);
+  }
+
   // Active lanes of a mask.
   static std::uint64_t count(const M& m) noexcept {
     return static_cast<std::uint64_t>(__builtin_popcount(bits(m)));
@@ -783,7 +799,7 @@ struct Kernel {
         } else {
           store_lanes(sum, t_out + at, lanes);
         }
-        if (id_out) store_lanes(xsimd::batch_cast<T>(first_id), id_out + at, lanes);
+        if (id_out) store_lanes(id_to_real(first_id), id_out + at, lanes);
       }
     }
   }
@@ -842,11 +858,11 @@ struct Kernel {
     const V d{B::load_unaligned(rays + 3 * W), B::load_unaligned(rays + 4 * W),
               B::load_unaligned(rays + 5 * W)};
     B bt = B::load_unaligned(t);
-    I bid = xsimd::batch_cast<Id>(B::load_unaligned(id));
+    I bid = real_to_id(B::load_unaligned(id));
     RayCounts unused;
     const M hit = closest_hit(s, v, o, d, bt, bid, unused);
     bt.store_unaligned(t);
-    xsimd::batch_cast<T>(bid).store_unaligned(id);
+    id_to_real(bid).store_unaligned(id);
     const unsigned hb = bits(hit);
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
