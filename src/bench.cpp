@@ -95,10 +95,11 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     ro.width = row.width;
     ro.threads = row.threads;
     ro.precision = row_precision[k];
+    ro.accel = opt.accel;
     if (row.engine == "lancer" && row.mode == "kernel")
       kernels[k] = std::make_unique<PrimaryKernelRun>(scene, ro);
     const peer::EmbreeScene* embree = row_setup[k] >= 0 ? embrees[row_setup[k]].get() : nullptr;
-    run.push_back([&scene, embree, &row, ro, kernel = kernels[k].get()]() -> double {
+    run.push_back([&scene, embree, &row, &out, ro, kernel = kernels[k].get()]() -> double {
       if (embree) {
         if (row.mode == "primary") {
           const PrimaryResult p = embree->primary(row.width, row.threads);
@@ -109,13 +110,16 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
       }
       if (kernel) {
         const PrimaryResult p = kernel->run();
+        out.structure = p.structure;
         return row.rays = p.rays.total(), p.seconds;
       }
       if (row.mode == "primary") {
         const PrimaryResult p = render_primary(scene, ro);
+        out.structure = p.structure;
         return row.rays = p.rays.total(), p.seconds;
       }
       const RenderResult f = render(scene, ro);
+      out.structure = f.structure;
       return row.rays = f.rays.total(), f.seconds;
     });
   }

@@ -21,8 +21,41 @@ void camera_basis(const CameraSpec& c, Vec3<double>& u, Vec3<double>& v, Vec3<do
 
 }  // namespace
 
+Accel resolve_accel(const Scene& scene, Accel accel) {
+  if (accel != Accel::automatic) return accel;
+  return scene.spheres.size() >= std::size_t(kBvhMinSpheres) ? Accel::bvh : Accel::none;
+}
+
+namespace {
+
+// The hierarchy, with the spheres copied in its leaf order (their original ids kept).
 template <class T>
-PreparedScene<T> prepare(const Scene& scene) {
+void add_bvh(PreparedScene<T>& p) {
+  std::vector<std::int32_t> order;
+  Bvh<T>& h = p.bvh;
+  h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order);
+  const bool eye = !p.eye.c.empty();
+  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->reserve(order.size());
+  h.id = order;
+  for (std::int32_t i : order) {
+    const std::size_t k = std::size_t(i);
+    h.cx.push_back(p.sphere_cx[k]);
+    h.cy.push_back(p.sphere_cy[k]);
+    h.cz.push_back(p.sphere_cz[k]);
+    h.r2.push_back(p.sphere_r2[k]);
+    if (eye) {
+      h.eye_fx.push_back(p.eye.fx[k]);
+      h.eye_fy.push_back(p.eye.fy[k]);
+      h.eye_fz.push_back(p.eye.fz[k]);
+      h.eye_c.push_back(p.eye.c[k]);
+    }
+  }
+}
+
+}  // namespace
+
+template <class T>
+PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   PreparedScene<T> p;
   auto& pc = p.camera;
   const CameraSpec& c = scene.camera;
@@ -134,10 +167,11 @@ PreparedScene<T> prepare(const Scene& scene) {
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;
   p.features.lights = p.num_lights > 0;
+  if (resolve_accel(scene, accel) == Accel::bvh && p.num_spheres > 0) add_bvh(p);
   return p;
 }
 
-template PreparedScene<float> prepare<float>(const Scene&);
-template PreparedScene<double> prepare<double>(const Scene&);
+template PreparedScene<float> prepare<float>(const Scene&, Accel);
+template PreparedScene<double> prepare<double>(const Scene&, Accel);
 
 }  // namespace lancer

@@ -15,7 +15,7 @@ const char* stage_name(int stage) {
   return stage >= 0 && stage < kStageCount ? names[stage] : "?";
 }
 
-ProfileResult profile_render(const Scene& scene, int width) {
+ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   ProfileResult res;
   res.width = resolve_width(width, Precision::exact);
   if (res.width == 1)
@@ -23,7 +23,7 @@ ProfileResult profile_render(const Scene& scene, int width) {
   const packet::KernelTable<float>* k = packet::profiled_kernels(res.width);
   LANCER_CHECK(k != nullptr);
   res.isa = k->isa;
-  const PreparedScene<float> prepared = prepare<float>(scene);
+  const PreparedScene<float> prepared = prepare<float>(scene, accel);
   Image image(scene.camera.nx, scene.camera.ny);
   StageProfile prof;
   RayCounts counts;
@@ -52,6 +52,9 @@ ProfileResult profile_render(const Scene& scene, int width) {
     row.lane_occupancy =
         prof.packets[st] ? double(prof.active_lanes[st]) / (double(prof.packets[st]) * res.width)
                          : 0;
+    row.leaves = prof.leaf_packets[st];
+    row.leaf_occupancy =
+        row.leaves ? double(prof.leaf_lanes[st]) / (double(row.leaves) * res.width) : 0;
     row.histogram.assign(prof.histogram[st].begin(), prof.histogram[st].begin() + res.width + 1);
     res.stages.push_back(row);
   }

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "lancer/formulas.hpp"
+#include "lancer/traverse.hpp"
 
 namespace lancer::reference {
 
@@ -97,16 +98,28 @@ class Tracer {
     return std::pow(positive_part(cos_nh), shininess);
   }
 
-  // Whether any object lies between p and the light: epsilon < t < dist along unit l.
+  // Whether any object lies between p and the light: epsilon < t < dist along unit l. Spheres
+  // through the hierarchy where there is one (its fixed depth-first order), else in id order.
   bool blocked(const Vec3<T>& p, const Vec3<T>& l, const T& dist) const {
     const T eps = s_.epsilon;
-    for (int i = 0; i < s_.num_spheres; ++i) {
-      const T r2 = s_.sphere_r2[i];
-      const Vec3<T> f = p - Vec3<T>{s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i]};
+    auto meets = [&](const T& cx, const T& cy, const T& cz, const T& r2) {
+      const Vec3<T> f = p - Vec3<T>{cx, cy, cz};
       const SphereDisc<T> sd = sphere_disc(f, l, r2);
-      if (!(sd.disc >= T(0))) continue;
+      if (!(sd.disc >= T(0))) return false;
       const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      if (t > eps && t < dist) return true;
+      return t > eps && t < dist;
+    };
+    const Bvh<T>& h = s_.bvh;
+    if (h.active() && !RayTraversal<T>::beyond(h, p)) {
+      const bool any = RayTraversal<T>(h, p, l).any(dist, [&](int first, int count) {
+        for (int j = first; j < first + count; ++j)
+          if (meets(h.cx[j], h.cy[j], h.cz[j], h.r2[j])) return true;
+        return false;
+      });
+      if (any) return true;
+    } else {
+      for (int i = 0; i < s_.num_spheres; ++i)
+        if (meets(s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i], s_.sphere_r2[i])) return true;
     }
     for (int k = 0; k < s_.num_planes; ++k) {
       const Vec3<T> normal{s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
@@ -193,13 +206,28 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
   const T eps = s.epsilon;
   // A hit must be nearer than infinity: a plane hit whose t overflows is no hit.
   Hit<T> best{-1, std::numeric_limits<T>::infinity()};
-  for (int i = 0; i < s.num_spheres; ++i) {
-    const T r2 = s.sphere_r2[i];
-    const Vec3<T> f = origin - Vec3<T>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
-    const SphereDisc<T> sd = sphere_disc(f, dir, r2);
-    if (!(sd.disc >= T(0))) continue;
-    const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-    if (t > eps && t < best.t) best = {i, t};
+  const Bvh<T>& h = s.bvh;
+  if (h.active() && !RayTraversal<T>::beyond(h, origin)) {
+    // The same spheres in another order: the lexicographic minimum of (t, id) is the loop's.
+    RayTraversal<T>(h, origin, dir).closest(best.t, [&](int first, int count) {
+      for (int j = first; j < first + count; ++j) {
+        const Vec3<T> f = origin - Vec3<T>{h.cx[j], h.cy[j], h.cz[j]};
+        const SphereDisc<T> sd = sphere_disc(f, dir, h.r2[j]);
+        if (!(sd.disc >= T(0))) continue;
+        const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, h.r2[j])), eps);
+        if (t > eps && (t < best.t || (t == best.t && h.id[j] < best.id))) best = {h.id[j], t};
+      }
+    });
+  } else {
+    // The definition: every sphere in id order, a nearer t wins (so an equal t keeps the lower id).
+    for (int i = 0; i < s.num_spheres; ++i) {
+      const T r2 = s.sphere_r2[i];
+      const Vec3<T> f = origin - Vec3<T>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
+      const SphereDisc<T> sd = sphere_disc(f, dir, r2);
+      if (!(sd.disc >= T(0))) continue;
+      const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      if (t > eps && t < best.t) best = {i, t};
+    }
   }
   for (int k = 0; k < s.num_planes; ++k) {
     const Vec3<T> normal{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};

@@ -136,7 +136,7 @@ using Clock = std::chrono::steady_clock;
 
 template <class T>
 PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
-  PreparedScene<T> p = prepare<T>(scene);
+  PreparedScene<T> p = prepare<T>(scene, opt.accel);
   if (opt.model_everything) {
     // The sphere and plane flags stay: a type the scene lacks has no data to gather normals
     // from, and its intersection loop is empty either way.
@@ -145,6 +145,7 @@ PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
   }
   return p;
 }
+
 
 // Tiles over threads with the progress callback fed as rows complete.
 template <class Body>
@@ -212,6 +213,7 @@ PrimaryResult primary_impl(const Scene& scene, const RenderOptions& opt, bool id
   if (ids) res.id.assign(pixels, -1.0f);
   float* id = ids ? res.id.data() : nullptr;
   auto run = [&](const auto& prepared, const auto& rows) {
+    res.structure = structure_of(prepared);
     res.seconds = timed([&] {
       res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
         rows.primary(prepared, res.t.data(), id, r0, r1, c);
@@ -227,12 +229,27 @@ PrimaryResult primary_impl(const Scene& scene, const RenderOptions& opt, bool id
 
 }  // namespace
 
+template <class T>
+StructureInfo structure_of(const PreparedScene<T>& p) {
+  StructureInfo info;
+  if (!p.bvh.active()) return info;
+  info.kind = "bvh";
+  info.spheres = p.num_spheres;
+  info.nodes = p.bvh.nodes.size();
+  info.bytes = p.bvh.bytes();
+  info.build_seconds = p.bvh.build_seconds;
+  return info;
+}
+template StructureInfo structure_of(const PreparedScene<float>&);
+template StructureInfo structure_of(const PreparedScene<double>&);
+
 RenderResult render(const Scene& scene, const RenderOptions& opt) {
   RenderResult res;
   resolve(scene, opt, res, res.precision, &res.precision_reason);
   res.isa = packet::isa_name(res.width, res.precision);
   res.image = Image(scene.camera.nx, scene.camera.ny);
   auto run = [&](const auto& prepared, const auto& rows) {
+    res.structure = structure_of(prepared);
     res.seconds = timed([&] {
       res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
         rows.render(prepared, res.image, r0, r1, c);
@@ -288,6 +305,7 @@ PrimaryResult PrimaryKernelRun::run() {
   PrimaryResult res;
   res.width = w;
   res.threads = st.threads;
+  res.structure = structure_of(st.scene);
   res.t.assign(st.lanes.size() * std::size_t(w), 0.0f);
   res.seconds = timed([&] {
     res.rays = lancer::run_tiles(st.scene.camera.ny, st.threads, [&](int r0, int r1, RayCounts& c) {

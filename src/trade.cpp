@@ -12,6 +12,7 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
   truth_opt.precision = Precision::dbl;
   truth_opt.width = 1;
   truth_opt.threads = opt.threads;
+  truth_opt.accel = opt.accel;
   const Image truth = render(scene, truth_opt).image;
   const std::vector<float> truth_ids = render_primary_with_ids(scene, truth_opt).id;
 
@@ -24,6 +25,7 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
       rows.push_back(r);
       RenderOptions ro;
       ro.precision = p, ro.width = width, ro.threads = opt.threads;
+      ro.accel = opt.accel;
       configs.push_back(ro);
     }
 

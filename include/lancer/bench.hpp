@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "lancer/precision.hpp"
+#include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer {
@@ -59,6 +60,7 @@ struct BenchOptions {
   // Also time each ISA's peak, as one more configuration of the same rounds, so that the
   // fraction of peak compares figures the machine's noise fell on alike.
   bool peak = false;
+  Accel accel = Accel::automatic;  // lancer's structure over the spheres
 };
 
 struct BenchResult {
@@ -68,6 +70,7 @@ struct BenchResult {
   double peer_build_seconds = -1;
   // Every setup the peer ran, each row of it, before the fastest per row was kept.
   std::vector<BenchRow> peer_setups;
+  StructureInfo structure;     // as lancer's renders built it
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "lancer/bvh.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/vec3.hpp"
 
@@ -75,6 +76,10 @@ struct PreparedScene {
 
   EyeSphere<T> eye;  // filled for pinhole cameras
 
+  // The hierarchy over the spheres, when the scene gets one (bvh.active()); else every path
+  // loops over all objects.
+  Bvh<T> bvh;
+
   int num_lights = 0;
   std::vector<T> light_x, light_y, light_z, light_intensity, light_ambient;
 
@@ -91,10 +96,14 @@ inline constexpr int kMaxLanes = 16;
 // Shininess at or below this, and whole, is raised by repeated squaring (power_int).
 inline constexpr double kMaxIntegerShininess = 1 << 20;
 
-template <class T>
-PreparedScene<T> prepare(const Scene& scene);
+// Which structure `accel` resolves to for a scene: automatic takes the hierarchy from
+// kBvhMinSpheres spheres on.
+Accel resolve_accel(const Scene& scene, Accel accel);
 
-extern template PreparedScene<float> prepare<float>(const Scene&);
-extern template PreparedScene<double> prepare<double>(const Scene&);
+template <class T>
+PreparedScene<T> prepare(const Scene& scene, Accel accel = Accel::automatic);
+
+extern template PreparedScene<float> prepare<float>(const Scene&, Accel);
+extern template PreparedScene<double> prepare<double>(const Scene&, Accel);
 
 }  // namespace lancer

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "lancer/bvh.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer {
@@ -33,6 +34,9 @@ struct StageProfile {
   std::array<std::array<std::uint64_t, kMaxHistogramLanes + 1>, kStageCount> histogram{};
   std::uint64_t sphere_tests = 0, plane_tests = 0;  // ray-object tests, lanes counted one by one
   std::uint64_t last_tsc = 0;                       // the chain of laps; see Kernel::lap
+  // Hierarchy leaves visited per stage and the lanes active in them (traversal occupancy).
+  std::array<std::uint64_t, kStageCount> leaf_packets{}, leaf_lanes{};
+  int current = 0;  // the stage whose rays are being traced (set by Kernel::occupancy)
 };
 
 struct ProfileResult {
@@ -41,6 +45,8 @@ struct ProfileResult {
     double seconds = 0;
     std::uint64_t rays = 0;                // rays of the kind the stage handles
     double lane_occupancy = 0;             // mean active lanes / width over its packets
+    double leaf_occupancy = 0;             // the same at the hierarchy's leaves (0: none)
+    std::uint64_t leaves = 0;              // leaf visits by its packets
     std::vector<std::uint64_t> histogram;  // packets by active lanes
   };
   int width = 0;
@@ -53,6 +59,6 @@ struct ProfileResult {
 
 // Renders once, single-threaded, with the profiled exact kernels of `width` (4, 8 or 16; 0 for
 // the widest). Throws InputError for a width this machine does not run.
-ProfileResult profile_render(const Scene& scene, int width);
+ProfileResult profile_render(const Scene& scene, int width, Accel accel = Accel::automatic);
 
 }  // namespace lancer

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "lancer/bvh.hpp"
 #include "lancer/image.hpp"
 #include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
@@ -20,8 +21,23 @@ struct PrecisionChoice {
 };
 PrecisionChoice choose_precision(const Scene& scene);
 
+// The acceleration structure a render used, as built.
+struct StructureInfo {
+  std::string kind = "none";  // "bvh" or "none" (the plain loop)
+  int spheres = 0;            // objects in it
+  std::size_t nodes = 0, bytes = 0;
+  double build_seconds = 0;
+};
+
+template <class T>
+struct PreparedScene;
+// What a prepared scene built over its spheres (float and double instantiated in render.cpp).
+template <class T>
+StructureInfo structure_of(const PreparedScene<T>& p);
+
 struct RenderOptions {
-  int width = 0;  // 0: the widest this machine runs (auto); 1: the reference
+  int width = 0;                   // 0: the widest this machine runs (auto); 1: the reference
+  Accel accel = Accel::automatic;  // the spheres' structure (auto: by their count)
   Precision precision = Precision::exact;
   int threads = 0;  // 0: all cores
   bool progress = false;
@@ -41,6 +57,7 @@ struct RenderResult {
   std::string isa;
   Precision precision = Precision::exact;  // as resolved: never automatic
   std::string precision_reason;            // why, when automatic chose it
+  StructureInfo structure;
 };
 
 // Throws InputError if the options ask for something this machine cannot do (a width this CPU
@@ -56,6 +73,7 @@ struct PrimaryResult {
   double seconds = 0;
   int width = 1;
   int threads = 1;
+  StructureInfo structure;
 };
 PrimaryResult render_primary(const Scene& scene, const RenderOptions& options);
 

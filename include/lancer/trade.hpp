@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "lancer/bvh.hpp"
 #include "lancer/compare.hpp"
 #include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
@@ -27,6 +28,7 @@ struct TradeOptions {
   int repeat = 5;
   double min_seconds = 0.05;
   int threads = 1;
+  Accel accel = Accel::automatic;
 };
 
 // Every precision at every width this machine runs it, timed with configurations interleaved

@@ -18,6 +18,7 @@ namespace lancer::cli {
 
 namespace {
 struct BenchArgs {
+  std::string accel = "auto";
   std::string scene;
   std::vector<std::string> widths{"all"};
   std::vector<std::string> threads{"1"};
@@ -93,9 +94,15 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
 void print_json(const std::string& scene, const BenchResult& result,
                 const std::vector<PeakRow>* peaks) {
   const std::vector<BenchRow>& rows = result.rows;
+  const StructureInfo& st = result.structure;
   nlohmann::json out;
   out["scene"] = scene;
   if (result.peer_build_seconds >= 0) out["peer_build_seconds"] = result.peer_build_seconds;
+  out["structure"] = {{"kind", st.kind},
+                      {"build_seconds", st.build_seconds},
+                      {"bytes", st.bytes},
+                      {"objects", st.spheres},
+                      {"nodes", st.nodes}};
   out["results"] = nlohmann::json::array();
   for (const BenchRow& r : rows) {
     nlohmann::json row{
@@ -194,6 +201,7 @@ void run_bench_cmd(const BenchArgs& a) {
     opt.peers.push_back(p);
   }
   opt.peak = a.peak;
+  opt.accel = parse_accel(a.accel, "--accel");
   if (mpi::launch_from_environment().size > 1) return run_bench_mpi(a, opt);
   BenchResult result = run_bench(scene, opt);
   if (a.peak) add_flops(scene, result.peaks, result.rows);
@@ -211,6 +219,10 @@ void add_bench(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "bench", "Rays per second of each width, primary rays and full renders, side by side");
   cmd->add_option("scene", args->scene, "Scene file")->required();
+  cmd->add_option("--accel", args->accel,
+                  "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop) "
+                  "or bvh")
+      ->capture_default_str();
   cmd->add_option("--width", args->widths,
                   "Widths, e.g. 1,4,8,16 or all (default: all this CPU runs; 1 = reference)");
   cmd->add_option("--threads", args->threads,

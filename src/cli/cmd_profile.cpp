@@ -10,7 +10,7 @@ namespace lancer::cli {
 
 namespace {
 struct ProfileArgs {
-  std::string scene, width = "auto";
+  std::string scene, width = "auto", accel = "auto";
   bool json = false;
   SceneOverrides overrides;
 };
@@ -18,7 +18,8 @@ struct ProfileArgs {
 void run_profile(const ProfileArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
-  const ProfileResult r = profile_render(scene, parse_width(a.width, "--width"));
+  const ProfileResult r =
+      profile_render(scene, parse_width(a.width, "--width"), parse_accel(a.accel, "--accel"));
   double staged = 0;
   for (const auto& st : r.stages) staged += st.seconds;
   if (a.json) {
@@ -36,6 +37,8 @@ void run_profile(const ProfileArgs& a) {
                                {"seconds", st.seconds},
                                {"rays", st.rays},
                                {"lane_occupancy", st.lane_occupancy},
+                               {"leaf_visits", st.leaves},
+                               {"leaf_occupancy", st.leaf_occupancy},
                                {"lane_histogram", st.histogram}});
     std::printf("%s\n", out.dump(2).c_str());
     return;
@@ -59,6 +62,15 @@ void run_profile(const ProfileArgs& a) {
                 r.total_seconds > 0 ? 100 * st.seconds / r.total_seconds : 0.0,
                 (unsigned long long)st.rays, occ, hist.c_str());
   }
+  bool leaves = false;
+  for (const auto& st : r.stages)
+    if (st.leaves) {
+      if (!leaves)
+        std::printf("  hierarchy leaves: visits and lane occupancy in them, per stage\n");
+      leaves = true;
+      std::printf("  %-22s %12llu leaves %6.1f%%\n", st.name.c_str(), (unsigned long long)st.leaves,
+                  100 * st.leaf_occupancy);
+    }
   std::printf("  %-22s %10.5f %6.1f%%   (stages add up to %.1f%% of the total)\n", "total",
               r.total_seconds, 100.0, r.total_seconds > 0 ? 100 * staged / r.total_seconds : 0);
 }
@@ -70,6 +82,7 @@ void add_profile(CLI::App& app) {
       "profile", "Where the time goes: per stage time, rays, tests per ray and lane occupancy");
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_option("--width", args->width, "auto (widest), 4, 8 or 16")->capture_default_str();
+  cmd->add_option("--accel", args->accel, "auto, none or bvh")->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");

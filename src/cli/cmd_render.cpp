@@ -14,7 +14,7 @@ namespace lancer::cli {
 
 namespace {
 struct RenderArgs {
-  std::string scene, output, width = "auto", precision = "auto";
+  std::string scene, output, width = "auto", precision = "auto", accel = "auto";
   int threads = 0;
   SceneOverrides overrides;
 };
@@ -32,6 +32,12 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
+  const StructureInfo& st = r.structure;
+  if (st.kind == "bvh")
+    std::printf("  structure  bvh (%d spheres, %zu nodes, built in %.1f ms, %zu bytes)\n",
+                st.spheres, st.nodes, st.build_seconds * 1e3, st.bytes);
+  else
+    std::printf("  structure  none: plain loop\n");
   std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
               (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.total());
@@ -80,6 +86,7 @@ void run_render(const RenderArgs& a) {
   opt.precision = parse_precision(a.precision, "--precision");
   opt.width = parse_width(a.width, "--width");
   opt.threads = a.threads;
+  opt.accel = parse_accel(a.accel, "--accel");
   attach_progress(opt);
   const RenderResult r = render(scene, opt);
   write_image(r.image, a.output);
@@ -109,6 +116,10 @@ void add_render(CLI::App& app) {
   cmd->add_option(
          "--threads", args->threads,
          "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)")
+      ->capture_default_str();
+  cmd->add_option("--accel", args->accel,
+                  "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop) "
+                  "or bvh")
       ->capture_default_str();
   cmd->add_option("--supersample", args->overrides.supersample,
                   "Sub-samples per axis (overrides the scene)");

@@ -12,7 +12,7 @@ namespace lancer::cli {
 
 namespace {
 struct TradeArgs {
-  std::string scene, plot;
+  std::string scene, plot, accel = "auto";
   bool json = false;
   int repeat = 5;
   SceneOverrides overrides;
@@ -30,6 +30,7 @@ void run_trade_cmd(const TradeArgs& a) {
   if (!a.plot.empty()) check_output_path(a.plot, a.scene);
   TradeOptions opt;
   opt.repeat = a.repeat;
+  opt.accel = parse_accel(a.accel, "--accel");
   const std::vector<TradeRow> rows = run_trade(scene, opt);
   if (a.json) {
     nlohmann::json out;
@@ -69,6 +70,7 @@ void add_trade(CLI::App& app) {
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--plot", args->plot, "Draw speed against error into an image (PNG, ...)");
+  cmd->add_option("--accel", args->accel, "auto, none or bvh")->capture_default_str();
   cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
       ->capture_default_str();
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");

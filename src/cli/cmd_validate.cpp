@@ -15,7 +15,7 @@ namespace {
 struct ValidateArgs {
   std::string scene;
   std::vector<std::string> widths;
-  std::string precision = "exact";
+  std::string precision = "exact", accel = "auto";
   int threads = 0;
   SceneOverrides overrides;
 };
@@ -41,19 +41,24 @@ void run_validate(const ValidateArgs& a, int& status) {
                            "runs none, or LANCER_MAX_WIDTH=1)"
                          : "--width: validate compares packet widths with the reference (width "
                            "1): give at least one of 4, 8, 16 (double: 2, 4, 8)");
+  const Accel accel = parse_accel(a.accel, "--accel");
   RenderOptions ref_opt;
+  ref_opt.accel = accel;
   ref_opt.width = 1;
   ref_opt.precision = precision;
   ref_opt.threads = a.threads;
   const RenderResult ref = render(scene, ref_opt);
   std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n", a.scene.c_str(),
               scene.camera.nx, scene.camera.ny, to_string(precision));
+  std::printf("  structure %s\n",
+              ref.structure.kind == "bvh" ? "bvh (reference and packets)" : "none: plain loop");
   std::printf("  %-6s %-8s %10s %10s  %s\n", "width", "isa", "differing", "max ulps",
               "first differing pixel");
   bool all_identical = true;
   for (int w : widths) {
     RenderOptions opt;
     opt.width = w;
+    opt.accel = accel;
     opt.precision = precision;
     opt.threads = a.threads;
     const RenderResult r = render(scene, opt);
@@ -86,6 +91,8 @@ void add_validate(CLI::App& app) {
   cmd->add_option(
       "--threads", args->threads,
       "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)");
+  cmd->add_option("--accel", args->accel, "auto, none or bvh: the structure both paths use")
+      ->capture_default_str();
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   cmd->callback([args] {

@@ -88,6 +88,7 @@ void render_command(
              mpi.local_size, [&](const Scene&) { check_output_path(job.output, job.scene_path); });
   const CameraSpec& cam = f.scene.camera;
   RenderResult res;
+  res.structure = f.engine->structure();
   RankStats st;
   st.ranks = mpi.size;
   st.threads = f.threads;

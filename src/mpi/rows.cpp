@@ -41,6 +41,11 @@ RowEngine::~RowEngine() = default;
 
 const char* RowEngine::isa() const { return state_->isa.c_str(); }
 
+StructureInfo RowEngine::structure() const {
+  const State& s = *state_;
+  return s.precision == Precision::dbl ? structure_of(s.d) : structure_of(s.f);
+}
+
 void RowEngine::render_rows(Image& image, int r0, int r1, RayCounts& counts) const {
   const State& s = *state_;
   if (s.precision == Precision::dbl) {

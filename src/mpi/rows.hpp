@@ -11,6 +11,7 @@
 #include "lancer/image.hpp"
 #include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
+#include "lancer/render.hpp"
 #include "lancer/stats.hpp"
 
 namespace lancer::mpi {
@@ -25,6 +26,7 @@ class RowEngine {
   // Renders rows [r0, r1) into `image` (the full frame), as render() renders them.
   void render_rows(Image& image, int r0, int r1, RayCounts& counts) const;
   const char* isa() const;
+  StructureInfo structure() const;  // what prepare built over the spheres
 
  private:
   struct State;

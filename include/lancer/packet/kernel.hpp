@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/packet/fused.hpp"
+#include "lancer/packet/traverse.hpp"
 #include "lancer/profile.hpp"
 
 namespace lancer::packet {
@@ -109,6 +111,11 @@ struct Kernel {
   using B = xsimd::batch<T, Arch>;
   using M = xsimd::batch_bool<T, Arch>;
   using V = Vec3<B>;
+  // Object ids: integers of Real's width, one per lane (exact for any count of objects).
+  using Id = xsimd::as_integer_t<T>;
+  using I = xsimd::batch<Id, Arch>;
+  using MI = xsimd::batch_bool<Id, Arch>;
+  using Tr = Traversal<Arch, T>;
   static constexpr bool kFast = std::is_same_v<Mode, FastMode>;
   static constexpr bool kProfile = std::is_same_v<Mode, ProfiledMode>;
   using Mth = std::conditional_t<kFast, FastMath<Arch>, ExactMath>;
@@ -131,9 +138,17 @@ struct Kernel {
   static void occupancy(RayCounts& c, int stage, const M& m) noexcept {
     if constexpr (kProfile) {
       const int n = static_cast<int>(count(m));
+      c.profile->current = stage;
       c.profile->packets[stage] += 1;
       c.profile->active_lanes[stage] += n;
       c.profile->histogram[stage][n] += 1;
+    }
+  }
+  // A hierarchy leaf visited by the lanes of m, charged to the stage being traced.
+  static void leaf_visit(RayCounts& c, const M& m) noexcept {
+    if constexpr (kProfile) {
+      c.profile->leaf_packets[c.profile->current] += 1;
+      c.profile->leaf_lanes[c.profile->current] += count(m);
     }
   }
   static void tests(RayCounts& c, const M& m, bool sphere) noexcept {
@@ -164,34 +179,69 @@ struct Kernel {
                                           : _mm256_movemask_pd(__m256d(r)));
   }
 
+  // A mask between Real's and the id's lanes (same count, same bits: xsimd 8.1 has no cast).
+  static MI to_mi(const M& m) noexcept {
+    using Q = typename M::register_type;
+    using R = typename MI::register_type;
+    const Q q = m;
+    R r;
+    std::memcpy(&r, &q, sizeof r);
+    return MI(r);
+  }
+  static M to_m(const MI& m) noexcept {
+    using Q = typename MI::register_type;
+    using R = typename M::register_type;
+    const Q q = m;
+    R r;
+    std::memcpy(&r, &q, sizeof r);
+    return M(r);
+  }
+
+  // Ids as Real and back, lane by lane: only for the id outputs of tests and lancer trade.
+  static B id_to_real(const I& id) noexcept {
+    alignas(64) Id in[W];
+    alignas(64) T out[W];
+    id.store_aligned(in);
+    for (int k = 0; k < W; ++k) out[k] = static_cast<T>(in[k]);
+    return B::load_aligned(out);
+  }
+  static I real_to_id(const B& v) noexcept {
+    alignas(64) T in[W];
+    alignas(64) Id out[W];
+    v.store_aligned(in);
+    for (int k = 0; k < W; ++k) out[k] = static_cast<Id>(in[k]);
+    return I::load_aligned(out);
+  }
+
   // Active lanes of a mask.
   static std::uint64_t count(const M& m) noexcept {
     return static_cast<std::uint64_t>(__builtin_popcount(bits(m)));
   }
 
-  // field[id] per lane, for a field of n entries (padded to kMaxLanes by prepare()). Object ids
-  // travel as Real (exact below 2^24) so that they blend with the same masks as the distances.
-  // Up to W entries the field fits one register and one permute looks every lane up; beyond,
-  // a hardware gather. (xsimd 8.1's B::gather falls back to inserting lane by lane here.)
-  // SSE has neither, and double ids would need AVX-512DQ to convert: lane by lane.
-  static B gather(const std::vector<T>& field, const B& id, int n) noexcept {
+  // field[id] per lane, for a field of n entries (padded to kMaxLanes by prepare()). Up to W
+  // entries the field fits one register and one permute looks every lane up; beyond, a hardware
+  // gather. (xsimd 8.1's B::gather falls back to inserting lane by lane here.) SSE has neither:
+  // lane by lane.
+  static B gather(const std::vector<T>& field, const I& id, int n) noexcept {
     if constexpr (std::is_same_v<T, float> && W == 16) {
-      const __m512i index = _mm512_cvttps_epi32(id);
-      if (n <= 16) return _mm512_permutexvar_ps(index, _mm512_loadu_ps(field.data()));
-      return _mm512_i32gather_ps(index, field.data(), 4);
+      if (n <= 16) return _mm512_permutexvar_ps(id, _mm512_loadu_ps(field.data()));
+      return _mm512_i32gather_ps(id, field.data(), 4);
+    } else if constexpr (std::is_same_v<T, double> && W == 8) {
+      if (n <= 8) return _mm512_permutexvar_pd(id, _mm512_loadu_pd(field.data()));
+      return _mm512_i64gather_pd(id, field.data(), 8);
     } else if constexpr (std::is_same_v<T, float> && W == 8) {
-      const __m256i index = _mm256_cvttps_epi32(id);
-      if (n <= 8) return _mm256_permutevar8x32_ps(_mm256_loadu_ps(field.data()), index);
-      return _mm256_i32gather_ps(field.data(), index, 4);
+      if (n <= 8) return _mm256_permutevar8x32_ps(_mm256_loadu_ps(field.data()), id);
+      return _mm256_i32gather_ps(field.data(), id, 4);
     } else {
-      alignas(64) T ids[W], out[W];
+      alignas(64) Id ids[W];
+      alignas(64) T out[W];
       id.store_aligned(ids);
       for (int k = 0; k < W; ++k) out[k] = field[static_cast<std::size_t>(ids[k])];
       return B::load_aligned(out);
     }
   }
   // A field of every object (materials).
-  static B gather(const Scene& s, const std::vector<T>& field, const B& id) noexcept {
+  static B gather(const Scene& s, const std::vector<T>& field, const I& id) noexcept {
     return gather(field, id, s.num_objects());
   }
 
@@ -205,12 +255,13 @@ struct Kernel {
   // cancellation when a sphere is small against its distance, so only in scenes where no sphere
   // is (PreparedScene::naive_spheres_hold; docs/precision.md).
   static bool textbook(const Scene& s) noexcept { return kFast && s.naive_spheres_hold; }
+  // eye_c: the eye's c of the sphere (read only for camera rays).
   static SphereDisc<B> disc_of(const Scene& s, const V& f, const V& d, const B& r2, bool from_eye,
-                               int i) noexcept {
+                               T eye_c) noexcept {
     if (textbook(s)) {
       const B b = Mth::dot(f, d);
       // c = |f|^2 - r^2 with r^2 folded into the first multiply-add.
-      const B c = from_eye ? B(s.eye.c[i]) : fmadd(f.z, f.z, fmadd(f.y, f.y, fmsub(f.x, f.x, r2)));
+      const B c = from_eye ? B(eye_c) : fmadd(f.z, f.z, fmadd(f.y, f.y, fmsub(f.x, f.x, r2)));
       return {b, fmsub(b, b, c)};
     } else {
       return sphere_disc<Mth>(f, d, r2);
@@ -220,12 +271,12 @@ struct Kernel {
   // the textbook discriminant: -b -+ sqrt(disc), no division; its near root loses ulps of |b|
   // where the ray starts near the sphere, which the offset origins and epsilon absorb.
   static B first_root(const Scene& s, const SphereDisc<B>& sd, const V& f, const B& r2,
-                      bool from_eye, int i, const B& eps) noexcept {
+                      bool from_eye, T eye_c, const B& eps) noexcept {
     if (textbook(s)) {
       const B root = xsimd::sqrt(sd.disc);
       return sphere_first_root(SphereRoots<B>{-(sd.b + root), root - sd.b}, eps);
     }
-    const B c = from_eye ? B(s.eye.c[i]) : sphere_c<Mth>(f, r2);
+    const B c = from_eye ? B(eye_c) : sphere_c<Mth>(f, r2);
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
   }
 
@@ -233,68 +284,120 @@ struct Kernel {
   // so its lanes skip that sphere's roots, which would only find the point it leaves. Exact
   // tests it, as the reference does; camera rays (kFromEye) leave no sphere.
   template <bool kFromEye = false>
-  static M skip(const M& m, const B& leaving, int sphere) noexcept {
+  static M skip(const M& m, const I& leaving, Id sphere) noexcept {
     if constexpr (kFast && !kFromEye)
-      return m & (leaving != B(T(sphere)));
+      return m & to_m(leaving != I(sphere));
     else
       return m;
   }
 
-  // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
-  // hit is found; returns the lanes whose t is now finite (hit by something).
+  // The spheres a loop walks: the scene's, in id order, or the hierarchy's copy in leaf order
+  // with their object ids.
+  struct Spheres {
+    const T *cx, *cy, *cz, *r2, *efx, *efy, *efz, *ec;
+    const std::int32_t* id;  // null: the position is the id
+    Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
+  };
+  static Spheres all_spheres(const Scene& s) noexcept {
+    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(),
+            s.sphere_r2.data(), s.eye.fx.data(),    s.eye.fy.data(),
+            s.eye.fz.data(),    s.eye.c.data(),     nullptr};
+  }
+  static Spheres leaf_spheres(const Scene& s) noexcept {
+    const Bvh<T>& h = s.bvh;
+    return {h.cx.data(),     h.cy.data(),     h.cz.data(),    h.r2.data(), h.eye_fx.data(),
+            h.eye_fy.data(), h.eye_fz.data(), h.eye_c.data(), h.id.data()};
+  }
+
+  // Closest hit over spheres [begin, end) of `sp` for the lanes of `valid`; updates t and id
+  // where a hit wins. kIdOrder: the spheres come in id order, so a nearer t alone decides (the
+  // sequential loop's result); else, in any order, the lexicographic minimum of (t, id).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
+  template <bool kFromEye, bool kIdOrder>
+  [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin,
+                                                     int end, M valid, const V& o, const V& d,
+                                                     B& best_t, I& best_id, RayCounts& counts,
+                                                     const I& leaving) noexcept {
+    const B eps(s.epsilon);
+    const T no_c(0);
+    // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
+    // where it wins.
+    auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
+      const B t = first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
+      const Id id = sp.object(j);
+      if constexpr (kIdOrder)
+        m = m & (t > eps) & (t < best_t);
+      else
+        m = m & (t > eps) & ((t < best_t) | ((t == best_t) & to_m(I(id) < best_id)));
+      best_t = xsimd::select(m, t, best_t);
+      best_id = xsimd::select(to_mi(m), I(id), best_id);
+    };
+    auto offset = [&](int j) {
+      return kFromEye ? V{B(sp.efx[j]), B(sp.efy[j]), B(sp.efz[j])}
+                      : o - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
+    };
+    // kGroup spheres per early-out test: most rays miss most spheres, and one branch then
+    // skips the group. Hits are still taken in sphere order: the sequential loop's result.
+    constexpr int kGroup = 4;
+    int j = begin;
+    for (; j + kGroup <= end; j += kGroup) {
+      V f[kGroup];
+      SphereDisc<B> sd[kGroup];
+      for (int g = 0; g < kGroup; ++g) {
+        tests(counts, valid, true);
+        f[g] = offset(j + g);
+        sd[g] = disc_of(s, f[g], d, B(sp.r2[j + g]), kFromEye, kFromEye ? sp.ec[j + g] : no_c);
+      }
+      // Some disc >= 0 exactly where the largest is: one compare for the group. (The
+      // discriminants of a loaded scene are never NaN: its coordinates are bounded.)
+      static_assert(kGroup == 4);
+      const B largest =
+          xsimd::max(xsimd::max(sd[0].disc, sd[1].disc), xsimd::max(sd[2].disc, sd[3].disc));
+      if (!xsimd::any(valid & (largest >= B(0)))) continue;
+      for (int g = 0; g < kGroup; ++g) {
+        const M m = skip<kFromEye>(valid & (sd[g].disc >= B(0)), leaving, sp.object(j + g));
+        if (xsimd::any(m)) update(j + g, f[g], B(sp.r2[j + g]), sd[g], m);
+      }
+    }
+    for (; j < end; ++j) {
+      tests(counts, valid, true);
+      const B r2(sp.r2[j]);
+      const V f = offset(j);
+      const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, kFromEye ? sp.ec[j] : no_c);
+      const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, sp.object(j));
+      if (xsimd::any(m)) update(j, f, r2, sd, m);
+    }
+  }
+
+  // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
+  // hit is found (an equal t: a lower id); returns the lanes whose t is now finite.
+  // Spheres through the hierarchy where the scene has one (and every lane starts within its
+  // origin limit), else all in a loop; planes always in a loop, after the spheres (higher ids).
   // `leaving`: per lane, the sphere the ray leaves from outside (-1: none); see skip().
   template <bool kFromEye = false>
-  static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, B& best_id,
-                       RayCounts& counts, const B& leaving = B(T(-1))) noexcept {
-    const B eps(s.epsilon);
+  static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, I& best_id,
+                       RayCounts& counts, const I& leaving = I(Id(-1))) noexcept {
     if (s.features.spheres) {
-      // The tests of sphere i, given its discriminant: the nearest root beyond epsilon, kept
-      // where it is nearer than the best so far.
-      auto update = [&](int i, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
-        const B t = first_root(s, sd, f, r2, kFromEye, i, eps);
-        m = m & (t > eps) & (t < best_t);
-        best_t = xsimd::select(m, t, best_t);
-        best_id = xsimd::select(m, B(T(i)), best_id);
-      };
-      auto offset = [&](int i) {
-        return kFromEye ? V{B(s.eye.fx[i]), B(s.eye.fy[i]), B(s.eye.fz[i])}
-                        : o - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
-      };
-      // kGroup spheres per early-out test: most rays miss most spheres, and one branch then
-      // skips the group. Hits are still taken in sphere order: the sequential loop's result.
-      constexpr int kGroup = 4;
-      int i = 0;
-      for (; i + kGroup <= s.num_spheres; i += kGroup) {
-        V f[kGroup];
-        SphereDisc<B> sd[kGroup];
-        for (int g = 0; g < kGroup; ++g) {
-          tests(counts, valid, true);
-          f[g] = offset(i + g);
-          sd[g] = disc_of(s, f[g], d, B(s.sphere_r2[i + g]), kFromEye, i + g);
-        }
-        // Some disc >= 0 exactly where the largest is: one compare for the group. (The
-        // discriminants of a loaded scene are never NaN: its coordinates are bounded.)
-        static_assert(kGroup == 4);
-        const B largest =
-            xsimd::max(xsimd::max(sd[0].disc, sd[1].disc), xsimd::max(sd[2].disc, sd[3].disc));
-        if (!xsimd::any(valid & (largest >= B(0)))) continue;
-        for (int g = 0; g < kGroup; ++g) {
-          const M m = skip<kFromEye>(valid & (sd[g].disc >= B(0)), leaving, i + g);
-          if (xsimd::any(m)) update(i + g, f[g], B(s.sphere_r2[i + g]), sd[g], m);
-        }
-      }
-      for (; i < s.num_spheres; ++i) {
-        tests(counts, valid, true);
-        const B r2(s.sphere_r2[i]);
-        const V f = offset(i);
-        const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, i);
-        const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, i);
-        if (xsimd::any(m)) update(i, f, r2, sd, m);
+      const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
+      if (reach < 2) {
+        const Spheres sp = leaf_spheres(s);
+        auto leaf = [&](int first, int n, const M& m) {
+          leaf_visit(counts, m);
+          spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t, best_id,
+                                           counts, leaving);
+        };
+        if (reach == 0)
+          Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf);
+        else
+          Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
+      } else {
+        spheres_closest<kFromEye, true>(s, all_spheres(s), 0, s.num_spheres, valid, o, d, best_t,
+                                        best_id, counts, leaving);
       }
     }
 
     if (s.features.planes) {
+      const B eps(s.epsilon);
       for (int k = 0; k < s.num_planes; ++k) {
         tests(counts, valid, false);
         const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
@@ -303,29 +406,60 @@ struct Kernel {
             Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n), denom);
         const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
         best_t = xsimd::select(m, t, best_t);
-        best_id = xsimd::select(m, B(T(s.num_spheres + k)), best_id);
+        best_id = xsimd::select(to_mi(m), I(Id(s.num_spheres + k)), best_id);
       }
     }
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
   }
 
-  // Any-hit for shadow rays from p along unit l: the lanes of `valid` blocked before `dist`.
-  // Stops as soon as every lane of `valid` is blocked. `leaving` as for closest_hit.
-  static M occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
-                    RayCounts& counts, const B& leaving) noexcept {
+  // What a shadow ray's lanes `m` do on meeting object `id` before the light: they are blocked.
+  // Returns the lanes still pending. The one step of the any-hit query that depends on what an
+  // object does to light; the traversal around it visits objects in a fixed order.
+  struct Block {
+    M operator()(Id /*id*/, const M& m, const M& pending) const noexcept { return pending & ~m; }
+  };
+
+  // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)
+  // for each object the lanes' segments meet (each object once per lane, spheres in the
+  // hierarchy's fixed depth-first order or id order, then planes), and returns the lanes of
+  // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit.
+  template <class Step>
+  [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
+                                          const B& dist, RayCounts& counts, const I& leaving,
+                                          Step&& step) noexcept {
     const B eps(s.epsilon);
+    auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
+      for (int j = begin; j < end; ++j) {
+        const M live = mask & pending;
+        tests(counts, live, true);
+        const V f = p - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
+        const B r2(sp.r2[j]);
+        const SphereDisc<B> sd = disc_of(s, f, l, r2, false, T(0));
+        M m = skip(live & (sd.disc >= B(0)), leaving, sp.object(j));
+        if (!xsimd::any(m)) continue;
+        const B t = first_root(s, sd, f, r2, false, T(0), eps);
+        m = m & (t > eps) & (t < dist);
+        if (!xsimd::any(m)) continue;
+        pending = step(sp.object(j), m, pending);
+        if (!xsimd::any(pending)) break;
+      }
+      return pending;
+    };
     M pending = valid;
-    for (int i = 0; i < s.num_spheres; ++i) {
-      tests(counts, pending, true);
-      const V f = p - V{B(s.sphere_cx[i]), B(s.sphere_cy[i]), B(s.sphere_cz[i])};
-      const B r2(s.sphere_r2[i]);
-      const SphereDisc<B> sd = disc_of(s, f, l, r2, false, i);
-      M m = skip(pending & (sd.disc >= B(0)), leaving, i);
-      if (!xsimd::any(m)) continue;
-      const B t = first_root(s, sd, f, r2, false, i, eps);
-      m = m & (t > eps) & (t < dist);
-      pending = pending & ~m;
-      if (!xsimd::any(pending)) return valid;
+    if (s.features.spheres) {
+      const int reach = s.bvh.active() ? Tr::reach(s.bvh, valid, p) : 2;
+      if (reach < 2) {
+        const Spheres sp = leaf_spheres(s);
+        auto leaf = [&](int first, int n, const M& mask, const M& pend) {
+          leaf_visit(counts, mask & pend);
+          return spheres(sp, first, first + n, mask, pend);
+        };
+        pending = reach == 0 ? Tr::template any<false>(s.bvh, valid, p, l, dist, leaf)
+                             : Tr::template any<true>(s.bvh, valid, p, l, dist, leaf);
+      } else {
+        pending = spheres(all_spheres(s), 0, s.num_spheres, valid, valid);
+      }
+      if (!xsimd::any(pending)) return pending;
     }
     for (int k = 0; k < s.num_planes; ++k) {
       tests(counts, pending, false);
@@ -334,10 +468,17 @@ struct Kernel {
       const B t =
           Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n), denom);
       const M m = pending & (denom != B(0)) & (t > eps) & (t < dist);
-      pending = pending & ~m;
-      if (!xsimd::any(pending)) return valid;
+      if (!xsimd::any(m)) continue;
+      pending = step(Id(s.num_spheres + k), m, pending);
+      if (!xsimd::any(pending)) return pending;
     }
-    return valid & ~pending;
+    return pending;
+  }
+
+  // The lanes of `valid` blocked before `dist`.
+  static M occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
+                    RayCounts& counts, const I& leaving) noexcept {
+    return valid & ~any_hit(s, valid, p, l, dist, counts, leaving, Block{});
   }
 
   // max(0, c)^shininess per lane: binary powering for whole exponents; std::pow lane by lane
@@ -402,10 +543,10 @@ struct Kernel {
   // o, d to their reflected rays.
   // `leaving` (fast mode): the sphere each lane's ray leaves from outside, -1 for none; set for
   // the reflected rays.
-  [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, V& o, V& d, B& leaving,
+  [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, V& o, V& d, I& leaving,
                                         Level& out, RayCounts& counts) noexcept {
     B best_t(std::numeric_limits<T>::infinity());
-    B best_id(T(-1));
+    I best_id(Id(-1));
     const int stage = depth == 0 ? kPrimaryIntersection : kReflection;
     occupancy(counts, stage, active);
     const M hit = depth == 0 && !s.camera.orthographic
@@ -419,10 +560,10 @@ struct Kernel {
     occupancy(counts, kShading, hit);
 
     const V p = Mth::along(o, d, best_t);
-    const B id = xsimd::select(hit, best_id, B(0));
+    const I id = xsimd::select(to_mi(hit), best_id, I(0));
     V n{B(0), B(0), B(0)};
     if (s.features.spheres) {
-      const B sid = xsimd::min(id, B(T(s.num_spheres - 1)));
+      const I sid = xsimd::min(id, I(Id(s.num_spheres - 1)));
       const int ns = s.num_spheres;
       const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
                 gather(s.sphere_cz, sid, ns)};
@@ -432,20 +573,21 @@ struct Kernel {
         n = sphere_normal<Mth>(p, c);
     }
     if (s.features.planes) {
-      const B pid = xsimd::max(id - B(T(s.num_spheres)), B(0));
+      const I pid = xsimd::max(id - I(Id(s.num_spheres)), I(0));
       const int np = s.num_planes;
       const V pn{gather(s.plane_nx, pid, np), gather(s.plane_ny, pid, np),
                  gather(s.plane_nz, pid, np)};
-      n = s.features.spheres ? select3(best_id < B(T(s.num_spheres)), n, pn) : pn;
+      n = s.features.spheres ? select3(to_m(best_id < I(Id(s.num_spheres))), n, pn) : pn;
     }
     const M inside = Mth::dot(n, d) > B(0);
     n = select3(inside, -n, n);
     const V view = -d;
     // The sphere hit from outside, which this level's shadow rays and reflections leave.
-    B here(T(-1));
+    I here(Id(-1));
     if constexpr (kFast)
       if (s.features.spheres)
-        here = xsimd::select(hit & ~inside & (best_id < B(T(s.num_spheres))), best_id, here);
+        here =
+            xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id, here);
 
     const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);
@@ -522,7 +664,7 @@ struct Kernel {
   static void radiance(const Scene& s, M active, V o, V d, std::vector<Level>& levels, B& r, B& g,
                        B& b, RayCounts& counts) noexcept {
     int depth = 0;
-    B leaving(T(-1));
+    I leaving(Id(-1));
     for (;;) {
       active = shade(s, active, depth, o, d, leaving, levels[depth], counts);
       if (!xsimd::any(active)) break;
@@ -630,13 +772,15 @@ struct Kernel {
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
         const int lanes = std::min(W, cam.nx - i0);
         const M valid = lane < B(T(lanes));
-        B sum(0), first_id(T(-1));
+        B sum(0);
+        I first_id(Id(-1));
         for (int b = 0; b < cam.samples; ++b) {
           for (int a = 0; a < cam.samples; ++a) {
             V o, d;
             camera_packet(s, i0, j, a, b, o, d);
             counts.camera += lanes;
-            B t(std::numeric_limits<T>::infinity()), id(T(-1));
+            B t(std::numeric_limits<T>::infinity());
+            I id(Id(-1));
             if (cam.orthographic)
               closest_hit(s, valid, o, d, t, id, counts);
             else
@@ -655,7 +799,7 @@ struct Kernel {
         } else {
           store_lanes(sum, t_out + at, lanes);
         }
-        if (id_out) store_lanes(first_id, id_out + at, lanes);
+        if (id_out) store_lanes(id_to_real(first_id), id_out + at, lanes);
       }
     }
   }
@@ -694,7 +838,8 @@ struct Kernel {
                 B::load_unaligned(r + 5 * W)};
       const M valid = lane < B(T(lanes[p]));
       counts.camera += static_cast<std::uint64_t>(lanes[p]);
-      B t(std::numeric_limits<T>::infinity()), id(T(-1));
+      B t(std::numeric_limits<T>::infinity());
+      I id(Id(-1));
       // primary_rows' dispatch, written out here too: a shared helper moved GCC's inlining of
       // closest_hit in render_rows and cost exact's full render 5%.
       if (s.camera.orthographic)
@@ -712,11 +857,12 @@ struct Kernel {
               B::load_unaligned(rays + 2 * W)};
     const V d{B::load_unaligned(rays + 3 * W), B::load_unaligned(rays + 4 * W),
               B::load_unaligned(rays + 5 * W)};
-    B bt = B::load_unaligned(t), bid = B::load_unaligned(id);
+    B bt = B::load_unaligned(t);
+    I bid = real_to_id(B::load_unaligned(id));
     RayCounts unused;
     const M hit = closest_hit(s, v, o, d, bt, bid, unused);
     bt.store_unaligned(t);
-    bid.store_unaligned(id);
+    id_to_real(bid).store_unaligned(id);
     const unsigned hb = bits(hit);
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
@@ -730,7 +876,7 @@ struct Kernel {
               B::load_unaligned(rays + 5 * W)};
     RayCounts unused;
     // No sphere is being left (-1): the rays start wherever the caller put them.
-    const unsigned bb = bits(occluded(s, v, o, d, B::load_unaligned(tfar), unused, B(T(-1))));
+    const unsigned bb = bits(occluded(s, v, o, d, B::load_unaligned(tfar), unused, I(-1)));
     for (int k = 0; k < W; ++k) blocked_out[k] = (bb >> k) & 1u;
   }
 };

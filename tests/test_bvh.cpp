@@ -1,0 +1,204 @@
+// The sphere hierarchy: its build (deterministic, every sphere once, boxes that hold them), and
+// renders through it bit-identical to the plain loop over all objects, the definition, on seeded
+// random scenes of up to 64k spheres, with ties (duplicate spheres), rays starting inside the
+// cloud and far plane hits.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "lancer/bvh.hpp"
+#include "lancer/compare.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/reference.hpp"
+#include "lancer/render.hpp"
+#include "support/test_util.hpp"
+
+namespace lancer {
+namespace {
+
+using nlohmann::json;
+
+struct CloudOptions {
+  int spheres = 1000;
+  double duplicates = 0.05;  // share of spheres that repeat an earlier one (equal t: ties)
+  bool eye_inside = false;   // the camera inside the cloud
+  int nx = 48, ny = 32;
+  int max_depth = 3;
+};
+
+// N random spheres in a box before the camera, a ground plane far below (so reflections hit it
+// far away), reflective materials, one light.
+Scene cloud(std::uint64_t seed, const CloudOptions& o) {
+  std::mt19937_64 rng(seed);
+  auto uniform = [&](double lo, double hi) {
+    return lo + (hi - lo) * (double(rng() >> 11) * 0x1.0p-53);
+  };
+  const double side = 2.0 * std::cbrt(double(o.spheres));
+  json objects = json::array();
+  std::vector<json> made;
+  for (int i = 0; i < o.spheres; ++i) {
+    json s;
+    if (!made.empty() && uniform(0, 1) < o.duplicates) {
+      s = made[std::size_t(uniform(0, double(made.size())))];
+    } else {
+      s = {{"type", "sphere"},
+           {"center",
+            {uniform(-side / 2, side / 2), uniform(-side / 2, side / 2),
+             uniform(-side - (o.eye_inside ? 0 : 5), o.eye_inside ? side / 2 : -5.0)}},
+           {"radius", uniform(0.2, 0.6)}};
+    }
+    // Each copy its own colour: a tie won by the wrong id shows in the image.
+    s["material"] = {{"color", {uniform(0.1, 1), uniform(0.1, 1), uniform(0.1, 1)}},
+                     {"ka", 0.1},
+                     {"kd", 0.8},
+                     {"ks", 0.4},
+                     {"shininess", 20},
+                     {"reflect", 0.4}};
+    made.push_back(s);
+    objects.push_back(s);
+  }
+  objects.push_back({{"type", "plane"},
+                     {"point", {0, -side / 2 - 1, 0}},
+                     {"normal", {0, 1, 0}},
+                     {"material", {{"color", {0.8, 0.8, 0.8}}, {"kd", 0.8}, {"reflect", 0.3}}}});
+  const json j{{"camera",
+                {{"type", "pinhole"},
+                 {"position", {0, 0, 0}},
+                 {"direction", {0.1, -0.05, -1}},
+                 {"distance", 5},
+                 {"resolution", {o.nx, o.ny}},
+                 {"bounds", {-3, 3, -2, 2}}}},
+               {"background", {0.1, 0.1, 0.2}},
+               {"max_depth", o.max_depth},
+               {"lights", {{{"position", {side, side, 5}}, {"intensity", 1}, {"ambient", 0.2}}}},
+               {"objects", objects}};
+  return parse_scene(j.dump(), "cloud.json");
+}
+
+RenderResult run(const Scene& s, int width, Accel accel, Precision p = Precision::exact) {
+  RenderOptions opt;
+  opt.width = width;
+  opt.accel = accel;
+  opt.precision = p;
+  opt.threads = 2;
+  return render(s, opt);
+}
+
+void expect_same(const RenderResult& a, const RenderResult& b, const std::string& what) {
+  const BitDiff d = bit_diff(a.image, b.image);
+  EXPECT_TRUE(d.identical()) << what << ": " << d.differing_pixels << " pixels differ, first at ("
+                             << d.first_i << ", " << d.first_j << ")";
+  EXPECT_TRUE(a.rays == b.rays) << what << ": other rays traced";
+}
+
+TEST(Bvh, BuildIsDeterministicAndHoldsEverySphereOnce) {
+  const PreparedScene<float> a = prepare<float>(cloud(7, {}), Accel::bvh);
+  const PreparedScene<float> b = prepare<float>(cloud(7, {}), Accel::bvh);
+  ASSERT_TRUE(a.bvh.active());
+  ASSERT_EQ(a.bvh.nodes.size(), b.bvh.nodes.size());
+  EXPECT_EQ(0, std::memcmp(a.bvh.nodes.data(), b.bvh.nodes.data(),
+                           a.bvh.nodes.size() * sizeof(a.bvh.nodes[0])));
+  EXPECT_EQ(a.bvh.id, b.bvh.id);
+  // Every sphere in exactly one leaf, inside the box its parent holds for that leaf.
+  std::vector<int> seen(std::size_t(a.num_spheres), 0);
+  for (const auto& n : a.bvh.nodes)
+    for (int k = 0; k < 2; ++k)
+      for (int j = n.child[k]; n.count[k] >= 0 && j < n.child[k] + n.count[k]; ++j) {
+        const std::int32_t id = a.bvh.id[std::size_t(j)];
+        ++seen[std::size_t(id)];
+        const float r = a.sphere_r[std::size_t(id)];
+        EXPECT_LE(n.lo_x[k], a.sphere_cx[std::size_t(id)] - r);
+        EXPECT_GE(n.hi_x[k], a.sphere_cx[std::size_t(id)] + r);
+        EXPECT_LE(n.lo_y[k], a.sphere_cy[std::size_t(id)] - r);
+        EXPECT_GE(n.hi_y[k], a.sphere_cy[std::size_t(id)] + r);
+        EXPECT_LE(n.lo_z[k], a.sphere_cz[std::size_t(id)] - r);
+        EXPECT_GE(n.hi_z[k], a.sphere_cz[std::size_t(id)] + r);
+      }
+  for (int c : seen) ASSERT_EQ(c, 1);
+}
+
+TEST(Bvh, OneSphereAndAutoThreshold) {
+  CloudOptions o;
+  o.spheres = 1;
+  const Scene one = cloud(3, o);
+  expect_same(run(one, 1, Accel::none), run(one, 1, Accel::bvh), "1 sphere, reference");
+  for (int w : testing::packet_widths())
+    expect_same(run(one, 1, Accel::none), run(one, w, Accel::bvh), "1 sphere, packets");
+  EXPECT_EQ(resolve_accel(one, Accel::automatic), Accel::none);
+  o.spheres = kBvhMinSpheres;
+  EXPECT_EQ(resolve_accel(cloud(3, o), Accel::automatic), Accel::bvh);
+}
+
+// The reference through the hierarchy against its own plain loop, ray by ray: the same (t, id)
+// for random rays from inside and outside the cloud, ties included.
+TEST(Bvh, ReferenceClosestHitMatchesThePlainLoop) {
+  CloudOptions o;
+  o.spheres = 3000;
+  o.duplicates = 0.2;
+  o.eye_inside = true;
+  const Scene s = cloud(11, o);
+  const PreparedScene<float> plain = prepare<float>(s, Accel::none);
+  const PreparedScene<float> tree = prepare<float>(s, Accel::bvh);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1, 1), pos(-20, 20);
+  int hits = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const Vec3<float> origin{pos(rng), pos(rng), pos(rng) - 10};
+    const Vec3<float> dir = normalize(Vec3<float>{u(rng), u(rng), u(rng)});
+    const auto a = reference::closest_hit(plain, origin, dir);
+    const auto b = reference::closest_hit(tree, origin, dir);
+    ASSERT_EQ(a.id, b.id) << "ray " << k;
+    if (a.id >= 0) ASSERT_EQ(a.t, b.t) << "ray " << k;
+    hits += a.id >= 0 && a.id < plain.num_spheres;
+  }
+  EXPECT_GT(hits, 1000);  // the rays do meet spheres
+}
+
+// Packets and the reference through the hierarchy against the plain loop's render, full
+// shading (shadows, reflections to depth 3), at every width; float and double.
+TEST(Bvh, RendersMatchThePlainLoopOnRandomClouds) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    CloudOptions o;
+    o.spheres = seed == 1 ? 1000 : seed == 2 ? 4000 : 200;
+    o.eye_inside = seed == 3;
+    o.duplicates = seed == 2 ? 0.3 : 0.05;
+    const Scene s = cloud(seed, o);
+    SCOPED_TRACE(seed);
+    const RenderResult truth = run(s, 1, Accel::none);
+    expect_same(truth, run(s, 1, Accel::bvh), "reference + bvh");
+    for (int w : testing::packet_widths()) expect_same(truth, run(s, w, Accel::bvh), "packets");
+    const RenderResult dtruth = run(s, 1, Accel::none, Precision::dbl);
+    for (int w : packet::supported_widths(Precision::dbl))
+      expect_same(dtruth, run(s, w, Accel::bvh, Precision::dbl), "double");
+  }
+}
+
+// Tens of thousands of spheres: packets + hierarchy against the reference + hierarchy (the plain
+// loop's equality is proven above), and the plain loop on the camera rays alone.
+TEST(Bvh, SixtyFourThousandSpheres) {
+  CloudOptions o;
+  o.spheres = 65536;
+  o.nx = 40, o.ny = 24;
+  const Scene s = cloud(64, o);
+  const RenderResult ref = run(s, 1, Accel::bvh);
+  EXPECT_EQ(ref.structure.kind, "bvh");
+  EXPECT_EQ(ref.structure.spheres, 65536);
+  for (int w : testing::packet_widths()) expect_same(ref, run(s, w, Accel::bvh), "packets");
+  RenderOptions po;
+  po.width = 1, po.accel = Accel::none, po.threads = 2;
+  const PrimaryResult plain = render_primary_with_ids(s, po);
+  po.width = 0, po.accel = Accel::bvh;
+  const PrimaryResult tree = render_primary_with_ids(s, po);
+  EXPECT_EQ(plain.t, tree.t);
+  EXPECT_EQ(plain.id, tree.id);
+}
+
+TEST(Bvh, AccelOptionIsValidated) {
+  EXPECT_EQ(parse_accel("bvh", "--accel"), Accel::bvh);
+  EXPECT_THROW(parse_accel("kd", "--accel"), InputError);
+}
+
+}  // namespace
+}  // namespace lancer
