@@ -75,7 +75,7 @@ void add_flux(CLI::App& app) {
       "flux",
       "2D flux of a one-row orthographic scene (seeds/002): flux of each ray against its "
       "position x, as CSV (stdout by default), a plot, or a diagram of every ray in the plane");
-  cmd->add_option("scene", args->scene, "Scene file (JSON, see SCENE-MODEL.md)")->required();
+  cmd->add_option("scene", args->scene, "Scene file (JSON, see docs/scene-format.md)")->required();
   cmd->add_option("--csv", args->csv, "Write the x,flux lines to this file instead of stdout");
   cmd->add_option("--plot", args->plot, "Plot flux against x: .png (or any image format) or .svg");
   cmd->add_option("--diagram", args->diagram,

@@ -45,7 +45,7 @@ void run_render(const RenderArgs& a) {
 void add_render(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand("render", "Render a scene to an image file");
-  cmd->add_option("scene", args->scene, "Scene file (JSON, see SCENE-MODEL.md)")->required();
+  cmd->add_option("scene", args->scene, "Scene file (JSON, see docs/scene-format.md)")->required();
   cmd->add_option("-o,--output", args->output,
                   "Output image; format from the extension: .png .exr .tif .jpg .ppm .pfm ...")
       ->required();

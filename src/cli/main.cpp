@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "lancer: a Whitted ray tracer built to be measured.\n"
       "A scalar reference and SIMD ray packets (4, 8, 16 lanes) over one scene model;\n"
-      "exact mode is bit-identical across every width. Scene format: SCENE-MODEL.md."};
+      "exact mode is bit-identical across every width. Scene format: docs/scene-format.md."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "lancer 0.1.0");
   lancer::cli::add_render(app);
