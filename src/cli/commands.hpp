@@ -12,5 +12,6 @@ void add_bench(CLI::App& app);
 void add_trade(CLI::App& app);
 void add_profile(CLI::App& app);
 void add_flux(CLI::App& app);
+void add_compare(CLI::App& app);
 
 }  // namespace lancer::cli

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   lancer::cli::add_trade(app);
   lancer::cli::add_profile(app);
   lancer::cli::add_flux(app);
+  lancer::cli::add_compare(app);
 
   try {
     app.parse(argc, argv);
