@@ -129,15 +129,16 @@ Chart chart_from_csv(const std::string& csv, const std::string& source, const st
   std::stringstream in(csv);
   std::string line;
   int line_no = 0;
-  while (std::getline(in, line) && ++line_no && line.find_first_not_of(" \t\r") == std::string::npos) {
+  while (std::getline(in, line) && ++line_no &&
+         line.find_first_not_of(" \t\r") == std::string::npos) {
   }
   if (line_no == 0 || line.empty()) throw InputError(source + ": empty, expected a header row");
   const std::vector<std::string> header = split_csv_line(line);
   auto column = [&](const std::string& name, const std::string& option) {
     const auto it = std::find(header.begin(), header.end(), name);
     if (it == header.end())
-      throw InputError(source + ":" + std::to_string(line_no) + ": no column '" + name +
-                       "' (for " + option + ")");
+      throw InputError(source + ":" + std::to_string(line_no) + ": no column '" + name + "' (for " +
+                       option + ")");
     return std::size_t(it - header.begin());
   };
   const std::size_t cx = column(x, "--x"), cy = column(y, "--y");

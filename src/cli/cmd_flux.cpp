@@ -48,7 +48,7 @@ void run_flux(const FluxArgs& a) {
                 profile.x.size());
   }
   if (!a.plot.empty()) {
-    plot::write_drawing(flux::profile_plot(profile), a.plot);
+    plot::write_chart(flux::profile_plot(profile), a.plot);
     std::printf("lancer flux: %s -> %s (flux against position x)\n", a.scene.c_str(),
                 a.plot.c_str());
   }
@@ -58,7 +58,7 @@ void run_flux(const FluxArgs& a) {
     o.size = a.size;
     o.hits_only = a.hits_only;
     o.show_blocked = a.show_blocked;
-    plot::write_drawing(flux::diagram(fs.scene, plane, paths.log, o), a.diagram);
+    plot::write_chart(flux::diagram(fs.scene, plane, paths.log, o), a.diagram);
     std::printf(
         "lancer flux: %s -> %s (%zu ray segments: %llu camera, %llu reflected, "
         "%llu light)\n",
@@ -77,7 +77,8 @@ void add_flux(CLI::App& app) {
       "position x, as CSV (stdout by default), a plot, or a diagram of every ray in the plane");
   cmd->add_option("scene", args->scene, "Scene file (JSON, see docs/scene-format.md)")->required();
   cmd->add_option("--csv", args->csv, "Write the x,flux lines to this file instead of stdout");
-  cmd->add_option("--plot", args->plot, "Plot flux against x: .png (or any image format) or .svg");
+  cmd->add_option("--plot", args->plot,
+                  "Plot flux against x: .png, .svg, .pdf (or another image format)");
   cmd->add_option("--diagram", args->diagram,
                   "Draw the plane of the rays: spheres, lights, camera and reflected rays (red), "
                   "light rays that reach their light (blue); .svg or .png");

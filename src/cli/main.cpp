@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   lancer::cli::add_profile(app);
   lancer::cli::add_flux(app);
   lancer::cli::add_compare(app);
+  lancer::cli::add_plot(app);
 
   try {
     app.parse(argc, argv);
