@@ -268,7 +268,9 @@ TEST(PathLog, BlockedLightRaysAreNotDrawn) {
   EXPECT_EQ(d.circles.size(), 2u);
   for (const plot::Series& s : d.series) {
     EXPECT_FALSE(s.name.empty());
-    if (s.name == "lights") EXPECT_EQ(s.x.size(), 2u);
+    if (s.name == "lights") {
+      EXPECT_EQ(s.x.size(), 2u);
+    }
   }
   EXPECT_TRUE(d.equal_aspect);
 }
