@@ -169,7 +169,7 @@ Chart chart_from_csv(const std::string& csv, const std::string& source, const st
     if (it == index.end()) {
       it = index.emplace(key, chart.series.size()).first;
       Series s;
-      s.name = cg == std::size_t(-1) ? "" : group + " " + key;
+      s.name = key;  // the group's value, e.g. the engine
       s.color = palette(int(chart.series.size()));
       s.mark = mark;
       chart.series.push_back(s);

@@ -537,7 +537,7 @@ TEST(Plot, ChartFromCsv) {
       plot::chart_from_csv("engine,spheres,mrays\nlancer,1,10\nembree,1,5\nlancer,10,8\n", "s.csv",
                            "spheres", "mrays", "engine", plot::Mark::line_points);
   ASSERT_EQ(c.series.size(), 2u);
-  EXPECT_EQ(c.series[0].name, "engine lancer");
+  EXPECT_EQ(c.series[0].name, "lancer");
   EXPECT_EQ(c.series[0].x, (std::vector<double>{1, 10}));
   EXPECT_EQ(c.series[1].y, (std::vector<double>{5}));
   EXPECT_FALSE(c.series[0].color == c.series[1].color);
