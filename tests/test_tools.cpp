@@ -8,6 +8,7 @@
 
 #include "lancer/bench.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/progress.hpp"
 #include "support/test_util.hpp"
 
 namespace lancer {
@@ -158,6 +159,69 @@ TEST(BenchCliFormat, BadFormatIsAnInputError) {
       run_command(cli() + " bench " + source_path("scenes/lorenzi-diffuse.json") + " --format xml");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("--format"), std::string::npos);
+}
+
+// The progress line never wraps: at most columns - 1 characters at any width, the percentage
+// kept to the narrowest.
+TEST(Progress, NeverWiderThanTheTerminal) {
+  for (int columns : {1, 5, 10, 20, 40, 60, 80, 120, 300})
+    for (int done : {0, 1, 500, 999, 1000}) {
+      const std::string line = progress_line(done, 1000, 2.5, columns);
+      EXPECT_LE(int(line.size()), std::max(0, columns - 1)) << columns << " " << line;
+      if (columns >= 10) {
+        EXPECT_NE(line.find('%'), std::string::npos) << line;
+      }
+    }
+  const std::string wide = progress_line(250, 1000, 2.0, 120);
+  EXPECT_NE(wide.find(" 25%"), std::string::npos) << wide;
+  EXPECT_NE(wide.find("6.0 s left"), std::string::npos) << wide;  // 750 rows at 125 rows/s
+  EXPECT_NE(wide.find("2.0 s"), std::string::npos) << wide;
+  EXPECT_NE(wide.find("125 rows/s"), std::string::npos) << wide;
+  EXPECT_NE(progress_line(1000, 1000, 8, 80).find("done"), std::string::npos);
+  EXPECT_EQ(format_duration(185), "3 min 05 s");
+}
+
+TEST(JsonSummaries, RenderValidateProfile) {
+  TempDir dir;
+  const std::string scene = source_path("scenes/lorenzi-diffuse.json");
+  ASSERT_EQ(run_command(cli() + " render " + scene + " --resolution 32x20 --json -o " +
+                        dir.file("r.png") + " > " + dir.file("r.json"))
+                .status,
+            0);
+  const auto r = nlohmann::json::parse(slurp(dir.file("r.json")));
+  EXPECT_EQ(r["resolution"], (nlohmann::json{32, 20}));
+  EXPECT_EQ(r["rays"]["camera"], 640);
+  EXPECT_GE(r["write_seconds"].get<double>(), 0);
+  EXPECT_GT(r["render_seconds"].get<double>(), 0);
+  EXPECT_EQ(read_image(dir.file("r.png")).nx, 32);
+
+  ASSERT_EQ(run_command(cli() + " validate " + scene + " --resolution 32x20 --json > " +
+                        dir.file("v.json"))
+                .status,
+            0);
+  const auto v = nlohmann::json::parse(slurp(dir.file("v.json")));
+  EXPECT_EQ(v["identical"], true);
+  ASSERT_FALSE(v["widths"].empty());
+  for (const auto& w : v["widths"]) {
+    EXPECT_EQ(w["differing_pixels"], 0);
+    EXPECT_TRUE(w["first_differing_pixel"].is_null());
+  }
+
+  ASSERT_EQ(run_command(cli() + " profile " + scene + " --resolution 32x20 --json > " +
+                        dir.file("p.json"))
+                .status,
+            0);
+  const auto p = nlohmann::json::parse(slurp(dir.file("p.json")));
+  bool saw_null = false;
+  for (const auto& st : p["stages"]) {
+    if (st["name"] == "output") {
+      EXPECT_TRUE(st["lane_occupancy"].is_null()) << st.dump();
+      saw_null = true;
+    } else if (st["lane_occupancy"].is_number()) {
+      EXPECT_GT(st["lane_occupancy"].get<double>(), 0) << st.dump();
+    }
+  }
+  EXPECT_TRUE(saw_null);
 }
 
 }  // namespace

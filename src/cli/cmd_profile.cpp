@@ -31,12 +31,17 @@ void run_profile(const ProfileArgs& a) {
         {"camera", r.camera_rays}, {"shadow", r.shadow_rays}, {"reflected", r.reflected_rays}};
     out["tests_per_ray"] = r.tests_per_ray;
     out["stages"] = nlohmann::json::array();
-    for (const auto& st : r.stages)
-      out["stages"].push_back({{"name", st.name},
-                               {"seconds", st.seconds},
-                               {"rays", st.rays},
-                               {"lane_occupancy", st.lane_occupancy},
-                               {"lane_histogram", st.histogram}});
+    for (const auto& st : r.stages) {
+      // A stage with no packets counted (output) has no occupancy: null, not 0.
+      bool measured = false;
+      for (std::uint64_t h : st.histogram) measured = measured || h > 0;
+      out["stages"].push_back(
+          {{"name", st.name},
+           {"seconds", st.seconds},
+           {"rays", st.rays},
+           {"lane_occupancy", measured ? nlohmann::json(st.lane_occupancy) : nlohmann::json()},
+           {"lane_histogram", measured ? nlohmann::json(st.histogram) : nlohmann::json()}});
+    }
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }

@@ -1,5 +1,7 @@
+#include <chrono>
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "lancer/image.hpp"
@@ -12,6 +14,7 @@ namespace {
 struct RenderArgs {
   std::string scene, output, width = "auto", precision = "auto";
   int threads = 0;
+  bool json = false;
   SceneOverrides overrides;
 };
 
@@ -25,8 +28,33 @@ void run_render(const RenderArgs& a) {
   opt.threads = a.threads;
   attach_progress(opt);
   const RenderResult r = render(scene, opt);
+  // The write is part of what the user waits for (1.6 s of a 7 s 4K render): timed and shown.
+  const auto write_start = std::chrono::steady_clock::now();
   write_image(r.image, a.output);
+  const double write_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count();
   const auto& c = scene.camera;
+  if (a.json) {
+    nlohmann::json j{{"scene", a.scene},
+                     {"output", a.output},
+                     {"resolution", {c.nx, c.ny}},
+                     {"samples_per_pixel", scene.supersample * scene.supersample},
+                     {"width", r.width},
+                     {"isa", r.isa},
+                     {"precision", to_string(r.precision)},
+                     {"threads", r.threads},
+                     {"rays",
+                      {{"camera", r.rays.camera},
+                       {"shadow", r.rays.shadow},
+                       {"reflected", r.rays.reflected},
+                       {"total", r.rays.total()}}},
+                     {"render_seconds", r.seconds},
+                     {"write_seconds", write_s},
+                     {"mrays_per_s", r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0}};
+    if (!r.precision_reason.empty()) j["precision_reason"] = r.precision_reason;
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
   std::printf("lancer: %s -> %s\n", a.scene.c_str(), a.output.c_str());
   std::printf("  image    %d x %d, %d sample%s per pixel\n", c.nx, c.ny,
               scene.supersample * scene.supersample, scene.supersample > 1 ? "s" : "");
@@ -37,8 +65,8 @@ void run_render(const RenderArgs& a) {
   std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
               (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.total());
-  std::printf("  time     %.4f s, %.2f Mrays/s\n", r.seconds,
-              r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0);
+  std::printf("  time     %.4f s, %.2f Mrays/s; writing the image %.4f s\n", r.seconds,
+              r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0, write_s);
 }
 }  // namespace
 
@@ -59,6 +87,8 @@ void add_render(CLI::App& app) {
                   "approximate reciprocals, packets only)")
       ->capture_default_str();
   cmd->add_option("--threads", args->threads, "Threads (0 = all cores)")->capture_default_str();
+  cmd->add_flag("--json", args->json,
+                "Print one JSON object (what ran, rays, render and write times)");
   cmd->add_option("--supersample", args->overrides.supersample,
                   "Sub-samples per axis (overrides the scene)");
   cmd->add_option("--resolution", args->overrides.resolution,
