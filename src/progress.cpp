@@ -27,7 +27,7 @@ std::string progress_line(int done, int all, double elapsed, int columns) {
   const std::string pct = buf;
   std::snprintf(buf, sizeof buf, "  %d/%d rows", done, all);
   const std::string rows = buf;
-  const std::string time = "  " + format_duration(elapsed);
+  const std::string time = "  " + format_duration(elapsed) + " elapsed";
   std::snprintf(buf, sizeof buf, "  %.0f rows/s", rate);
   const std::string speed = rate > 0 ? buf : "";
   const std::string left = done >= all ? "  done"
