@@ -232,8 +232,12 @@ plot::Chart diagram(const Scene& scene, const RayPlane& plane, const reference::
   plot::Series lit = series("rays that reach a light", plot::kBlue, 1);
   plot::Series blocked = series("blocked rays to lights", plot::kGrey, 0.6);
   blocked.dashed = true;
+  d.x.min = a0, d.x.max = a1, d.y.min = b0, d.y.max = b1;
+  // Segments clipped well beyond that region: the equal scale widens one axis, and rays should
+  // run to the frame, which clips them.
+  const double ca0 = a0 - 4 * span, ca1 = a1 + 4 * span, cb0 = b0 - 4 * span, cb1 = b1 + 4 * span;
   auto segment = [&](plot::Series& s, double pa, double pb, double qa, double qb) {
-    if (!plot::clip_segment(pa, pb, qa, qb, a0, b0, a1, b1)) return;
+    if (!plot::clip_segment(pa, pb, qa, qb, ca0, cb0, ca1, cb1)) return;
     s.x.push_back(pa), s.y.push_back(pb), s.x.push_back(qa), s.y.push_back(qb);
   };
 

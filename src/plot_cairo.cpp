@@ -125,6 +125,11 @@ void set_ticks(AxisLayout& a) {
 AxisLayout axis_range(const Axis& axis, const Chart& c, bool is_x) {
   AxisLayout a;
   a.scale = axis.scale;
+  if (std::isfinite(axis.min) && std::isfinite(axis.max) && axis.max > axis.min &&
+      a.usable(axis.min) && a.usable(axis.max)) {
+    a.lo = a.t(axis.min), a.hi = a.t(axis.max);
+    return a;
+  }
   double lo = INFINITY, hi = -INFINITY;
   auto add = [&](double v) {
     if (!a.usable(v)) return;

@@ -5,6 +5,7 @@
 // raster formats go through write_image).
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,9 @@ struct Axis {
   std::string label;  // with its unit, e.g. "Mrays/s (1 thread)"
   Scale scale = Scale::linear;
   bool from_zero = false;  // linear: include 0 in the range
+  // A fixed range (both finite), instead of the data's with a margin; data beyond is clipped.
+  double min = std::numeric_limits<double>::quiet_NaN();
+  double max = std::numeric_limits<double>::quiet_NaN();
 };
 
 enum class Mark {
