@@ -224,5 +224,29 @@ TEST(JsonSummaries, RenderValidateProfile) {
   EXPECT_TRUE(saw_null);
 }
 
+TEST(PlotCli, CsvToSvgAndOneLineErrors) {
+  TempDir dir;
+  {
+    std::ofstream csv(dir.file("s.csv"));
+    csv << "engine,spheres,mrays_per_s\nlancer,1,300\nlancer,100,120\nembree,1,25\n"
+           "embree,100,22\n";
+  }
+  const auto ok =
+      run_command(cli() + " plot " + dir.file("s.csv") +
+                  " --x spheres --y mrays_per_s --group engine --log xy -o " + dir.file("s.svg"));
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  EXPECT_NE(ok.out.find("2 series, 4 points"), std::string::npos) << ok.out;
+  EXPECT_EQ(slurp(dir.file("s.svg")).rfind("<?xml", 0), 0u);
+  const auto bad = run_command(cli() + " plot " + dir.file("s.csv") + " --x spheres --y speed -o " +
+                               dir.file("t.svg"));
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_EQ(bad.out, "lancer: " + dir.file("s.csv") + ":1: no column 'speed' (for --y)\n");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("t.svg")));
+  EXPECT_EQ(run_command(cli() + " plot " + dir.file("s.csv") + " --x spheres --y mrays_per_s " +
+                        "--log z -o " + dir.file("t.svg"))
+                .status,
+            2);
+}
+
 }  // namespace
 }  // namespace lancer
