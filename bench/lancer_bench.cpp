@@ -3,8 +3,13 @@
 // requires saves (the same renders with every term forced on).
 //
 //   build/bench/lancer_bench --benchmark_filter=reflections --benchmark_repetitions=5
+//   build/bench/lancer_bench --scene=my.json      (or LANCER_BENCH_SCENE=a.json:b.json): your
+//                                                  own scenes instead of scenes/
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -64,14 +69,46 @@ void profiled(benchmark::State& state, const Scene* scene, int width) {
 void register_embree_benchmarks(const std::string& scene_path);
 #endif
 
+// The scenes to time: --scene=PATH (repeatable, taken out of argv before Google Benchmark parses
+// it), else LANCER_BENCH_SCENE (paths separated by ':'), else every scene in scenes/.
+std::vector<std::string> scene_paths(int& argc, char** argv) {
+  std::vector<std::string> paths;
+  int kept = 1;
+  for (int k = 1; k < argc; ++k) {
+    const std::string arg = argv[k];
+    if (arg.rfind("--scene=", 0) == 0)
+      paths.push_back(arg.substr(8));
+    else
+      argv[kept++] = argv[k];
+  }
+  argc = kept;
+  if (paths.empty())
+    if (const char* env = std::getenv("LANCER_BENCH_SCENE")) {
+      std::string list = env;
+      for (std::size_t start = 0; start <= list.size();) {
+        const std::size_t end = std::min(list.find(':', start), list.size());
+        if (end > start) paths.push_back(list.substr(start, end - start));
+        start = end + 1;
+      }
+    }
+  if (paths.empty()) {
+    for (const auto& e : std::filesystem::directory_iterator(LANCER_SOURCE_DIR "/scenes"))
+      if (e.path().extension() == ".json") paths.push_back(e.path().string());
+    std::sort(paths.begin(), paths.end());
+  }
+  return paths;
+}
+
 int main(int argc, char** argv) {
   static std::vector<std::unique_ptr<Scene>> scenes;
-  std::vector<std::string> paths;
-  for (const auto& e : std::filesystem::directory_iterator(LANCER_SOURCE_DIR "/scenes"))
-    if (e.path().extension() == ".json") paths.push_back(e.path().string());
-  std::sort(paths.begin(), paths.end());
+  const std::vector<std::string> paths = scene_paths(argc, argv);
   for (const std::string& path : paths) {
-    scenes.push_back(std::make_unique<Scene>(load_scene(path)));
+    try {
+      scenes.push_back(std::make_unique<Scene>(load_scene(path)));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "lancer_bench: %s\n", e.what());
+      return 2;
+    }
     const Scene* s = scenes.back().get();
     const std::string name = std::filesystem::path(path).stem().string();
     for (int width : packet::supported_widths()) {

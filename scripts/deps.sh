@@ -13,6 +13,7 @@ packages=(
   libembree-dev           # the peer engine lancer measures against
   libgtest-dev libgmock-dev googletest
   libbenchmark-dev
+  libcairo2-dev           # figures: PNG, SVG and PDF from one drawing
   clang libclang-rt-14-dev  # libFuzzer and the sanitizer runtimes
   libopenmpi-dev openmpi-bin  # mpirun -np N lancer render (docs/mpi.md; optional at build time)
   qemu-user               # runs the binary as CPUs without AVX / AVX-512 (.ci/qemu.sh)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -149,8 +150,12 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     });
   }
 
-  const std::vector<double> seconds = time_interleaved(run, opt.repeat, opt.min_seconds);
-  for (std::size_t k = 0; k < rows.size(); ++k) rows[k].seconds = seconds[k];
+  const std::vector<std::vector<double>> samples =
+      time_interleaved_samples(run, opt.repeat, opt.min_seconds);
+  std::vector<double> seconds;
+  for (const auto& t : samples) seconds.push_back(median(t));
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    rows[k].seconds = seconds[k], rows[k].samples = samples[k];
   // Of the peer's setups, the fastest of each row stays; all are kept in peer_setups.
   std::vector<BenchRow> kept;
   for (std::size_t k = 0; k < rows.size(); ++k) {
@@ -183,6 +188,29 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
 
 std::vector<double> time_interleaved(const std::vector<std::function<double()>>& run, int repeat,
                                      double min_seconds) {
+  std::vector<double> medians;
+  for (const auto& t : time_interleaved_samples(run, repeat, min_seconds))
+    medians.push_back(median(t));
+  return medians;
+}
+
+Spread spread(const std::vector<double>& v) {
+  Spread s;
+  if (v.empty()) return s;
+  s.min = *std::min_element(v.begin(), v.end());
+  s.max = *std::max_element(v.begin(), v.end());
+  s.median = median(v);
+  double sum = 0;
+  for (double x : v) sum += x;
+  s.mean = sum / double(v.size());
+  double sq = 0;
+  for (double x : v) sq += (x - s.mean) * (x - s.mean);
+  s.stddev = v.size() > 1 ? std::sqrt(sq / double(v.size() - 1)) : 0;
+  return s;
+}
+
+std::vector<std::vector<double>> time_interleaved_samples(
+    const std::vector<std::function<double()>>& run, int repeat, double min_seconds) {
   std::vector<std::vector<double>> times(run.size());
   for (int rep = -1; rep < repeat; ++rep) {
     for (std::size_t k = 0; k < run.size(); ++k) {
@@ -195,9 +223,7 @@ std::vector<double> time_interleaved(const std::vector<std::function<double()>>&
       if (rep >= 0) times[k].push_back(seconds / renders);
     }
   }
-  std::vector<double> medians;
-  for (const auto& t : times) medians.push_back(median(t));
-  return medians;
+  return times;
 }
 
 }  // namespace lancer

@@ -64,4 +64,30 @@ ErrorStats error_stats(const Image& test, const Image& truth, double threshold, 
   return e;
 }
 
+ImageComparison compare_images(const Image& a, const Image& b,
+                               const std::vector<double>& thresholds, bool as_displayed) {
+  ImageComparison c;
+  c.bits = bit_diff(a, b);
+  c.thresholds = thresholds;
+  for (std::size_t k = 0; k < thresholds.size(); ++k) {
+    const ErrorStats e = error_stats(a, b, thresholds[k], as_displayed);
+    if (k == 0) c.error = e;
+    c.off_fractions.push_back(e.off_fraction);
+    c.off_pixels.push_back(e.off_pixels);
+  }
+  if (thresholds.empty()) c.error = error_stats(a, b, INFINITY, as_displayed);
+  return c;
+}
+
+Image difference_image(const Image& a, const Image& b, double scale) {
+  LANCER_CHECK_OP(a.nx, ==, b.nx);
+  LANCER_CHECK_OP(a.ny, ==, b.ny);
+  Image d(a.nx, a.ny);
+  for (std::size_t k = 0; k < d.rgb.size(); ++k) {
+    const double diff = std::fabs(double(a.rgb[k]) - double(b.rgb[k]));
+    d.rgb[k] = float(std::isnan(diff) ? 1.0 : diff * scale);
+  }
+  return d;
+}
+
 }  // namespace lancer

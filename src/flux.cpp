@@ -144,10 +144,8 @@ Paths record_paths(const Scene& scene, const RayPlane& plane) {
   return out;
 }
 
-plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference::PathLog& log,
-                      const DiagramOptions& o) {
-  using plot::Circle;
-  using plot::Line;
+plot::Chart diagram(const Scene& scene, const RayPlane& plane, const reference::PathLog& log,
+                    const DiagramOptions& o) {
   const CameraSpec& cam = scene.camera;
 
   // The region shown, in plane coordinates (a along the row, b along the rays): the camera's
@@ -188,28 +186,45 @@ plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference
   a0 -= margin, a1 += margin, b0 -= margin, b1 += margin;
   span_a = a1 - a0, span_b = b1 - b0;
 
-  plot::Drawing d;
-  const double scale = o.size / std::max(span_a, span_b);
-  d.width = std::max(1, int(std::lround(span_a * scale)));
-  d.height = std::max(1, int(std::lround(span_b * scale)));
-  auto X = [&](double a) { return (a - a0) * scale; };
-  auto Y = [&](double b) { return (b - b0) * scale; };
-  const double W = d.width, H = d.height;
-  auto segment = [&](double pa, double pb, double qa, double qb, plot::Color c, double w) {
-    double x0 = X(pa), y0 = Y(pb), x1 = X(qa), y1 = Y(qb);
-    if (plot::clip_segment(x0, y0, x1, y1, 0, 0, W, H)) d.lines.push_back({x0, y0, x1, y1, c, w});
+  // A chart in plane coordinates, one unit as long on both axes; everything clipped to the
+  // region above so that the axes show the scene, not the far ends of misses.
+  plot::Chart d;
+  d.equal_aspect = true;
+  d.width = o.size;
+  const double plot_w = o.size - 260.0;  // about what the axes and the legend take
+  d.height = std::clamp(int(std::lround(plot_w * span_b / span_a)) + 120, 320, 2 * o.size);
+  d.title = "Rays in the plane of the sphere centres";
+  d.subtitle = scene.name;
+  d.x.label = "a: along the camera row (scene units)";
+  d.y.label = "b: along the rays (scene units)";
+  auto series = [&](const std::string& name, plot::Color c, double width) {
+    plot::Series s;
+    s.name = name, s.color = c, s.mark = plot::Mark::segments, s.line_width = width;
+    return s;
+  };
+  plot::Series row = series("camera row", plot::kGrey, 3);
+  plot::Series planes = series("planes", plot::kBlack, 2);
+  plot::Series rays = series("camera and reflected rays", plot::kRed, 1);
+  plot::Series lit = series("rays that reach a light", plot::kBlue, 1);
+  plot::Series blocked = series("blocked rays to lights", plot::kGrey, 0.6);
+  blocked.dashed = true;
+  d.x.min = a0, d.x.max = a1, d.y.min = b0, d.y.max = b1;
+  // Segments clipped well beyond that region: the equal scale widens one axis, and rays should
+  // run to the frame, which clips them.
+  const double ca0 = a0 - 4 * span, ca1 = a1 + 4 * span, cb0 = b0 - 4 * span, cb1 = b1 + 4 * span;
+  auto segment = [&](plot::Series& s, double pa, double pb, double qa, double qb) {
+    if (!plot::clip_segment(pa, pb, qa, qb, ca0, cb0, ca1, cb1)) return;
+    s.x.push_back(pa), s.y.push_back(pb), s.x.push_back(qa), s.y.push_back(qb);
   };
 
-  // The camera's row.
-  segment(cam.xmin, 0, cam.xmax, 0, plot::kGrey, 3);
-  // Planes, across the whole drawing.
+  segment(row, cam.xmin, 0, cam.xmax, 0);
   const double reach = 2 * (span_a + span_b);
   for (const PlaneLine& l : plane_lines) {
     const double ta = -l.nb, tb = l.na;  // along the line
     const double ca = (a0 + a1) / 2, cb = (b0 + b1) / 2;
     const double d0 = (ca - l.qa) * l.na + (cb - l.qb) * l.nb;
     const double pa = ca - d0 * l.na, pb = cb - d0 * l.nb;
-    segment(pa - reach * ta, pb - reach * tb, pa + reach * ta, pb + reach * tb, plot::kBlack, 2);
+    segment(planes, pa - reach * ta, pb - reach * tb, pa + reach * ta, pb + reach * tb);
   }
   // Rays, in tracing order.
   for (const auto& s : log.segments) {
@@ -217,7 +232,7 @@ plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference
     double ta = plane.a(s.to), tb = plane.b(s.to);
     if (s.kind == reference::PathLog::Segment::light) {
       if (s.hit && !o.show_blocked) continue;
-      segment(fa, fb, ta, tb, s.hit ? plot::kGrey : plot::kBlue, s.hit ? 0.6 : 1);
+      segment(s.hit ? blocked : lit, fa, fb, ta, tb);
       continue;
     }
     if (!s.hit) {
@@ -228,26 +243,42 @@ plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference
       const double far = std::hypot(fa - (a0 + a1) / 2, fb - (b0 + b1) / 2) + span_a + span_b;
       ta = fa + da / len * far, tb = fb + db / len * far;
     }
-    segment(fa, fb, ta, tb, plot::kRed, 1);
+    segment(rays, fa, fb, ta, tb);
   }
+  for (plot::Series* s : {&row, &planes, &rays, &lit, &blocked})
+    if (!s->x.empty()) d.series.push_back(*s);
   for (const Sphere& s : scene.spheres) {
     // The circle the sphere cuts from the plane (its centre is in the plane within tolerance).
     const double off = dot(s.center - plane.origin, plane.normal);
     const double r = std::sqrt(std::max(0.0, s.radius * s.radius - off * off));
-    d.circles.push_back(
-        Circle{X(plane.a(s.center)), Y(plane.b(s.center)), r * scale, plot::kBlack, 2});
+    d.circles.push_back(plot::Circle{plane.a(s.center), plane.b(s.center), r, plot::kBlack, 2});
   }
+  if (!d.circles.empty()) d.legend_circles.push_back("spheres");
+  plot::Series lights;
+  lights.name = "lights", lights.color = plot::palette(1), lights.mark = plot::Mark::points;
+  lights.marker_radius = 5;
   for (const Light& l : scene.lights)
-    d.circles.push_back(Circle{X(plane.a(l.position)), Y(plane.b(l.position)), 6, plot::kBlue, 2});
+    lights.x.push_back(plane.a(l.position)), lights.y.push_back(plane.b(l.position));
+  if (!lights.x.empty()) d.series.push_back(lights);
   return d;
 }
 
-plot::Drawing profile_plot(const Profile& profile, const std::string& title) {
-  plot::ScatterOptions o;
-  o.x_label = "position x";
-  o.y_label = "flux";
-  o.title = title;
-  return plot::scatter_plot(profile.x, profile.flux, o);
+plot::Chart profile_plot(const Profile& profile, const std::string& title) {
+  plot::Chart c;
+  c.width = 760, c.height = 500;
+  c.title = title.empty() ? "Flux against position" : title;
+  c.x.label = "position x on the camera row (scene units)";
+  c.y.label = "flux (radiance, linear)";
+  c.y.from_zero = true;
+  plot::Series s;
+  s.name = "flux per pixel";
+  s.color = plot::palette(0);
+  s.mark = plot::Mark::line_points;
+  s.marker_radius = 2.5;
+  s.line_width = 1;
+  s.x = profile.x, s.y = profile.flux;
+  c.series.push_back(s);
+  return c;
 }
 
 }  // namespace lancer::flux

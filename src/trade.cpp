@@ -1,5 +1,8 @@
 #include "lancer/trade.hpp"
 
+#include <algorithm>
+#include <filesystem>
+
 #include "lancer/bench.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/plot.hpp"
@@ -57,21 +60,35 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
   return rows;
 }
 
-void write_trade_plot(const std::vector<TradeRow>& rows, const std::string& scene_name,
-                      const std::string& path) {
-  plot::ScatterOptions o;
-  std::vector<double> x, y;
+plot::Chart trade_chart(const std::vector<TradeRow>& rows, const std::string& scene_name) {
+  plot::Chart c;
+  c.width = 860, c.height = 540;
+  c.title = "Speed against error: " + std::filesystem::path(scene_name).filename().string();
+  c.subtitle = "full render, 1 thread, median of the repeats; error against the double reference";
+  c.x.label = "Mrays/s (full render, 1 thread)";
+  c.y.label = "pixels off by more than 1/255 (%)";
+  c.x.from_zero = true;
+  c.y.from_zero = true;
+  // One series per precision, in the order the rows first name them; each point labelled with
+  // its width and ISA.
   for (const TradeRow& r : rows) {
-    x.push_back(r.mrays_per_s);
-    y.push_back(100.0 * r.off_pixel_frac);
-    o.labels.push_back(std::string(to_string(r.precision)) + " " + std::to_string(r.width));
+    const std::string name = to_string(r.precision);
+    auto it = std::find_if(c.series.begin(), c.series.end(),
+                           [&](const plot::Series& s) { return s.name == name; });
+    if (it == c.series.end()) {
+      plot::Series s;
+      s.name = name;
+      s.color = plot::palette(int(c.series.size()));
+      s.mark = plot::Mark::points;
+      s.marker_radius = 5;
+      c.series.push_back(s);
+      it = c.series.end() - 1;
+    }
+    it->x.push_back(r.mrays_per_s);
+    it->y.push_back(100.0 * r.off_pixel_frac);
+    it->labels.push_back(r.width == 1 ? "scalar" : "w" + std::to_string(r.width) + " " + r.isa);
   }
-  o.width = 800;
-  o.x_label = "Mrays/s (full render, 1 thread)";
-  o.y_label = "% of pixels off by over 1/255";
-  o.title = "lancer trade: " + scene_name;
-  plot::Drawing d = plot::scatter_plot(x, y, o);
-  plot::write_drawing(d, path);
+  return c;
 }
 
 }  // namespace lancer

@@ -27,8 +27,9 @@ struct BenchRow {
   std::string config;         // the peer's setup (peer::EmbreeConfig::name), "" for lancer
   double build_seconds = -1;  // the peer's scene build with that setup
   int threads = 1;
-  std::uint64_t rays = 0;  // per run
-  double seconds = 0;      // per render, median over the repeats
+  std::uint64_t rays = 0;       // per run
+  double seconds = 0;           // per render, median over the repeats
+  std::vector<double> samples;  // seconds per render of each repeat, in the order they ran
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
   // With --peak, lancer's exact primary and kernel rows: intersection GFLOP/s
   // (include/lancer/peak.hpp), what the SIMD lanes execute, and the first against the
@@ -83,5 +84,23 @@ double median(std::vector<double> v);
 // its work alone. Returns each configuration's median seconds per render.
 std::vector<double> time_interleaved(const std::vector<std::function<double()>>& run, int repeat,
                                      double min_seconds);
+// The same, returning every repeat's seconds per render (samples[k][rep]).
+std::vector<std::vector<double>> time_interleaved_samples(
+    const std::vector<std::function<double()>>& run, int repeat, double min_seconds);
+
+// The spread of a row's samples, as rays per second would show it (seconds: lower is faster).
+struct Spread {
+  double min = 0, median = 0, max = 0;
+  double mean = 0, stddev = 0;  // sample standard deviation (n - 1)
+  double cv() const { return mean > 0 ? stddev / mean : 0; }
+};
+Spread spread(const std::vector<double>& samples);
+
+// A row's name in Google Benchmark's JSON: engine/mode/precision/wWIDTH/threads:N.
+std::string bench_row_name(const BenchRow& row);
+// The rows in Google Benchmark's JSON shape (context; per row one "iteration" entry per repeat and
+// mean, median, stddev and cv aggregates), readable by its tools/compare.py.
+std::string gbench_json(const BenchResult& result, const std::string& scene,
+                        const std::string& executable);
 
 }  // namespace lancer

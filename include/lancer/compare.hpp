@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "lancer/image.hpp"
 
@@ -30,5 +31,21 @@ struct ErrorStats {
 // Values are clamped to [0, 1] first when `as_displayed` (what an 8-bit file would show).
 ErrorStats error_stats(const Image& test, const Image& truth, double threshold,
                        bool as_displayed = true);
+
+// Everything `lancer compare A B` reports about two images of the same size: bit identity and
+// ULPs (bit_diff), error and PSNR on the values as stored (error_stats, unclamped unless
+// `as_displayed`), and the fraction of pixels off by more than each of `thresholds`.
+struct ImageComparison {
+  BitDiff bits;
+  ErrorStats error;  // at thresholds[0]; off_fraction per threshold below
+  std::vector<double> thresholds;
+  std::vector<double> off_fractions;  // one per threshold
+  std::vector<std::uint64_t> off_pixels;
+};
+ImageComparison compare_images(const Image& a, const Image& b,
+                               const std::vector<double>& thresholds, bool as_displayed = false);
+
+// |a - b| per channel, times `scale`: the difference image `lancer compare --diff` writes.
+Image difference_image(const Image& a, const Image& b, double scale);
 
 }  // namespace lancer

@@ -78,19 +78,20 @@ struct Paths {
 Paths record_paths(const Scene& scene, const RayPlane& plane);
 
 struct DiagramOptions {
-  int size = 800;             // pixels along the drawing's longer side
+  int size = 800;             // the figure's width in points (PNG pixels)
   bool hits_only = false;     // leave out camera and reflected rays that hit nothing
   bool show_blocked = false;  // draw blocked light rays too, thin and grey
 };
 
-// The plane of the rays seen from its normal, the camera's row (grey) along the top and the
-// rays going down the page as in the text's figure: spheres as black circles, planes as black
-// lines, lights as blue rings, camera and reflected rays in red up to their hit point (or the
-// edge of the drawing), light rays that reach their light in blue.
-plot::Drawing diagram(const Scene& scene, const RayPlane& plane, const reference::PathLog& log,
-                      const DiagramOptions& options = {});
+// The plane of the rays seen from its normal, as a chart with axes in scene units (one unit as
+// long on both) and a legend: the camera's row (grey) at b = 0 and the rays going up the page,
+// spheres as black circles, planes as black lines, lights as orange points, camera and reflected
+// rays in red up to their hit point (or the edge of the figure), light rays that reach their
+// light in blue. One series per kind of ray, each holding segments.
+plot::Chart diagram(const Scene& scene, const RayPlane& plane, const reference::PathLog& log,
+                    const DiagramOptions& options = {});
 
 // The flux against position, as the text's figure.
-plot::Drawing profile_plot(const Profile& profile, const std::string& title = "");
+plot::Chart profile_plot(const Profile& profile, const std::string& title = "");
 
 }  // namespace lancer::flux

@@ -1,80 +1,96 @@
-// Simple 2D drawings for lancer's figures (lancer flux --plot and --diagram): a list of lines,
-// circles and text in pixel coordinates (y down), written as SVG text or rasterised into an
-// Image by lancer itself (supersampled, with a built-in 5x7 bitmap font) and written by
-// write_image. No drawing library is needed.
+// lancer's figures, drawn with cairo (the lancer_plot library; the core lancer library does not
+// link it): charts with a title, axes with units and ticks (linear or log10), a legend outside
+// the plot area, a colour per series, and point labels placed so that they neither overlap each
+// other nor leave the frame. One drawing gives PNG, SVG or PDF by the file's extension (other
+// raster formats go through write_image).
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
-
-#include "lancer/image.hpp"
 
 namespace lancer::plot {
 
 struct Color {
   double r = 0, g = 0, b = 0;  // 0 .. 1
 };
+bool operator==(const Color& a, const Color& b);
 inline constexpr Color kBlack{0, 0, 0};
 inline constexpr Color kWhite{1, 1, 1};
-inline constexpr Color kRed{0.85, 0, 0};
-inline constexpr Color kBlue{0, 0.2, 0.9};
 inline constexpr Color kGrey{0.55, 0.55, 0.55};
-inline constexpr Color kPointBlue{0.12, 0.47, 0.71};  // matplotlib's first colour
+inline constexpr Color kRed{0.84, 0.15, 0.16};
+inline constexpr Color kBlue{0.12, 0.47, 0.71};
+// A qualitative palette (Tableau 10, the default of matplotlib): series k gets palette(k).
+Color palette(int k);
 
-struct Line {
-  double x0, y0, x1, y1;
-  Color color;
-  double width;  // pixels
+enum class Scale { linear, log10 };
+
+struct Axis {
+  std::string label;  // with its unit, e.g. "Mrays/s (1 thread)"
+  Scale scale = Scale::linear;
+  bool from_zero = false;  // linear: include 0 in the range
+  // A fixed range (both finite), instead of the data's with a margin; data beyond is clipped.
+  double min = std::numeric_limits<double>::quiet_NaN();
+  double max = std::numeric_limits<double>::quiet_NaN();
 };
 
+enum class Mark {
+  points,       // a marker per point
+  line,         // a polyline through the points in order
+  line_points,  // both
+  segments,     // independent segments: points 2k and 2k + 1
+};
+
+struct Series {
+  std::string name;  // in the legend; empty: not in the legend
+  Color color;
+  Mark mark = Mark::points;
+  std::vector<double> x, y;
+  std::vector<std::string> labels;  // optional, one per point, placed beside it
+  double line_width = 1.5;          // points (1/72 inch)
+  double marker_radius = 3.5;
+  bool dashed = false;
+};
+
+// A circle in data units (the flux diagram's spheres), drawn with the series.
 struct Circle {
   double cx, cy, r;
   Color color;
-  double stroke;  // outline width in pixels; 0: filled disc
+  double line_width = 1.5;
 };
 
-enum class Align { start, middle, end };
-
-struct Text {
-  double x, y;  // the anchor point
-  std::string text;
-  Align halign = Align::start;  // along the text
-  Align valign = Align::start;  // across it: top, middle or bottom of the glyphs
-  int scale = 2;                // bitmap font pixels per font dot: glyphs are 5*scale x 7*scale
-  bool vertical = false;        // read bottom to top (turned 90 degrees counter-clockwise)
-  Color color = kBlack;
-};
-
-// Drawn in order: lines, then circles, then texts.
-struct Drawing {
-  int width = 0, height = 0;  // pixels
-  Color background = kWhite;
-  std::vector<Line> lines;
+struct Chart {
+  int width = 800, height = 540;  // points; PNG pixels
+  std::string title, subtitle;
+  Axis x, y;
+  std::vector<Series> series;
   std::vector<Circle> circles;
-  std::vector<Text> texts;
+  std::vector<std::string> legend_circles;  // legend entries for the circles, e.g. "spheres"
+  bool equal_aspect = false;                // one data unit is as long on both axes
+  std::string note;                         // a line under the plot, e.g. the machine
 };
 
-// The size in pixels of `text` drawn at font `scale`, along it (width) and across it (height).
-double text_width(const std::string& text, int scale);
-double text_height(int scale);
+// Tick positions for a linear axis over [lo, hi]: multiples of 1, 2 or 5 times a power of ten,
+// about `target` of them, and the number of decimals that prints them exactly.
+struct Ticks {
+  std::vector<double> values;
+  int decimals = 0;
+};
+Ticks nice_ticks(double lo, double hi, int target = 6);
 
-// Clips the segment to the rectangle [x0, x1] x [y0, y1] (Liang-Barsky). False when nothing of
-// it is inside.
-bool clip_segment(double& ax, double& ay, double& bx, double& by, double x0, double y0, double x1,
-                  double y1);
+// Writes by extension: .png, .svg, .pdf drawn by cairo; other image formats (.jpg, .tif, .exr,
+// .pfm...) rasterised by cairo and written by write_image. The file appears whole or not at all.
+void write_chart(const Chart& chart, const std::string& path);
 
-// Rasterises with `supersample` x `supersample` samples per pixel, box-filtered.
-Image rasterize(const Drawing& d, int supersample = 3);
+// Where each point label of write_chart went, in device units (for tests): label boxes never
+// overlap each other and stay inside the frame.
+struct LabelBox {
+  double x0, y0, x1, y1;
+};
+std::vector<LabelBox> label_boxes(const Chart& chart);
 
-// SVG 1.1 text of the drawing (texts in a monospace font of about the bitmap font's size).
-std::string to_svg(const Drawing& d);
-
-// Writes by extension: .svg as text, anything else rasterised and written by write_image.
-// Either way the file appears whole or not at all.
-void write_drawing(const Drawing& d, const std::string& path);
-
-// Checks before any work that `path` can take a drawing (.svg or an image format write_image
-// writes) and is not the scene file. Throws InputError naming `option` and the path.
+// Checks before any work that `path` can take a figure (.svg, .pdf, .png or an image format
+// write_image writes) and is not the scene file. Throws InputError naming `option` and the path.
 void check_drawing_path(const std::string& path, const std::string& option,
                         const std::string& scene_path = "");
 // The same for a text file (CSV): a writable folder, not a folder, not the scene file.
@@ -84,24 +100,14 @@ void check_text_path(const std::string& path, const std::string& option,
 // Writes `text` to `path` through a temporary file beside it, renamed into place.
 void write_text_file(const std::string& text, const std::string& path);
 
-// A scatter plot of y against x, as the flux text's figure: points, a box of axes with ticks
-// and numbers, an x label below and a y label turned up the left side.
-struct ScatterOptions {
-  int width = 700, height = 500;
-  std::string x_label = "x", y_label = "y", title;
-  double point_radius = 3;
-  Color point_color = kPointBlue;
-  std::vector<std::string> labels;  // optional, one per point, drawn beside it
-};
-Drawing scatter_plot(const std::vector<double>& x, const std::vector<double>& y,
-                     const ScatterOptions& options = {});
+// Clips the segment to the rectangle [x0, x1] x [y0, y1] (Liang-Barsky). False when nothing of
+// it is inside.
+bool clip_segment(double& ax, double& ay, double& bx, double& by, double x0, double y0, double x1,
+                  double y1);
 
-// Tick positions for an axis over [lo, hi]: multiples of 1, 2 or 5 times a power of ten, about
-// `target` of them, and the number of decimals that prints them exactly.
-struct Ticks {
-  std::vector<double> values;
-  int decimals = 0;
-};
-Ticks nice_ticks(double lo, double hi, int target = 6);
+// A chart from CSV text (a header row, then numbers): `y` against `x`, one series per distinct
+// value of `group` (none: one series). Throws InputError naming `source` and the line.
+Chart chart_from_csv(const std::string& csv, const std::string& source, const std::string& x,
+                     const std::string& y, const std::string& group, Mark mark);
 
 }  // namespace lancer::plot

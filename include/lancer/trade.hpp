@@ -7,6 +7,7 @@
 
 #include "lancer/bvh.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/plot.hpp"
 #include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
 
@@ -35,8 +36,8 @@ struct TradeOptions {
 // within each repeat; errors against the double reference at width 1.
 std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& options);
 
-// Speed (x, Mrays/s) against error (y, % of pixels off by more than 1/255), one point per row.
-void write_trade_plot(const std::vector<TradeRow>& rows, const std::string& scene_name,
-                      const std::string& path);
+// Speed (x, Mrays/s) against error (y, % of pixels off by more than 1/255): one series per
+// precision, one labelled point per width. plot::write_chart (lancer_plot) draws it.
+plot::Chart trade_chart(const std::vector<TradeRow>& rows, const std::string& scene_name);
 
 }  // namespace lancer

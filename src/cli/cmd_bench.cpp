@@ -26,6 +26,7 @@ struct BenchArgs {
   std::vector<std::string> precisions{"exact"};
   int repeat = 5;
   bool json = false;
+  std::string format;  // table, json or gbench (Google Benchmark's JSON)
   std::vector<std::string> peers;
   bool peak = false;
   SceneOverrides overrides;
@@ -59,6 +60,7 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
               repeat);
   std::printf("  %-8s %-8s %-9s %5s %-10s %7s %12s %10s %10s %9s", "engine", "mode", "precision",
               "width", "isa", "threads", "rays", "seconds", "Mrays/s", "vs w=1");
+  std::printf(" %17s %6s", "min..max Mrays/s", "cv");
   if (peak) std::printf(" %9s %11s %7s", "GFLOP/s", "lane GFLOP/s", "of peak");
   std::printf("\n");
   for (const BenchRow& r : rows) {
@@ -75,6 +77,13 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
     std::printf("  %-8s %-8s %-9s %5d %-10s %7d %12llu %10.5f %10.2f %9s", r.engine.c_str(),
                 r.mode.c_str(), r.precision.c_str(), r.width, r.isa.c_str(), r.threads,
                 (unsigned long long)r.rays, r.seconds, r.mrays_per_s(), ratio);
+    // The spread over the repeats: on a shared machine run-to-run noise can reach 2x.
+    const Spread sp = spread(r.samples);
+    char range[40] = "-";
+    if (sp.min > 0)
+      std::snprintf(range, sizeof range, "%.4g..%.4g", r.rays / sp.max * 1e-6,
+                    r.rays / sp.min * 1e-6);
+    std::printf(" %17s %5.1f%%", range, 100 * sp.cv());
     if (peak && r.gflops)
       std::printf(" %9.2f %11.2f %6.1f%%", *r.gflops, *r.lane_gflops,
                   100 * r.peak_fraction.value_or(0));
@@ -111,6 +120,10 @@ void print_json(const std::string& scene, const BenchResult& result,
         {"rays", r.rays},     {"seconds", r.seconds},     {"mrays_per_s", r.mrays_per_s()}};
     if (!r.config.empty()) row["config"] = r.config;
     if (r.build_seconds >= 0) row["build_seconds"] = r.build_seconds;
+    const Spread sp = spread(r.samples);
+    row["samples_seconds"] = r.samples;
+    row["seconds_min"] = sp.min, row["seconds_max"] = sp.max;
+    row["cv"] = sp.cv();
     if (r.gflops) row["gflops"] = *r.gflops;
     if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
     if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;
@@ -202,10 +215,16 @@ void run_bench_cmd(const BenchArgs& a) {
   }
   opt.peak = a.peak;
   opt.accel = parse_accel(a.accel, "--accel");
+  if (!a.format.empty() && a.format != "table" && a.format != "json" && a.format != "gbench")
+    throw InputError("--format: must be table, json or gbench, not '" + a.format + "'");
+  if (a.json && !a.format.empty() && a.format != "json")
+    throw InputError("--json: conflicts with --format " + a.format);
   if (mpi::launch_from_environment().size > 1) return run_bench_mpi(a, opt);
   BenchResult result = run_bench(scene, opt);
   if (a.peak) add_flops(scene, result.peaks, result.rows);
-  if (a.json) {
+  if (a.format == "gbench") {
+    std::printf("%s\n", gbench_json(result, a.scene, "lancer bench").c_str());
+  } else if (a.json || a.format == "json") {
     print_json(a.scene, result, a.peak ? &result.peaks : nullptr);
   } else {
     print_table(a.scene, result.rows, a.repeat, a.peak);
@@ -236,6 +255,9 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
+  cmd->add_option("--format", args->format,
+                  "table, json (as --json) or gbench: Google Benchmark's JSON, which its "
+                  "tools/compare.py reads");
   cmd->add_option("--peer", args->peers,
                   "Run a peer beside lancer, interleaved: embree (Embree 3, if built with it)");
   cmd->add_flag("--peak", args->peak,

@@ -58,7 +58,7 @@ void run_flux(const FluxArgs& a) {
                  profile.x.size());
   }
   if (!a.plot.empty()) {
-    plot::write_drawing(flux::profile_plot(profile), a.plot);
+    plot::write_chart(flux::profile_plot(profile), a.plot);
     std::fprintf(status, "lancer flux: %s -> %s (flux against position x)\n", a.scene.c_str(),
                  a.plot.c_str());
   }
@@ -74,7 +74,7 @@ void run_flux(const FluxArgs& a) {
     o.size = a.size;
     o.hits_only = a.hits_only;
     o.show_blocked = a.show_blocked;
-    plot::write_drawing(flux::diagram(fs.scene, plane, paths.log, o), a.diagram);
+    plot::write_chart(flux::diagram(fs.scene, plane, paths.log, o), a.diagram);
     std::fprintf(status,
                  "lancer flux: %s -> %s (%zu ray segments: %llu camera, %llu reflected, "
                  "%llu light)\n",
@@ -91,10 +91,11 @@ void add_flux(CLI::App& app) {
       "flux",
       "2D flux of a one-row orthographic scene (seeds/002): flux of each ray against its "
       "position x, as CSV (stdout by default), a plot, or a diagram of every ray in the plane");
-  cmd->add_option("scene", args->scene, "Scene file (JSON, see SCENE-MODEL.md)")->required();
+  cmd->add_option("scene", args->scene, "Scene file (JSON, see docs/scene-format.md)")->required();
   cmd->add_option("--csv", args->csv,
                   "Write the x,flux lines to this file instead of stdout (- is stdout)");
-  cmd->add_option("--plot", args->plot, "Plot flux against x: .png (or any image format) or .svg");
+  cmd->add_option("--plot", args->plot,
+                  "Plot flux against x: .png, .svg, .pdf (or another image format)");
   cmd->add_option("--diagram", args->diagram,
                   "Draw the plane of the rays: spheres, lights, camera and reflected rays (red), "
                   "light rays that reach their light (blue); .svg or .png");

@@ -32,14 +32,21 @@ void run_profile(const ProfileArgs& a) {
         {"camera", r.camera_rays}, {"shadow", r.shadow_rays}, {"reflected", r.reflected_rays}};
     out["tests_per_ray"] = r.tests_per_ray;
     out["stages"] = nlohmann::json::array();
-    for (const auto& st : r.stages)
+    for (const auto& st : r.stages) {
+      // A stage with no packets counted (output) has no occupancy: null, not 0.
+      bool measured = false;
+      for (std::uint64_t h : st.histogram) measured = measured || h > 0;
+      const auto or_null = [measured](const auto& v) {
+        return measured ? nlohmann::json(v) : nlohmann::json();
+      };
       out["stages"].push_back({{"name", st.name},
                                {"seconds", st.seconds},
                                {"rays", st.rays},
-                               {"lane_occupancy", st.lane_occupancy},
+                               {"lane_occupancy", or_null(st.lane_occupancy)},
                                {"leaf_visits", st.leaves},
-                               {"leaf_occupancy", st.leaf_occupancy},
-                               {"lane_histogram", st.histogram}});
+                               {"leaf_occupancy", or_null(st.leaf_occupancy)},
+                               {"lane_histogram", or_null(st.histogram)}});
+    }
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }

@@ -5,6 +5,7 @@
 
 #include "commands.hpp"
 #include "lancer/error.hpp"
+#include "lancer/plot.hpp"
 #include "lancer/trade.hpp"
 #include "options.hpp"
 
@@ -27,7 +28,7 @@ void run_trade_cmd(const TradeArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
   if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
-  if (!a.plot.empty()) check_output_path(a.plot, a.scene);
+  if (!a.plot.empty()) plot::check_drawing_path(a.plot, "--plot", a.scene);
   TradeOptions opt;
   opt.repeat = a.repeat;
   opt.accel = parse_accel(a.accel, "--accel");
@@ -59,7 +60,7 @@ void run_trade_cmd(const TradeArgs& a) {
                   std::isfinite(r.psnr_db) ? r.psnr_db : INFINITY, 100 * r.off_pixel_frac,
                   100 * r.hit_mismatch_frac);
   }
-  if (!a.plot.empty()) write_trade_plot(rows, a.scene, a.plot);
+  if (!a.plot.empty()) plot::write_chart(trade_chart(rows, a.scene), a.plot);
 }
 }  // namespace
 
@@ -69,7 +70,8 @@ void add_trade(CLI::App& app) {
       "trade", "Speed against accuracy: every precision and width, Mrays/s and error vs double");
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
-  cmd->add_option("--plot", args->plot, "Draw speed against error into an image (PNG, ...)");
+  cmd->add_option("--plot", args->plot,
+                  "Draw speed against error: .png, .svg, .pdf (or another image format)");
   cmd->add_option("--accel", args->accel, "auto, none or bvh")->capture_default_str();
   cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
       ->capture_default_str();

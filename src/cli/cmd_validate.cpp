@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "lancer/compare.hpp"
@@ -17,6 +18,7 @@ struct ValidateArgs {
   std::vector<std::string> widths;
   std::string precision = "exact", accel = "auto";
   int threads = 0;
+  bool json = false;
   SceneOverrides overrides;
 };
 
@@ -48,12 +50,15 @@ void run_validate(const ValidateArgs& a, int& status) {
   ref_opt.precision = precision;
   ref_opt.threads = a.threads;
   const RenderResult ref = render(scene, ref_opt);
-  std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n", a.scene.c_str(),
-              scene.camera.nx, scene.camera.ny, to_string(precision));
-  std::printf("  structure %s\n",
-              ref.structure.kind == "bvh" ? "bvh (reference and packets)" : "none: plain loop");
-  std::printf("  %-6s %-8s %10s %10s  %s\n", "width", "isa", "differing", "max ulps",
-              "first differing pixel");
+  if (!a.json) {
+    std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n",
+                a.scene.c_str(), scene.camera.nx, scene.camera.ny, to_string(precision));
+    std::printf("  structure %s\n",
+                ref.structure.kind == "bvh" ? "bvh (reference and packets)" : "none: plain loop");
+    std::printf("  %-6s %-8s %10s %10s  %s\n", "width", "isa", "differing", "max ulps",
+                "first differing pixel");
+  }
+  nlohmann::json rows = nlohmann::json::array();
   bool all_identical = true;
   for (int w : widths) {
     RenderOptions opt;
@@ -65,13 +70,36 @@ void run_validate(const ValidateArgs& a, int& status) {
     const BitDiff d = bit_diff(r.image, ref.image);
     const bool same_rays = r.rays == ref.rays;
     all_identical = all_identical && d.identical() && same_rays;
+    if (a.json) {
+      nlohmann::json row{{"width", w},
+                         {"isa", r.isa},
+                         {"differing_pixels", d.differing_pixels},
+                         {"max_ulps", d.max_ulps},
+                         {"same_ray_counts", same_rays},
+                         {"identical", d.identical() && same_rays}};
+      row["first_differing_pixel"] =
+          d.identical() ? nlohmann::json(nullptr) : nlohmann::json{d.first_i, d.first_j};
+      rows.push_back(row);
+      continue;
+    }
     char first[64] = "-";
     if (!d.identical()) std::snprintf(first, sizeof first, "(%d, %d)", d.first_i, d.first_j);
     std::printf("  %-6d %-8s %10llu %10llu  %s%s\n", w, r.isa.c_str(),
                 (unsigned long long)d.differing_pixels, (unsigned long long)d.max_ulps, first,
                 same_rays ? "" : "  (ray counts differ)");
   }
-  std::printf("%s\n", all_identical ? "identical" : "DIFFERENT");
+  if (a.json)
+    std::printf("%s\n", nlohmann::json{{"scene", a.scene},
+                                       {"resolution", {scene.camera.nx, scene.camera.ny}},
+                                       {"precision", to_string(precision)},
+                                       {"reference", {{"width", 1}, {"isa", ref.isa}}},
+                                       {"structure", ref.structure.kind},
+                                       {"widths", rows},
+                                       {"identical", all_identical}}
+                            .dump(2)
+                            .c_str());
+  else
+    std::printf("%s\n", all_identical ? "identical" : "DIFFERENT");
   status = all_identical ? kExitOk : kExitDifferent;
 }
 }  // namespace
@@ -93,6 +121,7 @@ void add_validate(CLI::App& app) {
       "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)");
   cmd->add_option("--accel", args->accel, "auto, none or bvh: the structure both paths use")
       ->capture_default_str();
+  cmd->add_flag("--json", args->json, "Print one JSON object (exit status as without it)");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   cmd->callback([args] {

@@ -26,5 +26,7 @@ void add_trade(CLI::App& app);
 void add_profile(CLI::App& app);
 void add_flux(CLI::App& app);
 void add_generate(CLI::App& app);
+void add_compare(CLI::App& app);
+void add_plot(CLI::App& app);
 
 }  // namespace lancer::cli

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "lancer: a Whitted ray tracer built to be measured.\n"
       "A scalar reference and SIMD ray packets (4, 8, 16 lanes) over one scene model;\n"
-      "exact mode is bit-identical across every width. Scene format: SCENE-MODEL.md."};
+      "exact mode is bit-identical across every width. Scene format: docs/scene-format.md."};
   app.require_subcommand(1);
   app.footer(kFooter);
   app.set_version_flag("--version", "lancer 0.1.0");
@@ -59,6 +59,8 @@ int main(int argc, char** argv) {
   lancer::cli::add_profile(app);
   lancer::cli::add_flux(app);
   lancer::cli::add_generate(app);
+  lancer::cli::add_compare(app);
+  lancer::cli::add_plot(app);
 
   using namespace lancer::cli;
   // CLI11 takes an unknown first word for a missing subcommand: name it.

@@ -1,9 +1,11 @@
 #include "options.hpp"
 
+#include <sys/ioctl.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <mutex>
@@ -11,6 +13,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/progress.hpp"
 
 namespace lancer::cli {
 
@@ -123,18 +126,26 @@ void check_memory(const Scene& scene) {
 
 void attach_progress(RenderOptions& options) {
   if (!isatty(STDERR_FILENO)) return;
-  auto last = std::make_shared<int>(-1);
-  auto mutex = std::make_shared<std::mutex>();
-  options.on_progress = [last, mutex](int done, int all) {
-    const int percent = all ? done * 100 / all : 100;
-    std::lock_guard<std::mutex> lock(*mutex);
-    if (percent == *last) return;
-    *last = percent;
-    constexpr int kBar = 40;
-    char bar[kBar + 1];
-    for (int k = 0; k < kBar; ++k) bar[k] = k < percent * kBar / 100 ? '#' : '.';
-    bar[kBar] = '\0';
-    std::fprintf(stderr, "\r[%s] %3d%%%s", bar, percent, done == all ? "\n" : "");
+  struct State {
+    std::mutex mutex;
+    std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now(), last;
+    int shown = -1;
+  };
+  auto state = std::make_shared<State>();
+  options.on_progress = [state](int done, int all) {
+    std::lock_guard<std::mutex> lock(state->mutex);
+    const auto now = std::chrono::steady_clock::now();
+    // At most 10 redraws a second, and the last one always.
+    if (done != all && state->shown >= 0 && now - state->last < std::chrono::milliseconds(100))
+      return;
+    state->last = now, state->shown = done;
+    winsize ws{};
+    const int columns =
+        ioctl(STDERR_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0 ? ws.ws_col : 80;
+    const double elapsed = std::chrono::duration<double>(now - state->start).count();
+    // \r back to the start, the line, then clear what a longer previous line left.
+    std::fprintf(stderr, "\r%s\033[K%s", progress_line(done, all, elapsed, columns).c_str(),
+                 done == all ? "\n" : "");
     std::fflush(stderr);
   };
 }

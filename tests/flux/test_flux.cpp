@@ -242,25 +242,37 @@ TEST(PathLog, BlockedLightRaysAreNotDrawn) {
   for (int i = 0; i < 3; ++i)
     EXPECT_EQ(r.paths.image.pixel(i, 0)[0], one.paths.image.pixel(i, 0)[0]);
 
-  // The diagram: two blue light rays, not four; grey ones for the blocked only when asked.
-  auto lines_of = [](const plot::Drawing& d, plot::Color c) {
-    int n = 0;
-    for (const plot::Line& l : d.lines)
-      n += l.color.r == c.r && l.color.g == c.g && l.color.b == c.b;
-    return n;
+  // The diagram: two light rays that reach their light, not four; the blocked ones only when
+  // asked.
+  auto segments_of = [](const plot::Chart& d, const std::string& name) {
+    for (const plot::Series& s : d.series)
+      if (s.name == name) return int(s.x.size() / 2);
+    return 0;
   };
-  const plot::Drawing d = flux::diagram(r.scene.scene, r.plane, r.paths.log);
-  EXPECT_EQ(lines_of(d, plot::kBlue), 2);
-  EXPECT_EQ(lines_of(d, plot::kRed), 3);   // two hits and the miss, cut at the edge
-  EXPECT_EQ(lines_of(d, plot::kGrey), 1);  // the camera's row
+  const plot::Chart d = flux::diagram(r.scene.scene, r.plane, r.paths.log);
+  EXPECT_EQ(segments_of(d, "rays that reach a light"), 2);
+  EXPECT_EQ(segments_of(d, "camera and reflected rays"), 3);  // two hits and the miss, cut
+  EXPECT_EQ(segments_of(d, "camera row"), 1);
+  EXPECT_EQ(segments_of(d, "blocked rays to lights"), 0);
   flux::DiagramOptions o;
   o.show_blocked = true;
-  EXPECT_EQ(lines_of(flux::diagram(r.scene.scene, r.plane, r.paths.log, o), plot::kGrey), 3);
+  EXPECT_EQ(
+      segments_of(flux::diagram(r.scene.scene, r.plane, r.paths.log, o), "blocked rays to lights"),
+      2);
   o = {};
   o.hits_only = true;
-  EXPECT_EQ(lines_of(flux::diagram(r.scene.scene, r.plane, r.paths.log, o), plot::kRed), 2);
-  // Spheres and lights are drawn as circles: 2 spheres, 2 lights.
-  EXPECT_EQ(d.circles.size(), 4u);
+  EXPECT_EQ(segments_of(flux::diagram(r.scene.scene, r.plane, r.paths.log, o),
+                        "camera and reflected rays"),
+            2);
+  // 2 spheres as circles, 2 lights as points, a legend entry each.
+  EXPECT_EQ(d.circles.size(), 2u);
+  for (const plot::Series& s : d.series) {
+    EXPECT_FALSE(s.name.empty());
+    if (s.name == "lights") {
+      EXPECT_EQ(s.x.size(), 2u);
+    }
+  }
+  EXPECT_TRUE(d.equal_aspect);
 }
 
 // The sphere mirrors (reflect 0.5, max_depth 1) and a plane y = -1 lies below the camera. At
@@ -444,25 +456,99 @@ TEST(Plot, ClipSegment) {
   EXPECT_FALSE(plot::clip_segment(ax, ay, bx, by, 0, 0, 10, 10));
 }
 
-TEST(Plot, RasterizesLinesCirclesAndText) {
-  plot::Drawing d;
-  d.width = 40, d.height = 30;
-  d.lines.push_back({5, 10.5, 35, 10.5, plot::kRed, 3});
-  d.circles.push_back({20, 22, 4, plot::kBlue, 0});
-  d.texts.push_back({1, 1, "1", plot::Align::start, plot::Align::start, 1, false, plot::kBlack});
-  const Image im = plot::rasterize(d);
-  ASSERT_EQ(im.nx, 40);
-  ASSERT_EQ(im.ny, 30);
-  const float* on_line = im.pixel(20, 10);
-  EXPECT_NEAR(on_line[0], 0.85, 1e-6);
-  EXPECT_NEAR(on_line[1], 0, 1e-6);
-  const float* off = im.pixel(20, 5);
-  EXPECT_NEAR(off[0], 1, 1e-6);  // white background
-  const float* in_disc = im.pixel(20, 22);
-  EXPECT_NEAR(in_disc[2], 0.9, 1e-6);
-  // The glyph '1' has its stem in column 2 at rows 1..5: pixel (3, 3) from the origin (1, 1).
-  EXPECT_NEAR(im.pixel(3, 3)[0], 0, 1e-6);
-  EXPECT_NEAR(im.pixel(1, 4)[0], 1, 1e-6);
+// Point labels never overlap each other and stay in the frame, however crowded the points.
+TEST(Plot, LabelsNeverCollideOrLeaveTheFrame) {
+  plot::Chart c;
+  c.title = "crowded";
+  c.x.label = "x (units)";
+  c.y.label = "y (units)";
+  for (int k = 0; k < 3; ++k) {
+    plot::Series s;
+    s.name = "series " + std::to_string(k);
+    s.color = plot::palette(k);
+    for (int i = 0; i < 12; ++i) {
+      // Points nearly on top of each other, and some on the edges of the range.
+      s.x.push_back(i < 6 ? 1 + 0.001 * i : 10 * (i - 6));
+      s.y.push_back(i < 6 ? 1 + 0.001 * k : 5 * k);
+      s.labels.push_back("label " + std::to_string(k) + "." + std::to_string(i));
+    }
+    c.series.push_back(s);
+  }
+  const std::vector<plot::LabelBox> boxes = plot::label_boxes(c);
+  ASSERT_EQ(boxes.size(), 36u);
+  int placed = 0;
+  for (std::size_t a = 0; a < boxes.size(); ++a) {
+    const plot::LabelBox& b = boxes[a];
+    if (b.x0 > b.x1) continue;  // left out: no free place
+    ++placed;
+    EXPECT_GE(b.x0, 0);
+    EXPECT_GE(b.y0, 0);
+    EXPECT_LE(b.x1, c.width);
+    EXPECT_LE(b.y1, c.height);
+    for (std::size_t o = a + 1; o < boxes.size(); ++o) {
+      const plot::LabelBox& q = boxes[o];
+      if (q.x0 > q.x1) continue;
+      EXPECT_FALSE(b.x0 < q.x1 && q.x0 < b.x1 && b.y0 < q.y1 && q.y0 < b.y1)
+          << "labels " << a << " and " << o << " overlap";
+    }
+  }
+  EXPECT_GE(placed, 30);
+}
+
+// One drawing, three formats: PNG of the asked size with the series' colour in it, SVG and PDF
+// with their headers; log axes drop non-positive values instead of failing.
+TEST(Plot, WritesPngSvgPdf) {
+  const std::string dir = temp_dir("chart");
+  plot::Chart c;
+  c.width = 400, c.height = 300;
+  c.title = "scaling";
+  c.x.label = "spheres";
+  c.y.label = "Mrays/s";
+  c.x.scale = c.y.scale = plot::Scale::log10;
+  plot::Series s;
+  s.name = "lancer";
+  s.color = plot::kRed;
+  s.mark = plot::Mark::line;
+  s.line_width = 6;
+  s.x = {0, 1, 10, 100, 1000};  // 0 has no logarithm: left out
+  s.y = {5, 100, 100, 100, 100};
+  c.series.push_back(s);
+  plot::write_chart(c, dir + "/c.png");
+  plot::write_chart(c, dir + "/c.svg");
+  plot::write_chart(c, dir + "/c.pdf");
+  const Image im = read_image(dir + "/c.png");
+  ASSERT_EQ(im.nx, 400);
+  ASSERT_EQ(im.ny, 300);
+  int red = 0;
+  for (int j = 0; j < im.ny; ++j)
+    for (int i = 0; i < im.nx; ++i) {
+      const float* p = im.pixel(i, j);
+      red += p[0] > 0.8f && p[1] < 0.2f && p[2] < 0.2f;
+    }
+  EXPECT_GT(red, 300);  // a 6-point line across most of the plot
+  const std::string svg = read_file(dir + "/c.svg");
+  EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  EXPECT_EQ(read_file(dir + "/c.pdf").rfind("%PDF", 0), 0u);
+}
+
+TEST(Plot, ChartFromCsv) {
+  const plot::Chart c =
+      plot::chart_from_csv("engine,spheres,mrays\nlancer,1,10\nembree,1,5\nlancer,10,8\n", "s.csv",
+                           "spheres", "mrays", "engine", plot::Mark::line_points);
+  ASSERT_EQ(c.series.size(), 2u);
+  EXPECT_EQ(c.series[0].name, "lancer");
+  EXPECT_EQ(c.series[0].x, (std::vector<double>{1, 10}));
+  EXPECT_EQ(c.series[1].y, (std::vector<double>{5}));
+  EXPECT_FALSE(c.series[0].color == c.series[1].color);
+  try {
+    plot::chart_from_csv("a,b\n1,x\n", "s.csv", "a", "b", "", plot::Mark::points);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "s.csv:2: b: 'x' is not a finite number");
+  }
+  EXPECT_THROW(plot::chart_from_csv("a,b\n1,2\n", "s.csv", "a", "c", "", plot::Mark::points),
+               InputError);
 }
 
 TEST(Figures, CliWritesPlotAndDiagram) {
@@ -471,35 +557,30 @@ TEST(Figures, CliWritesPlotAndDiagram) {
                     "/plot.png --diagram " + dir + "/diagram.png");
   ASSERT_EQ(r.status, 0) << r.err;
   const Image plot_im = read_image(dir + "/plot.png");
-  EXPECT_EQ(plot_im.nx, 700);
+  EXPECT_EQ(plot_im.nx, 760);
   EXPECT_EQ(plot_im.ny, 500);
   const Image diag = read_image(dir + "/diagram.png");
-  EXPECT_EQ(std::max(diag.nx, diag.ny), 800);
+  EXPECT_EQ(diag.nx, 800);
 
   const Ran s = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir +
-                    "/plot.svg --diagram " + dir + "/diagram.svg");
+                    "/plot.svg --diagram " + dir + "/diagram.pdf");
   ASSERT_EQ(s.status, 0) << s.err;
-  const std::string svg = read_file(dir + "/diagram.svg");
+  const std::string svg = read_file(dir + "/plot.svg");
   EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
-  // As many blue lines as light rays that reached their light, four sphere circles, three
-  // light rings.
+  EXPECT_EQ(read_file(dir + "/diagram.pdf").rfind("%PDF", 0), 0u);
+
+  // The diagram's data: as many light-ray segments as light rays that reached their light.
   const flux::FluxScene fs = flux::load_flux_scene(kFluxScene);
-  const flux::Paths paths = flux::record_paths(fs.scene, flux::ray_plane(fs.scene, fs.names));
+  const flux::RayPlane plane = flux::ray_plane(fs.scene, fs.names);
+  const flux::Paths paths = flux::record_paths(fs.scene, plane);
   int reached = 0;
   for (const Segment& seg : paths.log.segments) reached += seg.kind == Segment::light && !seg.hit;
-  auto occurrences = [&](const std::string& text, const std::string& what) {
-    int n = 0;
-    for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
-    return n;
-  };
-  EXPECT_EQ(occurrences(svg, "<line") - occurrences(svg, "stroke=\"#d90000\"") - 1, reached);
-  EXPECT_EQ(occurrences(svg, "<circle"), 7);
-  // The plot: one point per ray.
-  const std::string plot_svg = read_file(dir + "/plot.svg");
-  EXPECT_EQ(occurrences(plot_svg, "<circle"), 100);
-  EXPECT_NE(plot_svg.find(">position x<"), std::string::npos);
-  EXPECT_NE(plot_svg.find(">flux<"), std::string::npos);
+  const plot::Chart d = flux::diagram(fs.scene, plane, paths.log);
+  int drawn = 0;
+  for (const plot::Series& ser : d.series)
+    if (ser.name == "rays that reach a light") drawn = int(ser.x.size() / 2);
+  EXPECT_EQ(drawn, reached);
 
   // A bad extension is refused before any work.
   const Ran bad =

@@ -1,0 +1,252 @@
+// The tools around the renderer: lancer compare, bench's spread and its Google Benchmark JSON.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "lancer/bench.hpp"
+#include "lancer/compare.hpp"
+#include "lancer/progress.hpp"
+#include "support/test_util.hpp"
+
+namespace lancer {
+namespace {
+
+using testing::cli;
+using testing::run_command;
+using testing::source_path;
+using testing::TempDir;
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Image gradient(int nx, int ny) {
+  Image im(nx, ny);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i)
+      for (int c = 0; c < 3; ++c) im.pixel(i, j)[c] = float(i + j + c) / float(nx + ny + 3);
+  return im;
+}
+
+TEST(CompareImages, CountsThresholdsAndUlps) {
+  const Image a = gradient(10, 4);
+  Image b = a;
+  b.pixel(3, 1)[0] = std::nextafter(b.pixel(3, 1)[0], 2.0f);  // one ulp
+  b.pixel(7, 2)[2] += 1.5f / 255;                             // between 1/255 and 2/255
+  b.pixel(8, 3)[1] += 3.0f / 255;                             // beyond both
+  const ImageComparison c = compare_images(a, b, {1.0 / 255, 2.0 / 255});
+  EXPECT_EQ(c.bits.differing_pixels, 3u);
+  EXPECT_EQ(c.bits.first_i, 3);
+  EXPECT_EQ(c.bits.first_j, 1);
+  EXPECT_GT(c.bits.max_ulps, 1u);
+  ASSERT_EQ(c.off_pixels.size(), 2u);
+  EXPECT_EQ(c.off_pixels[0], 2u);
+  EXPECT_EQ(c.off_pixels[1], 1u);
+  EXPECT_DOUBLE_EQ(c.off_fractions[1], 1.0 / 40);
+  EXPECT_NEAR(c.error.max_abs, 3.0 / 255, 1e-6);
+  EXPECT_TRUE(std::isfinite(c.error.psnr_db));
+  const Image d = difference_image(a, b, 2);
+  EXPECT_NEAR(d.pixel(8, 3)[1], 6.0 / 255, 1e-6);
+  EXPECT_EQ(d.pixel(0, 0)[0], 0.0f);
+  const ImageComparison same = compare_images(a, a, {1.0 / 255});
+  EXPECT_TRUE(same.bits.identical());
+  EXPECT_TRUE(std::isinf(same.error.psnr_db));
+}
+
+TEST(CompareCli, ExitStatusIdenticalDifferentBadInput) {
+  TempDir dir;
+  const Image a = gradient(16, 8);
+  Image b = a;
+  b.pixel(5, 5)[1] += 0.25f;
+  write_image(a, dir.file("a.pfm"));
+  write_image(b, dir.file("b.pfm"));
+  write_image(gradient(8, 8), dir.file("c.pfm"));
+  EXPECT_EQ(run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("a.pfm")).status,
+            0);
+  const auto diff = run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("b.pfm") +
+                                " --diff " + dir.file("d.png"));
+  EXPECT_EQ(diff.status, 1) << diff.out;
+  EXPECT_NE(diff.out.find("differing pixels  1 of 128"), std::string::npos) << diff.out;
+  const Image d = read_image(dir.file("d.png"));
+  EXPECT_EQ(d.nx, 16);
+  EXPECT_NEAR(d.pixel(5, 5)[1], 1.0, 1e-6);  // the largest difference scaled to 1
+  // Sizes differ: one line, exit 2.
+  const auto size = run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("c.pfm"));
+  EXPECT_EQ(size.status, 2);
+  EXPECT_EQ(size.out, "lancer: " + dir.file("a.pfm") + " is 16x8, " + dir.file("c.pfm") +
+                          " is 8x8: sizes differ\n");
+  EXPECT_EQ(
+      run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("nope.png")).status, 2);
+  EXPECT_EQ(run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("b.pfm") +
+                        " --threshold 1/0")
+                .status,
+            2);
+  // JSON: the fields, PSNR null only when identical.
+  ASSERT_EQ(run_command(cli() + " compare --json --threshold 0.1,0.3 " + dir.file("a.pfm") + " " +
+                        dir.file("b.pfm") + " > " + dir.file("c.json"))
+                .status,
+            1);
+  const auto j = nlohmann::json::parse(slurp(dir.file("c.json")));
+  EXPECT_EQ(j["differing_pixels"], 1);
+  EXPECT_EQ(j["identical"], false);
+  EXPECT_TRUE(j["psnr_db"].is_number());
+  ASSERT_EQ(j["off"].size(), 2u);
+  EXPECT_EQ(j["off"][0]["pixels"], 1);
+  EXPECT_EQ(j["off"][1]["pixels"], 0);
+}
+
+TEST(BenchSpread, MinMedianMaxCv) {
+  const Spread s = spread({3, 1, 2});
+  EXPECT_EQ(s.min, 1);
+  EXPECT_EQ(s.median, 2);
+  EXPECT_EQ(s.max, 3);
+  EXPECT_DOUBLE_EQ(s.mean, 2);
+  EXPECT_DOUBLE_EQ(s.stddev, 1);
+  EXPECT_DOUBLE_EQ(s.cv(), 0.5);
+  EXPECT_EQ(spread({}).cv(), 0);
+}
+
+// What Google Benchmark's tools/compare.py reads: benchmarks with name, run_type, real_time,
+// cpu_time and time_unit; aggregates with aggregate_name; the context it prints.
+TEST(BenchGbench, HasTheFieldsCompareNeeds) {
+  TempDir dir;
+  const auto r = run_command(cli() + " bench " + source_path("scenes/lorenzi-diffuse.json") +
+                             " --resolution 24x16 --width 1 --repeat 3 --mode primary,full "
+                             "--format gbench > " +
+                             dir.file("g.json"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(slurp(dir.file("g.json")));
+  for (const char* key : {"date", "host_name", "num_cpus", "mhz_per_cpu", "caches",
+                          "library_build_type", "cpu_model", "git_commit"})
+    EXPECT_TRUE(j["context"].contains(key)) << key;
+  const auto& b = j["benchmarks"];
+  // Two rows, each 3 repetitions and 4 aggregates.
+  ASSERT_EQ(b.size(), 14u);
+  int iterations = 0;
+  for (const auto& e : b) {
+    for (const char* key : {"name", "run_name", "run_type", "repetitions", "real_time", "cpu_time",
+                            "time_unit", "threads"})
+      EXPECT_TRUE(e.contains(key)) << key << " in " << e.dump();
+    EXPECT_EQ(e["repetitions"], 3);
+    if (e["run_type"] == "iteration") {
+      ++iterations;
+      EXPECT_GT(e["real_time"].get<double>(), 0);
+      EXPECT_GT(e["items_per_second"].get<double>(), 0);
+      EXPECT_EQ(e["name"], e["run_name"]);
+    } else {
+      const std::string agg = e["aggregate_name"];
+      EXPECT_EQ(e["name"].get<std::string>(), e["run_name"].get<std::string>() + "_" + agg);
+      EXPECT_EQ(e["aggregate_unit"], agg == "cv" ? "percentage" : "time");
+    }
+  }
+  EXPECT_EQ(iterations, 6);
+  EXPECT_EQ(b[0]["name"], "lancer/primary/exact/w1/threads:1");
+  // The median aggregate is the median of the three repetitions.
+  std::vector<double> t{b[0]["real_time"], b[1]["real_time"], b[2]["real_time"]};
+  std::sort(t.begin(), t.end());
+  EXPECT_DOUBLE_EQ(b[4]["real_time"].get<double>(), t[1]);
+  EXPECT_EQ(b[4]["aggregate_name"], "median");
+}
+
+TEST(BenchCliFormat, BadFormatIsAnInputError) {
+  const auto r =
+      run_command(cli() + " bench " + source_path("scenes/lorenzi-diffuse.json") + " --format xml");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("--format"), std::string::npos);
+}
+
+// The progress line never wraps: at most columns - 1 characters at any width, the percentage
+// kept to the narrowest.
+TEST(Progress, NeverWiderThanTheTerminal) {
+  for (int columns : {1, 5, 10, 20, 40, 60, 80, 120, 300})
+    for (int done : {0, 1, 500, 999, 1000}) {
+      const std::string line = progress_line(done, 1000, 2.5, columns);
+      EXPECT_LE(int(line.size()), std::max(0, columns - 1)) << columns << " " << line;
+      if (columns >= 10) {
+        EXPECT_NE(line.find('%'), std::string::npos) << line;
+      }
+    }
+  const std::string wide = progress_line(250, 1000, 2.0, 120);
+  EXPECT_NE(wide.find(" 25%"), std::string::npos) << wide;
+  EXPECT_NE(wide.find("6.0 s left"), std::string::npos) << wide;  // 750 rows at 125 rows/s
+  EXPECT_NE(wide.find("2.0 s elapsed"), std::string::npos) << wide;
+  EXPECT_NE(wide.find("125 rows/s"), std::string::npos) << wide;
+  EXPECT_NE(progress_line(1000, 1000, 8, 80).find("done"), std::string::npos);
+  EXPECT_EQ(format_duration(185), "3 min 05 s");
+}
+
+TEST(JsonSummaries, RenderValidateProfile) {
+  TempDir dir;
+  const std::string scene = source_path("scenes/lorenzi-diffuse.json");
+  ASSERT_EQ(run_command(cli() + " render " + scene + " --resolution 32x20 --json -o " +
+                        dir.file("r.png") + " > " + dir.file("r.json"))
+                .status,
+            0);
+  const auto r = nlohmann::json::parse(slurp(dir.file("r.json")));
+  EXPECT_EQ(r["resolution"], (nlohmann::json{32, 20}));
+  EXPECT_EQ(r["rays"]["camera"], 640);
+  EXPECT_GE(r["write_seconds"].get<double>(), 0);
+  EXPECT_GT(r["render_seconds"].get<double>(), 0);
+  EXPECT_EQ(read_image(dir.file("r.png")).nx, 32);
+
+  ASSERT_EQ(run_command(cli() + " validate " + scene + " --resolution 32x20 --json > " +
+                        dir.file("v.json"))
+                .status,
+            0);
+  const auto v = nlohmann::json::parse(slurp(dir.file("v.json")));
+  EXPECT_EQ(v["identical"], true);
+  ASSERT_FALSE(v["widths"].empty());
+  for (const auto& w : v["widths"]) {
+    EXPECT_EQ(w["differing_pixels"], 0);
+    EXPECT_TRUE(w["first_differing_pixel"].is_null());
+  }
+
+  ASSERT_EQ(run_command(cli() + " profile " + scene + " --resolution 32x20 --json > " +
+                        dir.file("p.json"))
+                .status,
+            0);
+  const auto p = nlohmann::json::parse(slurp(dir.file("p.json")));
+  bool saw_null = false;
+  for (const auto& st : p["stages"]) {
+    if (st["name"] == "output") {
+      EXPECT_TRUE(st["lane_occupancy"].is_null()) << st.dump();
+      saw_null = true;
+    } else if (st["lane_occupancy"].is_number()) {
+      EXPECT_GT(st["lane_occupancy"].get<double>(), 0) << st.dump();
+    }
+  }
+  EXPECT_TRUE(saw_null);
+}
+
+TEST(PlotCli, CsvToSvgAndOneLineErrors) {
+  TempDir dir;
+  {
+    std::ofstream csv(dir.file("s.csv"));
+    csv << "engine,spheres,mrays_per_s\nlancer,1,300\nlancer,100,120\nembree,1,25\n"
+           "embree,100,22\n";
+  }
+  const auto ok =
+      run_command(cli() + " plot " + dir.file("s.csv") +
+                  " --x spheres --y mrays_per_s --group engine --log xy -o " + dir.file("s.svg"));
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  EXPECT_NE(ok.out.find("2 series, 4 points"), std::string::npos) << ok.out;
+  EXPECT_EQ(slurp(dir.file("s.svg")).rfind("<?xml", 0), 0u);
+  const auto bad = run_command(cli() + " plot " + dir.file("s.csv") + " --x spheres --y speed -o " +
+                               dir.file("t.svg"));
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_EQ(bad.out, "lancer: " + dir.file("s.csv") + ":1: no column 'speed' (for --y)\n");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("t.svg")));
+  EXPECT_EQ(run_command(cli() + " plot " + dir.file("s.csv") + " --x spheres --y mrays_per_s " +
+                        "--log z -o " + dir.file("t.svg"))
+                .status,
+            2);
+}
+
+}  // namespace
+}  // namespace lancer
