@@ -78,7 +78,8 @@ PrecisionChoice choose_precision(const Scene& scene) {
   for (const Plane& p : scene.planes) grow(p.point);
   for (const Light& l : scene.lights) {
     grow(l.position);
-    for (double v : {l.intensity, l.ambient})
+    for (double v :
+         {l.intensity.r, l.intensity.g, l.intensity.b, l.ambient.r, l.ambient.g, l.ambient.b})
       if (v != 0 && (v > 1e30 || v < 1e-30))
         return {Precision::dbl, "a light's intensity lies outside float's range [1e-30, 1e30]"};
   }

@@ -34,9 +34,10 @@ void run_render(const RenderArgs& a) {
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "");
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
-  std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu in all\n",
+  std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu refracted, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
-              (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.total());
+              (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.refracted,
+              (unsigned long long)r.rays.total());
   std::printf("  time     %.4f s, %.2f Mrays/s\n", r.seconds,
               r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0);
 }
