@@ -116,6 +116,7 @@ PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
     // from, and its intersection loop is empty either way.
     Features& f = p.features;
     f.lights = f.specular = f.reflection = true;
+    f.coloured_lights = f.transparency = f.refraction = true;
   }
   return p;
 }
