@@ -10,6 +10,7 @@
 
 #include "lancer/precision.hpp"
 #include "lancer/scene.hpp"
+#include "lancer/stats.hpp"
 
 namespace lancer {
 
@@ -25,6 +26,7 @@ struct BenchRow {
   std::string precision = "exact";
   int threads = 1;
   std::uint64_t rays = 0;  // per run
+  RayCounts by_kind;       // the same rays by kind (camera, shadow, reflected, refracted)
   double seconds = 0;      // per render, median over the repeats
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
   // With --peak, lancer's exact primary and kernel rows: intersection GFLOP/s

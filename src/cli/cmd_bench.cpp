@@ -77,6 +77,16 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
                   100 * r.peak_fraction.value_or(0));
     std::printf("\n");
   }
+  // What a full render traces, by kind: the same for every width (exact, double) of a scene.
+  for (const BenchRow& r : rows)
+    if (r.engine == "lancer" && r.mode == "full") {
+      const RayCounts& k = r.by_kind;
+      std::printf("  full render rays by kind: %llu camera, %llu shadow, %llu reflected, %llu "
+                  "refracted\n",
+                  (unsigned long long)k.camera, (unsigned long long)k.shadow,
+                  (unsigned long long)k.reflected, (unsigned long long)k.refracted);
+      break;
+    }
   if (peak)
     std::printf(
         "  GFLOP/s: flops of lancer's ray-sphere and ray-plane tests per camera ray (counts in "
@@ -97,6 +107,10 @@ void print_json(const std::string& scene, const std::vector<BenchRow>& rows,
         {"engine", r.engine}, {"mode", r.mode},           {"width", r.width},
         {"isa", r.isa},       {"precision", r.precision}, {"threads", r.threads},
         {"rays", r.rays},     {"seconds", r.seconds},     {"mrays_per_s", r.mrays_per_s()}};
+    row["rays_by_kind"] = {{"camera", r.by_kind.camera},
+                           {"shadow", r.by_kind.shadow},
+                           {"reflected", r.by_kind.reflected},
+                           {"refracted", r.by_kind.refracted}};
     if (r.gflops) row["gflops"] = *r.gflops;
     if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
     if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;
