@@ -265,17 +265,20 @@ TEST(FastMode, RaysInsideASphereStillMeetIt) {
 // the sphere it enters again, and a shadow ray through a glass sphere is dimmed, not stopped.
 // A glass sphere lit from behind, seen in front of a plane, and the shipped glass scenes.
 TEST(FastMode, GlassWithinItsBudget) {
-  const json glass = {{"color", 1},         {"ka", 0.05},    {"kd", 0.1}, {"ks", 1},
-                      {"shininess", 50},    {"reflect", 0.1}, {"transmit", 0.85},
-                      {"ior", 1.5}};
+  const json glass = {{"color", 1},      {"ka", 0.05},     {"kd", 0.1},        {"ks", 1},
+                      {"shininess", 50}, {"reflect", 0.1}, {"transmit", 0.85}, {"ior", 1.5}};
   const json ground = {{"color", {0.9, 0.7, 0.5}}, {"ka", 0.2}, {"kd", 0.8}};
   json j = {{"camera", camera({0, 0, 6}, {0, 0, -1}, 2, 1)},
             {"max_depth", 4},
-            {"lights", {{{"position", {1, 2, -8}}, {"intensity", {1, 0.8, 0.6}}, {"ambient", 0.2}},
-                        {{"position", {3, 4, 6}}, {"intensity", 0.6}}}},
+            {"lights",
+             {{{"position", {1, 2, -8}}, {"intensity", {1, 0.8, 0.6}}, {"ambient", 0.2}},
+              {{"position", {3, 4, 6}}, {"intensity", 0.6}}}},
             {"objects",
-             {sphere({0, 0, 0}, 1.2, glass), sphere({1.5, 0.5, -3}, 0.8),
-              {{"type", "plane"}, {"point", {0, -1.3, 0}}, {"normal", {0, 1, 0}},
+             {sphere({0, 0, 0}, 1.2, glass),
+              sphere({1.5, 0.5, -3}, 0.8),
+              {{"type", "plane"},
+               {"point", {0, -1.3, 0}},
+               {"normal", {0, 1, 0}},
                {"material", ground}}}}};
   std::vector<Scene> scenes{from(j)};
   for (const char* name : {"scenes/lorenzi-glass.json", "scenes/glass-tir.json"})

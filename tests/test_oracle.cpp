@@ -86,10 +86,11 @@ TEST(Oracle, RandomScenes) {
     EXPECT_LE(a.dbl.off_pixels, 2u);
     EXPECT_LE(a.exact.off_pixels, 4u);
   }
-  std::printf("%d random scenes (%d with refraction, %d with coloured lights): pixels off by > "
-              "2/255: double %.4f%%, exact %.4f%%, default %.4f%%\n",
-              kScenes, glass, coloured, 100.0 * off_double / pixels, 100.0 * off_exact / pixels,
-              100.0 * off_default / pixels);
+  std::printf(
+      "%d random scenes (%d with refraction, %d with coloured lights): pixels off by > "
+      "2/255: double %.4f%%, exact %.4f%%, default %.4f%%\n",
+      kScenes, glass, coloured, 100.0 * off_double / pixels, 100.0 * off_exact / pixels,
+      100.0 * off_default / pixels);
   // The random scenes must keep exercising transparency and coloured lights.
   EXPECT_GE(glass, kScenes / 4);
   EXPECT_GE(coloured, kScenes / 4);

@@ -81,10 +81,11 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
   for (const BenchRow& r : rows)
     if (r.engine == "lancer" && r.mode == "full") {
       const RayCounts& k = r.by_kind;
-      std::printf("  full render rays by kind: %llu camera, %llu shadow, %llu reflected, %llu "
-                  "refracted\n",
-                  (unsigned long long)k.camera, (unsigned long long)k.shadow,
-                  (unsigned long long)k.reflected, (unsigned long long)k.refracted);
+      std::printf(
+          "  full render rays by kind: %llu camera, %llu shadow, %llu reflected, %llu "
+          "refracted\n",
+          (unsigned long long)k.camera, (unsigned long long)k.shadow,
+          (unsigned long long)k.reflected, (unsigned long long)k.refracted);
       break;
     }
   if (peak)

@@ -170,8 +170,7 @@ Rgb color(const json& j, const std::string& where) {
 }
 
 Material parse_material(const json& j, const std::string& where) {
-  only_keys(j, where,
-            {"color", "ka", "kd", "ks", "shininess", "reflect", "transmit", "ior"});
+  only_keys(j, where, {"color", "ka", "kd", "ks", "shininess", "reflect", "transmit", "ior"});
   Material m;
   if (const json* c = field(j, "color")) m.color = color(*c, at(where, "color"));
   auto coefficient = [&](const char* key, double& out) {
@@ -629,15 +628,15 @@ int self_check() {
                grey(0.2));
 
   // A coloured light: each channel of kd * I * cos, times the colour. Head-on light: cos = 1.
-  ok &= expect("coloured light",
-               pixel("{" + head_on_camera + R"(, "objects": [{"type": "sphere",
+  ok &= expect(
+      "coloured light",
+      pixel("{" + head_on_camera + R"(, "objects": [{"type": "sphere",
                         "center": [0, 0, 0], "radius": 1, "material": {"color": [1, 0.5, 0.25],
                         "kd": 0.6, "ka": 0.5}}],
                         "lights": [{"position": [0, 0, 10], "intensity": [0.7, 0.2, 0.1],
                                     "ambient": [0.1, 0.2, 0.4]}]})",
-                     1, 1),
-               {1 * (0.5 * 0.1 + 0.6 * 0.7), 0.5 * (0.5 * 0.2 + 0.6 * 0.2),
-                0.25 * (0.5 * 0.4 + 0.6 * 0.1)});
+            1, 1),
+      {1 * (0.5 * 0.1 + 0.6 * 0.7), 0.5 * (0.5 * 0.2 + 0.6 * 0.2), 0.25 * (0.5 * 0.4 + 0.6 * 0.1)});
 
   // Shadow through two glass spheres stacked between the ground and the light: the light is
   // passed on by 0.5 * 0.4, each sphere counted once although the segment crosses it twice.

@@ -67,7 +67,8 @@ json random_material(Rng& rng, const RandomSceneOptions& opt) {
   }
   if (opt.glass && rng.chance(0.35)) {
     m["transmit"] = rng.uniform(0.1, 1);
-    if (rng.chance(0.85)) m["ior"] = rng.chance(0.25) ? rng.uniform(0.5, 0.95) : rng.uniform(1.05, 2.5);
+    if (rng.chance(0.85))
+      m["ior"] = rng.chance(0.25) ? rng.uniform(0.5, 0.95) : rng.uniform(1.05, 2.5);
   }
   return m;
 }
