@@ -244,9 +244,12 @@ struct Kernel {
   // hit is found; returns the lanes whose t is now finite (hit by something).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
   // `leaving`: per lane, the sphere the ray leaves from outside (-1: none); see skip().
+  // Always inlined: with the ray tree's second copy of shade(), GCC stopped inlining it into
+  // render_rows, and opaque scenes lost 5% to 15% at width 16.
   template <bool kFromEye = false>
-  static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, B& best_id,
-                       RayCounts& counts, const B& leaving = B(T(-1))) noexcept {
+  [[gnu::always_inline]] static M closest_hit(const Scene& s, M valid, const V& o, const V& d,
+                                              B& best_t, B& best_id, RayCounts& counts,
+                                              const B& leaving = B(T(-1))) noexcept {
     const B eps(s.epsilon);
     if (s.features.spheres) {
       // The tests of sphere i, given its discriminant: the nearest root beyond epsilon, kept
@@ -363,8 +366,8 @@ struct Kernel {
 
   // max(0, c)^shininess per lane: binary powering for whole exponents; std::pow lane by lane
   // for the rare fractional ones, exactly as the reference does for that material.
-  static B power(const Scene& s, const B& cos_nh, const B& shininess,
-                 const B& shininess_int) noexcept {
+  [[gnu::always_inline]] static B power(const Scene& s, const B& cos_nh, const B& shininess,
+                                        const B& shininess_int) noexcept {
     // One whole exponent for every lane (one material's area, the common case): drive binary
     // powering from the exponent's bits as an integer, a chain of multiplications only.
     const T first = shininess.get(0);
@@ -494,6 +497,15 @@ struct Kernel {
     }
   }
 
+  // light_sums<3> out of line: inlined beside light_sums<1> it made GCC stop inlining the
+  // intersection loops into render_rows, which cost grey-light scenes their speed.
+  [[gnu::noinline]] static void coloured_light_sums(const Scene& s, const M& hit, const B& id,
+                                                    const V& o, const B& best_t, const V& p,
+                                                    const V& n, const V& view, const B& here,
+                                                    B (&shade_k)[3], RayCounts& counts) noexcept {
+    light_sums<3>(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
+  }
+
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
   // o, d to their reflected rays; in scenes with refraction, out.refracted, out.to, out.td to
   // the refracted ones. `stage`: the stage the ray's intersection is charged to.
@@ -548,7 +560,7 @@ struct Kernel {
 
     B shade_k[3];
     if (s.features.coloured_lights)
-      light_sums<3>(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
+      coloured_light_sums(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
     else
       light_sums<1>(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
     out.r = xsimd::select(hit, gather(s, s.mat_r, id) * shade_k[0], out.r);
@@ -623,8 +635,9 @@ struct Kernel {
   // the reflected packet, then the refracted one, each on the lanes that spawned it, and adds
   // local + reflect * child, then + transmit * child: the reference's order, bottom-up.
   // Recursion is at most max_depth + 1 deep; splitting materials bound it (kMaxSplitDepth).
-  static void radiance_tree(const Scene& s, M active, int depth, int stage, V o, V d, B leaving,
-                            B& r, B& g, B& b, RayCounts& counts) noexcept {
+  [[gnu::noinline]] static void radiance_tree(const Scene& s, M active, int depth, int stage, V o,
+                                              V d, B leaving, B& r, B& g, B& b,
+                                              RayCounts& counts) noexcept {
     Level lv;
     const M reflected = shade(s, active, depth, stage, o, d, leaving, lv, counts);
     r = lv.r, g = lv.g, b = lv.b;
@@ -649,8 +662,9 @@ struct Kernel {
   // loop over levels with an active mask; the levels are then folded from the deepest up,
   // local + reflect * child, which is the order the reference's recursion adds in (a running
   // weight would not be). With refraction the rays form a tree: radiance_tree.
-  static void radiance(const Scene& s, M active, V o, V d, std::vector<Level>& levels, B& r, B& g,
-                       B& b, RayCounts& counts) noexcept {
+  [[gnu::always_inline]] static void radiance(const Scene& s, M active, V o, V d,
+                                              std::vector<Level>& levels, B& r, B& g, B& b,
+                                              RayCounts& counts) noexcept {
     int depth = 0;
     B leaving(T(-1));
     if (s.features.refraction) {
