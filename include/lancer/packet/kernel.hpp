@@ -323,8 +323,10 @@ struct Kernel {
   // epsilon, nearer than the light). Their transmittance is multiplied by its transmit; a lane
   // is done once that is 0. Without transparency every object is opaque: done at once, no
   // product. Called in object-id order, the order of the reference's product.
+  // kGlass false: the scene has no transparency (compiled out of the grey opaque path).
+  template <bool kGlass>
   static void shadow_hit(const Scene& s, Shadow& sh, const M& met, int id) noexcept {
-    if (!s.features.transparency) {
+    if (!kGlass || !s.features.transparency) {
       sh.pending = sh.pending & ~met;
       return;
     }
@@ -337,6 +339,7 @@ struct Kernel {
   // transmittance over the objects it meets; `pending` keeps the lanes whose transmittance is
   // not 0 (in opaque scenes, those not blocked). Stops as soon as no lane of `valid` is pending.
   // `leaving` as for closest_hit.
+  template <bool kGlass>
   static Shadow occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
                          RayCounts& counts, const B& leaving) noexcept {
     const B eps(s.epsilon);
@@ -349,7 +352,7 @@ struct Kernel {
       M m = skip(sh.pending & (sd.disc >= B(0)), leaving, i);
       if (!xsimd::any(m)) continue;
       const B t = first_root(s, sd, f, r2, false, i, eps);
-      shadow_hit(s, sh, m & (t > eps) & (t < dist), i);
+      shadow_hit<kGlass>(s, sh, m & (t > eps) & (t < dist), i);
       if (!xsimd::any(sh.pending)) return sh;
     }
     for (int k = 0; k < s.num_planes; ++k) {
@@ -358,7 +361,8 @@ struct Kernel {
       const B denom = Mth::dot(l, n);
       const B t =
           Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n), denom);
-      shadow_hit(s, sh, sh.pending & (denom != B(0)) & (t > eps) & (t < dist), s.num_spheres + k);
+      shadow_hit<kGlass>(s, sh, sh.pending & (denom != B(0)) & (t > eps) & (t < dist),
+                         s.num_spheres + k);
       if (!xsimd::any(sh.pending)) return sh;
     }
     return sh;
@@ -431,11 +435,15 @@ struct Kernel {
   // Contract steps 4 and 5 for the lanes of `hit` over C channels of the lights (1: grey, the
   // colour then scales one sum; 3: coloured): shade[c] = (ambient + diffuse) + specular.
   // `here`: the sphere hit from outside (fast mode), which shadow rays leaving outwards skip.
-  template <int C>
-  [[gnu::always_inline]] static void light_sums(const Scene& s, const M& hit, const B& id,
-                                                const V& o, const B& best_t, const V& p, const V& n,
-                                                const V& view, const B& here, B (&shade_k)[3],
-                                                RayCounts& counts) noexcept {
+  // kGlass false: grey opaque scenes, with no transparency code at all.
+  struct Shade {
+    B r, g, b;
+  };
+  template <int C, bool kGlass>
+  [[gnu::always_inline]] static Shade light_sums(const Scene& s, const M& hit, const B& id,
+                                                 const V& o, const B& best_t, const V& p,
+                                                 const V& n, const V& view, const B& here,
+                                                 RayCounts& counts) noexcept {
     const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);
     if (s.features.specular) {
@@ -444,7 +452,8 @@ struct Kernel {
       if constexpr (!kFast) shininess_int = gather(s, s.mat_shininess_int, id);
     }
     // Fast mode's shortcuts for shadow rays (below) assume opaque objects.
-    const bool shortcuts = kFast && !s.features.transparency;
+    const bool glass = kGlass && s.features.transparency;
+    const bool shortcuts = kFast && !glass;
     B ambient[C], diffuse[C], specular[C];
     for (int c = 0; c < C; ++c) ambient[c] = diffuse[c] = specular[c] = B(0);
     for (int k = 0; k < s.num_lights; ++k) {
@@ -469,7 +478,7 @@ struct Kernel {
         if (!shortcuts) skip_sphere = xsimd::select(cos_nl > B(0), here, B(T(-1)));
       lap(counts, kShading);
       occupancy(counts, kShadowRays, traced);
-      const Shadow sh = occluded(s, traced, from, l, dist, counts, skip_sphere);
+      const Shadow sh = occluded<kGlass>(s, traced, from, l, dist, counts, skip_sphere);
       const M unblocked = traced & sh.pending;
       lap(counts, kShadowRays);
       if (!xsimd::any(unblocked)) continue;
@@ -484,26 +493,31 @@ struct Kernel {
       }
       for (int c = 0; c < C; ++c) {
         B intensity(C == 1 ? s.light_intensity[k] : s.light_intensity_rgb[c][k]);
-        if (s.features.transparency) intensity = intensity * sh.transmittance;
+        if (glass) intensity = intensity * sh.transmittance;
         diffuse[c] = xsimd::select(unblocked, diffuse[c] + (kd * intensity) * cos_term, diffuse[c]);
         if (s.features.specular)
           specular[c] =
               xsimd::select(spec_lanes, specular[c] + (ks * intensity) * spec_power, specular[c]);
       }
     }
-    for (int c = 0; c < 3; ++c) {
-      const int k = C == 1 ? 0 : c;
-      shade_k[c] = (ambient[k] + diffuse[k]) + specular[k];
-    }
+    const B sum0 = (ambient[0] + diffuse[0]) + specular[0];
+    if constexpr (C == 1)
+      return {sum0, sum0, sum0};
+    else
+      return {sum0, (ambient[C - 2] + diffuse[C - 2]) + specular[C - 2],
+              (ambient[C - 1] + diffuse[C - 1]) + specular[C - 1]};
   }
 
-  // light_sums<3> out of line: inlined beside light_sums<1> it made GCC stop inlining the
-  // intersection loops into render_rows, which cost grey-light scenes their speed.
-  [[gnu::noinline]] static void coloured_light_sums(const Scene& s, const M& hit, const B& id,
-                                                    const V& o, const B& best_t, const V& p,
-                                                    const V& n, const V& view, const B& here,
-                                                    B (&shade_k)[3], RayCounts& counts) noexcept {
-    light_sums<3>(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
+  // Coloured lights or transparency: out of line. Inlined beside the grey opaque sums they made
+  // GCC stop inlining the intersection loops into render_rows, which cost grey opaque scenes
+  // their speed (issue 13: a scene pays only for what it uses). Arguments by value: references
+  // would give the hot path's vectors a home in memory.
+  [[gnu::noinline]] static Shade general_light_sums(const Scene& s, M hit, B id, V o, B best_t, V p,
+                                                    V n, V view, B here,
+                                                    RayCounts& counts) noexcept {
+    if (s.features.coloured_lights)
+      return light_sums<3, true>(s, hit, id, o, best_t, p, n, view, here, counts);
+    return light_sums<1, true>(s, hit, id, o, best_t, p, n, view, here, counts);
   }
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
@@ -511,6 +525,8 @@ struct Kernel {
   // the refracted ones. `stage`: the stage the ray's intersection is charged to.
   // `leaving` (fast mode): the sphere each lane's ray leaves from outside, -1 for none; set for
   // the reflected rays (out.t_leaving for the refracted ones).
+  // kTree: the ray tree's levels (scenes with refraction); the chain's have no refraction code.
+  template <bool kTree>
   [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, int stage, V& o, V& d,
                                         B& leaving, Level& out, RayCounts& counts) noexcept {
     B best_t(std::numeric_limits<T>::infinity());
@@ -558,26 +574,25 @@ struct Kernel {
       if (s.features.spheres)
         here = xsimd::select(hit & ~inside & (best_id < B(T(s.num_spheres))), best_id, here);
 
-    B shade_k[3];
-    if (s.features.coloured_lights)
-      coloured_light_sums(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
-    else
-      light_sums<1>(s, hit, id, o, best_t, p, n, view, here, shade_k, counts);
-    out.r = xsimd::select(hit, gather(s, s.mat_r, id) * shade_k[0], out.r);
-    out.g = xsimd::select(hit, gather(s, s.mat_g, id) * shade_k[1], out.g);
-    out.b = xsimd::select(hit, gather(s, s.mat_b, id) * shade_k[2], out.b);
+    const Shade sum = s.features.coloured_lights || s.features.transparency
+                          ? general_light_sums(s, hit, id, o, best_t, p, n, view, here, counts)
+                          : light_sums<1, false>(s, hit, id, o, best_t, p, n, view, here, counts);
+    out.r = xsimd::select(hit, gather(s, s.mat_r, id) * sum.r, out.r);
+    out.g = xsimd::select(hit, gather(s, s.mat_g, id) * sum.g, out.g);
+    out.b = xsimd::select(hit, gather(s, s.mat_b, id) * sum.b, out.b);
 
-    if (depth >= s.max_depth || !(s.features.reflection || s.features.refraction)) {
+    if (!(kTree || s.features.reflection) || depth >= s.max_depth) {
       lap(counts, kShading);
       return out.reflected;
     }
     // Refracted rays first, while o and d are still this level's rays; their term is added
     // after the reflection's all the same (radiance_tree).
-    if (s.features.refraction)
+    if constexpr (kTree) {
       refract_rays(s, hit, id, o, d, best_t, p, n, cos_in, here, out, counts);
-    if (!s.features.reflection) {
-      lap(counts, kShading);
-      return out.reflected;
+      if (!s.features.reflection) {
+        lap(counts, kShading);
+        return out.reflected;
+      }
     }
     out.reflect = gather(s, s.mat_reflect, id);
     out.reflected = hit & (out.reflect > B(0));
@@ -639,7 +654,7 @@ struct Kernel {
                                               V d, B leaving, B& r, B& g, B& b,
                                               RayCounts& counts) noexcept {
     Level lv;
-    const M reflected = shade(s, active, depth, stage, o, d, leaving, lv, counts);
+    const M reflected = shade<true>(s, active, depth, stage, o, d, leaving, lv, counts);
     r = lv.r, g = lv.g, b = lv.b;
     if (xsimd::any(reflected)) {
       B cr, cg, cb;
@@ -672,8 +687,8 @@ struct Kernel {
       return;
     }
     for (;;) {
-      active = shade(s, active, depth, depth == 0 ? kPrimaryIntersection : kReflection, o, d,
-                     leaving, levels[depth], counts);
+      active = shade<false>(s, active, depth, depth == 0 ? kPrimaryIntersection : kReflection, o, d,
+                            leaving, levels[depth], counts);
       if (!xsimd::any(active)) break;
       ++depth;
     }
