@@ -82,8 +82,8 @@ class Tracer {
   // Steps 4 and 5 over C channels of the lights (1: grey, 3: coloured): each light's ambient
   // always; diffuse and specular scaled by the light's transmittance where it is not 0.
   template <int C>
-  Color<T> lights(const Vec3<T>& origin, const T& hit_t, const Vec3<T>& p, const Vec3<T>& n,
-                  const Vec3<T>& view, int m, int depth) {
+  [[gnu::always_inline]] Color<T> lights(const Vec3<T>& origin, const T& hit_t, const Vec3<T>& p,
+                                         const Vec3<T>& n, const Vec3<T>& view, int m, int depth) {
     const auto& in = s_.light_intensity_rgb;
     const auto& am = s_.light_ambient_rgb;
     T ambient[C], diffuse[C], specular[C];
