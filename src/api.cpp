@@ -56,15 +56,21 @@ std::string to_scene_file(const SceneDescription& d, const std::string& name) {
   json mats = json::object();
   for (std::size_t m = 0; m < d.materials.size(); ++m) {
     const Material& mt = d.materials[m];
-    mats[material_name(m, d.materials.size())] = {
-        {"color", colour(mt.color)}, {"ka", mt.ka},          {"kd", mt.kd}, {"ks", mt.ks},
-        {"shininess", mt.shininess}, {"reflect", mt.reflect}};
+    mats[material_name(m, d.materials.size())] = {{"color", colour(mt.color)},
+                                                  {"ka", mt.ka},
+                                                  {"kd", mt.kd},
+                                                  {"ks", mt.ks},
+                                                  {"shininess", mt.shininess},
+                                                  {"reflect", mt.reflect},
+                                                  {"transmit", mt.transmit},
+                                                  {"ior", mt.ior}};
   }
   j["materials"] = mats;
   json lights = json::array();
   for (const Light& l : d.lights)
-    lights.push_back(
-        {{"position", point(l.position)}, {"intensity", l.intensity}, {"ambient", l.ambient}});
+    lights.push_back({{"position", point(l.position)},
+                      {"intensity", colour(l.intensity)},
+                      {"ambient", colour(l.ambient)}});
   j["lights"] = lights;
   json objects = json::array();
   auto material = [&](int m, std::size_t k) {

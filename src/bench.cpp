@@ -104,24 +104,24 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
       if (embree) {
         if (row.mode == "primary") {
           const PrimaryResult p = embree->primary(row.width, row.threads);
-          return row.rays = p.rays.total(), p.seconds;
+          return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
         }
         const peer::EmbreeScene::RaysResult f = embree->trace_all(row.width, row.threads);
-        return row.rays = f.rays.total(), f.seconds;
+        return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
       }
       if (kernel) {
         const PrimaryResult p = kernel->run();
         out.structure = p.structure;
-        return row.rays = p.rays.total(), p.seconds;
+        return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
       }
       if (row.mode == "primary") {
         const PrimaryResult p = render_primary(scene, ro);
         out.structure = p.structure;
-        return row.rays = p.rays.total(), p.seconds;
+        return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
       }
       const RenderResult f = render(scene, ro);
       out.structure = f.structure;
-      return row.rays = f.rays.total(), f.seconds;
+      return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
     });
   }
 

@@ -104,6 +104,10 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     p.mat_ks.push_back(T(m.ks));
     p.mat_shininess.push_back(T(m.shininess));
     p.mat_reflect.push_back(T(m.reflect));
+    p.mat_transmit.push_back(T(m.transmit));
+    p.mat_ior.push_back(T(m.ior));
+    p.mat_inv_ior.push_back(T(1.0 / m.ior));
+    if (m.transmit > 0) p.features.transparency = true;
     const bool whole =
         m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
     p.mat_shininess_int.push_back(T(whole ? 1 : 0));
@@ -155,18 +159,43 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     p.light_x.push_back(T(position.x));
     p.light_y.push_back(T(position.y));
     p.light_z.push_back(T(position.z));
-    p.light_intensity.push_back(T(l.intensity));
-    p.light_ambient.push_back(T(l.ambient));
+    const double in[3] = {l.intensity.r, l.intensity.g, l.intensity.b};
+    const double am[3] = {l.ambient.r, l.ambient.g, l.ambient.b};
+    for (int ch = 0; ch < 3; ++ch) {
+      p.light_intensity_rgb[ch].push_back(T(in[ch]));
+      p.light_ambient_rgb[ch].push_back(T(am[ch]));
+    }
+    p.light_intensity.push_back(T(in[0]));
+    p.light_ambient.push_back(T(am[0]));
+    if (in[1] != in[0] || in[2] != in[0] || am[1] != am[0] || am[2] != am[0])
+      p.features.coloured_lights = true;
   }
   // Packets look per-object fields up a whole register at a time: pad with zeros.
-  for (auto* field :
-       {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.sphere_inv_r, &p.plane_nx,
-        &p.plane_ny, &p.plane_nz, &p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd, &p.mat_ks,
-        &p.mat_shininess, &p.mat_reflect, &p.mat_shininess_int})
+  for (auto* field : {&p.sphere_cx,
+                      &p.sphere_cy,
+                      &p.sphere_cz,
+                      &p.sphere_r,
+                      &p.sphere_inv_r,
+                      &p.plane_nx,
+                      &p.plane_ny,
+                      &p.plane_nz,
+                      &p.mat_r,
+                      &p.mat_g,
+                      &p.mat_b,
+                      &p.mat_ka,
+                      &p.mat_kd,
+                      &p.mat_ks,
+                      &p.mat_shininess,
+                      &p.mat_reflect,
+                      &p.mat_shininess_int,
+                      &p.mat_transmit,
+                      &p.mat_ior,
+                      &p.mat_inv_ior})
     if (field->size() < std::size_t(kMaxLanes)) field->resize(kMaxLanes, T(0));
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;
   p.features.lights = p.num_lights > 0;
+  p.features.refraction = p.features.transparency && scene.max_depth > 0;
   if (resolve_accel(scene, accel) == Accel::bvh && p.num_spheres > 0) add_bvh(p);
   return p;
 }

@@ -11,7 +11,8 @@ namespace lancer {
 
 const char* stage_name(int stage) {
   static const char* const names[kStageCount] = {
-      "ray generation", "primary intersection", "shading", "shadow rays", "reflection", "output"};
+      "ray generation", "primary intersection", "shading", "shadow rays",
+      "reflection",     "refraction",           "output"};
   return stage >= 0 && stage < kStageCount ? names[stage] : "?";
 }
 
@@ -40,10 +41,12 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   res.camera_rays = counts.camera;
   res.shadow_rays = counts.shadow;
   res.reflected_rays = counts.reflected;
+  res.refracted_rays = counts.refracted;
   const std::uint64_t rays = counts.total();
   res.tests_per_ray = rays ? double(prof.sphere_tests + prof.plane_tests) / double(rays) : 0;
   const std::uint64_t stage_rays[kStageCount] = {counts.camera, counts.camera,    counts.camera,
-                                                 counts.shadow, counts.reflected, counts.camera};
+                                                 counts.shadow, counts.reflected, counts.refracted,
+                                                 counts.camera};
   for (int st = 0; st < kStageCount; ++st) {
     ProfileResult::StageRow row;
     row.name = stage_name(st);

@@ -27,64 +27,107 @@ class Tracer {
     sample_ = sample;
   }
 
-  // trace(origin, dir, depth) of the contract; dir is unit length.
-  Color<T> trace(const Vec3<T>& origin, const Vec3<T>& dir, int depth) {
+  // trace(origin, dir, depth) of the contract; dir is unit length. `kind` is what the ray is,
+  // for the log.
+  Color<T> trace(const Vec3<T>& origin, const Vec3<T>& dir, int depth,
+                 PathLog::Segment::Kind kind = PathLog::Segment::camera) {
     // 1. The closest hit with t > epsilon.
     const Hit<T> hit = closest_hit(s_, origin, dir);
-    if (log_) log_ray(origin, dir, depth, hit);
-    // 2. No hit: background for camera rays, environment for reflected ones.
+    if (log_) log_ray(origin, dir, depth, hit, kind);
+    // 2. No hit: background for camera rays, environment for secondary ones.
     if (hit.id < 0) {
       const T* c = depth == 0 ? s_.background : s_.environment;
       return {c[0], c[1], c[2]};
     }
-    // 3. The hit point and the normal facing the ray.
+    // 3. The hit point and the normal facing the ray; the geometric normal's side tells
+    // whether the ray enters the object (step 7).
     const Vec3<T> p = along(origin, dir, hit.t);
-    Vec3<T> n = normal_at(hit.id, p);
-    if (dot(n, dir) > T(0)) n = -n;
+    const Vec3<T> geometric = normal_at(hit.id, p);
+    const T cos_in = dot(geometric, dir);
+    const Vec3<T> n = cos_in > T(0) ? -geometric : geometric;
     const Vec3<T> view = -dir;
 
-    // 4. Each light: ambient always; diffuse and specular when not blocked.
+    // 4 and 5. One shading sum scaled by the colour for grey lights, one per channel otherwise:
+    // the same bits per channel when the channels are equal.
     const int m = hit.id;
-    T ambient(0), diffuse(0), specular(0);
-    for (int k = 0; k < s_.num_lights; ++k) {
-      ambient = ambient + s_.mat_ka[m] * s_.light_ambient[k];
-      const Vec3<T> to_light = Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]} - p;
-      const T dist = length(to_light);
-      if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
-      ++counts_.shadow;
-      const Vec3<T> l = to_light / dist;
-      const bool shadowed = blocked(offset_origin<T, T>(p, n, dot(l, n), origin, hit.t), l, dist);
-      if (log_) log_light(p, k, depth, shadowed);
-      if (shadowed) continue;
-      const T intensity = s_.light_intensity[k];
-      diffuse = diffuse + (s_.mat_kd[m] * intensity) * positive_part(dot(n, l));
-      if (s_.features.specular) {
-        const Vec3<T> half = l + view;
-        const T half_len = length(half);
-        if (half_len > T(0)) {
-          const Vec3<T> h = half / half_len;
-          specular = specular + (s_.mat_ks[m] * intensity) * power(dot(n, h), m);
-        }
-      }
-    }
-    // 5. local = color * (ambient + diffuse + specular).
-    const T shade = (ambient + diffuse) + specular;
-    Color<T> local{s_.mat_r[m] * shade, s_.mat_g[m] * shade, s_.mat_b[m] * shade};
+    Color<T> local = s_.features.coloured_lights ? lights<3>(origin, hit.t, p, n, view, m, depth)
+                                                 : lights<1>(origin, hit.t, p, n, view, m, depth);
 
     // 6. Mirror reflection, recursively.
     const T reflect_k = s_.mat_reflect[m];
     if (depth < s_.max_depth && reflect_k > T(0)) {
       ++counts_.reflected;
       const Vec3<T> r = normalize(reflect(dir, n));
-      const Color<T> child =
-          trace(offset_origin<T, T>(p, n, dot(r, n), origin, hit.t), r, depth + 1);
+      const Color<T> child = trace(offset_origin<T, T>(p, n, dot(r, n), origin, hit.t), r,
+                                   depth + 1, PathLog::Segment::reflected);
       for (int c = 0; c < 3; ++c) local[c] = local[c] + reflect_k * child[c];
     }
-    // 7.
+    // 7. Refraction (Snell-Descartes), or the mirror direction where the light is totally
+    // reflected; added after step 6's term. The refracted ray leaves on the far side of the
+    // surface (t.n < 0), and offset_origin moves it there.
+    const T transmit_k = s_.mat_transmit[m];
+    if (depth < s_.max_depth && transmit_k > T(0)) {
+      ++counts_.refracted;
+      const T eta = cos_in < T(0) ? s_.mat_inv_ior[m] : s_.mat_ior[m];
+      const Refraction<T> rf = refract(dir, n, eta);
+      const Vec3<T> t = rf.k >= T(0) ? normalize(rf.dir) : normalize(reflect(dir, n));
+      const Color<T> child = trace(offset_origin<T, T>(p, n, dot(t, n), origin, hit.t), t,
+                                   depth + 1, PathLog::Segment::refracted);
+      for (int c = 0; c < 3; ++c) local[c] = local[c] + transmit_k * child[c];
+    }
+    // 8.
     return local;
   }
 
  private:
+  // Steps 4 and 5 over C channels of the lights (1: grey, 3: coloured): each light's ambient
+  // always; diffuse and specular scaled by the light's transmittance where it is not 0.
+  template <int C>
+  [[gnu::always_inline]] Color<T> lights(const Vec3<T>& origin, const T& hit_t, const Vec3<T>& p,
+                                         const Vec3<T>& n, const Vec3<T>& view, int m, int depth) {
+    const auto& in = s_.light_intensity_rgb;
+    const auto& am = s_.light_ambient_rgb;
+    T ambient[C], diffuse[C], specular[C];
+    for (int c = 0; c < C; ++c) ambient[c] = diffuse[c] = specular[c] = T(0);
+    for (int k = 0; k < s_.num_lights; ++k) {
+      for (int c = 0; c < C; ++c)
+        ambient[c] = ambient[c] + s_.mat_ka[m] * (C == 1 ? s_.light_ambient[k] : am[c][k]);
+      const Vec3<T> to_light = Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]} - p;
+      const T dist = length(to_light);
+      if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
+      ++counts_.shadow;
+      const Vec3<T> l = to_light / dist;
+      const T transmittance =
+          shadow_transmittance(offset_origin<T, T>(p, n, dot(l, n), origin, hit_t), l, dist);
+      if (log_) log_light(p, k, depth, transmittance == T(0));
+      if (transmittance == T(0)) continue;
+      const T cos_nl = positive_part(dot(n, l));
+      T spec_power(0);
+      bool spec = false;
+      if (s_.features.specular) {
+        const Vec3<T> half = l + view;
+        const T half_len = length(half);
+        if (half_len > T(0)) {
+          spec = true;
+          spec_power = power(dot(n, half / half_len), m);
+        }
+      }
+      for (int c = 0; c < C; ++c) {
+        T intensity = C == 1 ? s_.light_intensity[k] : in[c][k];
+        if (s_.features.transparency) intensity = intensity * transmittance;
+        diffuse[c] = diffuse[c] + (s_.mat_kd[m] * intensity) * cos_nl;
+        if (spec) specular[c] = specular[c] + (s_.mat_ks[m] * intensity) * spec_power;
+      }
+    }
+    const T color[3] = {s_.mat_r[m], s_.mat_g[m], s_.mat_b[m]};
+    Color<T> local;
+    for (int c = 0; c < 3; ++c) {
+      const int k = C == 1 ? 0 : c;
+      local[c] = color[c] * ((ambient[k] + diffuse[k]) + specular[k]);
+    }
+    return local;
+  }
+
   Vec3<T> normal_at(int id, const Vec3<T>& p) const {
     if (id < s_.num_spheres)
       return sphere_normal(p, Vec3<T>{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]});
@@ -98,37 +141,48 @@ class Tracer {
     return std::pow(positive_part(cos_nh), shininess);
   }
 
-  // Whether any object lies between p and the light: epsilon < t < dist along unit l. Spheres
-  // through the hierarchy where there is one (its fixed depth-first order), else in id order.
-  bool blocked(const Vec3<T>& p, const Vec3<T>& l, const T& dist) const {
+  // The transmittance towards a light at `dist` along unit l from p (contract step 4): the
+  // product of transmit over the objects met (nearest hit beyond epsilon nearer than the light),
+  // each once; 0 as soon as it is 0 (an opaque object). A float product of three or more factors
+  // depends on their order, so the order is fixed: spheres through the hierarchy where there is
+  // one (its fixed depth-first order, as the packets visit it), else in id order; then planes.
+  T shadow_transmittance(const Vec3<T>& p, const Vec3<T>& l, const T& dist) const {
     const T eps = s_.epsilon;
-    auto meets = [&](const T& cx, const T& cy, const T& cz, const T& r2) {
+    T transmittance(1);
+    // Meets sphere (cx, cy, cz, r2), object `id`: returns true once the light is blocked.
+    auto sphere = [&](const T& cx, const T& cy, const T& cz, const T& r2, int id) {
       const Vec3<T> f = p - Vec3<T>{cx, cy, cz};
       const SphereDisc<T> sd = sphere_disc(f, l, r2);
       if (!(sd.disc >= T(0))) return false;
       const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      return t > eps && t < dist;
+      if (!(t > eps && t < dist)) return false;
+      transmittance = attenuate(transmittance, s_.mat_transmit[id]);
+      return transmittance == T(0);
     };
     const Bvh<T>& h = s_.bvh;
     if (h.active() && !RayTraversal<T>::beyond(h, p)) {
-      const bool any = RayTraversal<T>(h, p, l).any(dist, [&](int first, int count) {
+      const bool blocked = RayTraversal<T>(h, p, l).any(dist, [&](int first, int count) {
         for (int j = first; j < first + count; ++j)
-          if (meets(h.cx[j], h.cy[j], h.cz[j], h.r2[j])) return true;
+          if (sphere(h.cx[j], h.cy[j], h.cz[j], h.r2[j], h.id[j])) return true;
         return false;
       });
-      if (any) return true;
+      if (blocked) return transmittance;
     } else {
       for (int i = 0; i < s_.num_spheres; ++i)
-        if (meets(s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i], s_.sphere_r2[i])) return true;
+        if (sphere(s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i], s_.sphere_r2[i], i))
+          return transmittance;
     }
     for (int k = 0; k < s_.num_planes; ++k) {
       const Vec3<T> normal{s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
       const T denom = dot(l, normal);
       if (denom == T(0)) continue;
       const T t = dot(Vec3<T>{s_.plane_px[k], s_.plane_py[k], s_.plane_pz[k]} - p, normal) / denom;
-      if (t > eps && t < dist) return true;
+      if (t > eps && t < dist) {
+        transmittance = attenuate(transmittance, s_.mat_transmit[s_.num_spheres + k]);
+        if (transmittance == T(0)) return transmittance;
+      }
     }
-    return false;
+    return transmittance;
   }
 
   // The path log's records: off the normal render's way, out of line.
@@ -139,9 +193,10 @@ class Tracer {
   static Vec3<double> to_double(const Vec3<T>& a) {
     return {double(a.x), double(a.y), double(a.z)};
   }
-  void log_ray(const Vec3<T>& origin, const Vec3<T>& dir, int depth, const Hit<T>& hit) {
+  void log_ray(const Vec3<T>& origin, const Vec3<T>& dir, int depth, const Hit<T>& hit,
+               PathLog::Segment::Kind kind) {
     PathLog::Segment seg;
-    seg.kind = depth == 0 ? PathLog::Segment::camera : PathLog::Segment::reflected;
+    seg.kind = kind;
     seg.from = to_world(origin);
     seg.hit = hit.id >= 0;
     seg.to = seg.hit ? to_world(along(origin, dir, hit.t))

@@ -90,7 +90,8 @@ PrecisionChoice choose_precision(const Scene& scene) {
   for (const Plane& p : scene.planes) grow(p.point);
   for (const Light& l : scene.lights) {
     grow(l.position);
-    for (double v : {l.intensity, l.ambient})
+    for (double v :
+         {l.intensity.r, l.intensity.g, l.intensity.b, l.ambient.r, l.ambient.g, l.ambient.b})
       if (v != 0 && (v > 1e30 || v < 1e-30))
         return {Precision::dbl, "a light's intensity lies outside float's range [1e-30, 1e30]"};
   }
@@ -142,10 +143,10 @@ PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
     // from, and its intersection loop is empty either way.
     Features& f = p.features;
     f.lights = f.specular = f.reflection = true;
+    f.coloured_lights = f.transparency = f.refraction = true;
   }
   return p;
 }
-
 
 // Tiles over threads with the progress callback fed as rows complete.
 template <class Body>

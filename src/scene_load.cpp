@@ -36,6 +36,8 @@ constexpr double kMaxCoordinate = 1e18;
 constexpr double kMinLength = 1e-18;
 constexpr double kMaxRadiance = 1e34;
 constexpr double kMaxShininess = 1e6;
+// - ior from 1/kMaxIor to kMaxIor: eta^2 in the refracted direction stays a normal float.
+constexpr double kMaxIor = 1e6;
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) {
   throw InputError(where + ": " + what);
@@ -263,6 +265,12 @@ Material read_material(const json& j, const std::string& path) {
   m.ks = r.non_negative_or("ks", m.ks);
   m.shininess = r.non_negative_or("shininess", m.shininess, kMaxShininess);
   m.reflect = r.non_negative_or("reflect", m.reflect);
+  m.transmit = r.non_negative_or("transmit", m.transmit);
+  m.ior = r.number_or("ior", m.ior);
+  if (!(m.ior > 0)) fail(r.at("ior"), "must be > 0");
+  if (m.ior < 1 / kMaxIor || m.ior > kMaxIor)
+    fail(r.at("ior"),
+         "must be from " + ObjectReader::show(1 / kMaxIor) + " to " + ObjectReader::show(kMaxIor));
   r.finish();
   return m;
 }
@@ -271,8 +279,8 @@ Light read_light(const json& j, const std::string& path) {
   ObjectReader r(j, path);
   Light l;
   l.position = r.point("position");
-  l.intensity = r.non_negative_or("intensity", l.intensity);
-  l.ambient = r.non_negative_or("ambient", l.ambient);
+  l.intensity = r.rgb_or("intensity", l.intensity);
+  l.ambient = r.rgb_or("ambient", l.ambient);
   r.finish();
   return l;
 }
@@ -528,19 +536,27 @@ void read_object(const json& j, std::size_t index, MaterialTable& materials, Sce
 // The brightest radiance a render of the scene can produce, with the model's formulas and unit
 // normals (max(0, n.l) <= 1, max(0, n.h)^shininess <= 1), and the material that reaches it. A
 // miss gives background (camera rays) or environment; a hit on material m at most
-//   max(1, colour) * (ka * sum(ambient) + (kd + ks) * sum(intensity)) + reflect * (next level),
-// where the max(1, .) also bounds the shading sum before it is multiplied by the colour.
+//   max(1, colour) * (ka * sum(ambient) + (kd + ks) * sum(intensity) * T)
+//     + (reflect + transmit) * (next level),
+// where the max(1, .) also bounds the shading sum before it is multiplied by the colour, the
+// sums take each light's brightest channel, and T bounds the shadow rays' transmittance: the
+// product over objects of max(1, transmit).
 struct RadianceBound {
   double value = 0;
   int material = -1;  // -1: the background or environment
 };
 RadianceBound radiance_bound(const Scene& s) {
+  auto max3 = [](const Rgb& c) { return std::max({c.r, c.g, c.b}); };
   double sum_intensity = 0, sum_ambient = 0;
-  for (const Light& l : s.lights) sum_intensity += l.intensity, sum_ambient += l.ambient;
+  for (const Light& l : s.lights)
+    sum_intensity += max3(l.intensity), sum_ambient += max3(l.ambient);
   std::vector<bool> used(s.materials.size(), false);
   for (const Sphere& sp : s.spheres) used[sp.material] = true;
   for (const Plane& p : s.planes) used[p.material] = true;
-  auto max3 = [](const Rgb& c) { return std::max({c.r, c.g, c.b}); };
+  double transmittance = 1;
+  for (const Sphere& sp : s.spheres)
+    transmittance *= std::max(1.0, s.materials[sp.material].transmit);
+  for (const Plane& p : s.planes) transmittance *= std::max(1.0, s.materials[p.material].transmit);
   RadianceBound next;  // the level below (none below max_depth)
   for (int depth = s.max_depth; depth >= 0; --depth) {
     RadianceBound level{max3(depth == 0 ? s.background : s.environment), -1};
@@ -548,13 +564,29 @@ RadianceBound radiance_bound(const Scene& s) {
       if (!used[m]) continue;
       const Material& mat = s.materials[m];
       double v = std::max(1.0, max3(mat.color)) *
-                 (mat.ka * sum_ambient + (mat.kd + mat.ks) * sum_intensity);
-      if (depth < s.max_depth && mat.reflect > 0) v += mat.reflect * next.value;
+                 (mat.ka * sum_ambient + (mat.kd + mat.ks) * sum_intensity * transmittance);
+      if (depth < s.max_depth) v += (mat.reflect + mat.transmit) * next.value;
       if (!(v <= level.value)) level = {v, static_cast<int>(m)};
     }
     next = level;
   }
   return next;
+}
+
+// The ray tree is bounded: a material that both reflects and transmits splits each ray it meets
+// in two, 2^max_depth rays at worst from one camera ray, so beyond kMaxSplitDepth it is refused
+// (README, "Scenes"). Without such a material the tree is a chain of at most max_depth rays.
+void check_ray_tree(const Scene& s, const std::vector<std::string>& material_where) {
+  if (s.max_depth <= kMaxSplitDepth) return;
+  std::vector<bool> used(s.materials.size(), false);
+  for (const Sphere& sp : s.spheres) used[sp.material] = true;
+  for (const Plane& p : s.planes) used[p.material] = true;
+  for (std::size_t m = 0; m < s.materials.size(); ++m)
+    if (used[m] && s.materials[m].reflect > 0 && s.materials[m].transmit > 0)
+      fail(material_where[m],
+           "reflects and transmits, so the ray tree doubles per bounce: "
+           "max_depth must be at most " +
+               std::to_string(kMaxSplitDepth) + " with it, not " + std::to_string(s.max_depth));
 }
 
 void check_radiance(const Scene& s, const std::vector<std::string>& material_where) {
@@ -658,6 +690,7 @@ class SceneSax {
     if (unknown_.set()) throw InputError(unknown_.message);
     std::vector<std::string> material_where;
     materials_.finish(s_, material_where);
+    check_ray_tree(s_, material_where);
     check_radiance(s_, material_where);
   }
 

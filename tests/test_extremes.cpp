@@ -260,6 +260,39 @@ TEST(FastMode, RaysInsideASphereStillMeetIt) {
   }
 }
 
+// Issue 13: fast mode's convexity shortcuts (a ray leaving a sphere from outside skips it; a
+// light behind the surface is blocked by it) do not hold through glass: a refracted ray meets
+// the sphere it enters again, and a shadow ray through a glass sphere is dimmed, not stopped.
+// A glass sphere lit from behind, seen in front of a plane, and the shipped glass scenes.
+TEST(FastMode, GlassWithinItsBudget) {
+  const json glass = {{"color", 1},      {"ka", 0.05},     {"kd", 0.1},        {"ks", 1},
+                      {"shininess", 50}, {"reflect", 0.1}, {"transmit", 0.85}, {"ior", 1.5}};
+  const json ground = {{"color", {0.9, 0.7, 0.5}}, {"ka", 0.2}, {"kd", 0.8}};
+  json j = {{"camera", camera({0, 0, 6}, {0, 0, -1}, 2, 1)},
+            {"max_depth", 4},
+            {"lights",
+             {{{"position", {1, 2, -8}}, {"intensity", {1, 0.8, 0.6}}, {"ambient", 0.2}},
+              {{"position", {3, 4, 6}}, {"intensity", 0.6}}}},
+            {"objects",
+             {sphere({0, 0, 0}, 1.2, glass),
+              sphere({1.5, 0.5, -3}, 0.8),
+              {{"type", "plane"},
+               {"point", {0, -1.3, 0}},
+               {"normal", {0, 1, 0}},
+               {"material", ground}}}}};
+  std::vector<Scene> scenes{from(j)};
+  for (const char* name : {"scenes/lorenzi-glass.json", "scenes/glass-tir.json"})
+    scenes.push_back(load_scene(testing::source_path(name)));
+  for (const Scene& s : scenes) {
+    for (int width : packet::supported_widths(Precision::fast)) {
+      const Measure m = measure(s, Precision::fast, width);
+      EXPECT_LE(m.off, 0.005) << s.name << " width " << width;
+      EXPECT_LE(m.hit_mismatch, 0.001) << s.name << " width " << width;
+      EXPECT_TRUE(m.finite) << s.name << " width " << width;
+    }
+  }
+}
+
 TEST(FastMode, TextbookDiscriminantOnlyWhereItHolds) {
   auto holds = [](double radius, double dist) {
     json j = lit({{"camera", camera({0, 0, 0}, {0, 0, -1}, 1, 1)},

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "lancer/compare.hpp"
+#include "lancer/prepared.hpp"
 #include "support/random_scene.hpp"
 #include "support/test_util.hpp"
 
@@ -43,7 +44,11 @@ TEST(Oracle, EveryShippedScene) {
   testing::TempDir dir;
   for (const std::string& path : testing::shipped_scenes()) {
     SCOPED_TRACE(path);
-    expect_agreement(agreement(path, dir));
+    const Agreement a = agreement(path, dir);
+    std::printf("%s: pixels off by > 2/255: double %.4f%%, exact %.4f%%, default %.4f%%\n",
+                path.c_str(), 100 * a.dbl.off_fraction, 100 * a.exact.off_fraction,
+                100 * a.widest.off_fraction);
+    expect_agreement(a);
   }
 }
 
@@ -61,7 +66,8 @@ TEST(Oracle, SupersampledScene) {
 TEST(Oracle, RandomScenes) {
   testing::TempDir dir;
   constexpr int kScenes = 120;
-  std::uint64_t pixels = 0, off_double = 0, off_exact = 0;
+  std::uint64_t pixels = 0, off_double = 0, off_exact = 0, off_default = 0;
+  int glass = 0, coloured = 0;
   for (int seed = 1000; seed < 1000 + kScenes; ++seed) {
     SCOPED_TRACE(::testing::Message() << "random_scene seed " << seed);
     const std::string path = dir.file("r.json");
@@ -71,13 +77,26 @@ TEST(Oracle, RandomScenes) {
     pixels += std::uint64_t(s.camera.nx) * s.camera.ny;
     off_double += a.dbl.off_pixels;
     off_exact += a.exact.off_pixels;
+    off_default += a.widest.off_pixels;
+    const PreparedScene<double> p = prepare<double>(s);
+    glass += p.features.refraction;
+    coloured += p.features.coloured_lights;
     // A 37 x 23 image has 851 pixels: one pixel is 0.12%. Per scene allow 2 pixels (grazing
     // hits and shadow edges); the totals below hold the contract's fractions.
     EXPECT_LE(a.dbl.off_pixels, 2u);
     EXPECT_LE(a.exact.off_pixels, 4u);
   }
+  std::printf(
+      "%d random scenes (%d with refraction, %d with coloured lights): pixels off by > "
+      "2/255: double %.4f%%, exact %.4f%%, default %.4f%%\n",
+      kScenes, glass, coloured, 100.0 * off_double / pixels, 100.0 * off_exact / pixels,
+      100.0 * off_default / pixels);
+  // The random scenes must keep exercising transparency and coloured lights.
+  EXPECT_GE(glass, kScenes / 4);
+  EXPECT_GE(coloured, kScenes / 4);
   EXPECT_LE(double(off_double) / pixels, 0.001);
   EXPECT_LE(double(off_exact) / pixels, 0.005);
+  EXPECT_LE(double(off_default) / pixels, 0.005);
 }
 
 // Extreme scenes nobody looked at: random scenes moved far from the origin or shrunk, so that

@@ -100,6 +100,67 @@ TEST(PacketIdentity, RandomScenes) {
   }
 }
 
+// Issue 13: seeded random scenes with glass (refraction, total internal reflection, materials
+// that both reflect and transmit) and coloured lights, at every width, float and double. Only
+// scenes with refraction count; the random scenes give dozens.
+TEST(PacketIdentity, RandomGlassScenesFloatAndDouble) {
+  int glass = 0;
+  for (int seed = 7000; seed < 7200 && glass < 40; ++seed) {
+    const Scene s = parse_scene(testing::random_scene(static_cast<std::uint64_t>(seed)).dump(),
+                                "glass-" + std::to_string(seed));
+    if (!prepare<float>(s).features.refraction) continue;
+    ++glass;
+    SCOPED_TRACE(::testing::Message() << "random_scene seed " << seed);
+    for (int width : packet_widths()) expect_identical(s, width);
+    for (int width : packet_widths(Precision::dbl)) expect_identical(s, width, Precision::dbl);
+    if (HasFailure()) return;
+  }
+  EXPECT_EQ(glass, 40);
+}
+
+// The ray tree is bounded. A box of glass planes that both reflect and transmit around the
+// camera: inside it every ray meets a plane, and splits, so the tree branches at every level
+// (rays refracted out of the box escape after a few more planes). At the deepest depth allowed
+// (kMaxSplitDepth) it renders promptly, the same bits in every path, within the bound of a full
+// tree, 2^(d+1) - 1 rays per camera ray; deeper, the scene is refused up front.
+TEST(PacketIdentity, FullRayTreeIsBounded) {
+  using nlohmann::json;
+  auto box = [](int depth) {
+    json j = json::parse(R"({
+      "camera": {"type": "pinhole", "position": [0.1, 0.2, 0.3], "direction": [0.3, -0.2, -1],
+                 "distance": 1, "resolution": [5, 3], "bounds": [-1, 1, -0.6, 0.6]},
+      "lights": [{"position": [0.5, 0.5, 0.5], "intensity": [1, 0.5, 0.25]}],
+      "materials": {"glass": {"kd": 0.3, "reflect": 0.3, "transmit": 0.6, "ior": 1.4}},
+      "objects": [
+        {"type": "plane", "point": [2, 0, 0], "normal": [-1, 0, 0], "material": "glass"},
+        {"type": "plane", "point": [-2, 0, 0], "normal": [1, 0.1, 0], "material": "glass"},
+        {"type": "plane", "point": [0, 2, 0], "normal": [0, -1, 0.2], "material": "glass"},
+        {"type": "plane", "point": [0, -2, 0], "normal": [0.1, 1, 0], "material": "glass"},
+        {"type": "plane", "point": [0, 0, 2], "normal": [0, 0.1, -1], "material": "glass"},
+        {"type": "plane", "point": [0, 0, -2], "normal": [0.2, 0, 1], "material": "glass"}
+      ]})");
+    j["max_depth"] = depth;
+    return j;
+  };
+  const Scene s = parse_scene(box(kMaxSplitDepth).dump(), "box");
+  RenderOptions opt;
+  opt.width = 1;
+  const RayCounts ref = render(s, opt).rays;
+  const std::uint64_t camera = 15, full = camera * ((2u << kMaxSplitDepth) - 1);
+  EXPECT_EQ(ref.camera, camera);
+  const std::uint64_t traced = ref.camera + ref.reflected + ref.refracted;
+  EXPECT_LE(traced, full);
+  EXPECT_GT(traced, 100 * camera) << "the tree branches: far more rays than a chain";
+  for (int width : packet_widths()) expect_identical(s, width);
+  for (int width : packet_widths(Precision::dbl)) expect_identical(s, width, Precision::dbl);
+  EXPECT_THROW(parse_scene(box(64).dump(), "box"), InputError);
+  // Without a material that splits, a depth-64 chain through glass is fine.
+  json chain = box(64);
+  chain["materials"]["glass"]["reflect"] = 0;
+  const Scene c = parse_scene(chain.dump(), "chain");
+  for (int width : packet_widths()) expect_identical(c, width);
+}
+
 // Regression cases: scenes that once made the packets differ from the reference, kept literally.
 TEST(PacketIdentity, Regressions) {
   // Equal distances to two objects: the first in the fixed order (spheres, then planes) wins.

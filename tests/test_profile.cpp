@@ -43,6 +43,29 @@ TEST(Profile, CountsRaysAndTestsAsTheRenderDoes) {
   }
 }
 
+// Refraction is its own stage: its rays are the render's refracted rays, its packets are the
+// refracted packets' intersections, and they are partly empty (rays of a packet diverge).
+TEST(Profile, RefractionIsItsOwnStage) {
+  const Scene s = load_scene(testing::source_path("scenes/lorenzi-glass.json"));
+  for (int width : packet_widths()) {
+    RenderOptions opt;
+    opt.width = width, opt.threads = 1;
+    const RenderResult plain = render(s, opt);
+    const ProfileResult r = profile_render(s, width);
+    ASSERT_GT(plain.rays.refracted, 0u);
+    EXPECT_EQ(r.refracted_rays, plain.rays.refracted);
+    EXPECT_EQ(r.reflected_rays, plain.rays.reflected);
+    EXPECT_EQ(r.stages[kRefraction].name, "refraction");
+    EXPECT_EQ(r.stages[kRefraction].rays, plain.rays.refracted);
+    EXPECT_GT(r.stages[kRefraction].lane_occupancy, 0.0);
+    EXPECT_LT(r.stages[kRefraction].lane_occupancy, 1.0);
+    std::uint64_t lanes = 0;
+    const auto& h = r.stages[kRefraction].histogram;
+    for (std::size_t k = 0; k < h.size(); ++k) lanes += k * h[k];
+    EXPECT_EQ(lanes, plain.rays.refracted) << "every refracted ray in one packet's lanes";
+  }
+}
+
 TEST(Profile, ProfiledKernelsRenderTheExactImage) {
   for (const std::string& path : testing::shipped_scenes()) {
     const Scene s = load_scene(path);

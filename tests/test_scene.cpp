@@ -56,7 +56,32 @@ TEST(SceneLoad, ReadsEveryFieldAndDefault) {
   EXPECT_DOUBLE_EQ(ground.color.g, 0.6);
   EXPECT_DOUBLE_EQ(ground.ks, 0.6);
   ASSERT_EQ(s.lights.size(), 1u);
-  EXPECT_DOUBLE_EQ(s.lights[0].ambient, 0.5);
+  EXPECT_DOUBLE_EQ(s.lights[0].ambient.g, 0.5);
+  EXPECT_DOUBLE_EQ(s.lights[0].intensity.b, 1);
+  EXPECT_DOUBLE_EQ(chrome.transmit, 0) << "transmit defaults to 0";
+  EXPECT_DOUBLE_EQ(chrome.ior, 1) << "ior defaults to 1";
+}
+
+TEST(SceneLoad, ColouredLightsAndGlass) {
+  json j = base_scene();
+  j["lights"][0]["intensity"] = {1, 0.9, 0.8};
+  j["lights"][0]["ambient"] = {0.1, 0.2, 0.3};
+  j["lights"].push_back({{"position", {0, 9, 0}}});
+  j["materials"]["glass"] = {{"transmit", 0.85}, {"ior", 1.5}, {"reflect", 0.1}};
+  j["objects"][2]["material"] = "glass";
+  j["objects"][1]["material"]["transmit"] = 0.3;
+  j["max_depth"] = 12;  // the most a material that reflects and transmits allows
+  const Scene s = parse_scene(j.dump(), "s.json");
+  EXPECT_DOUBLE_EQ(s.lights[0].intensity.g, 0.9);
+  EXPECT_DOUBLE_EQ(s.lights[0].intensity.b, 0.8);
+  EXPECT_DOUBLE_EQ(s.lights[0].ambient.r, 0.1);
+  EXPECT_DOUBLE_EQ(s.lights[1].intensity.r, 1) << "intensity defaults to 1";
+  EXPECT_DOUBLE_EQ(s.lights[1].ambient.b, 0) << "ambient defaults to 0";
+  const Material& glass = s.materials[s.spheres[1].material];
+  EXPECT_DOUBLE_EQ(glass.transmit, 0.85);
+  EXPECT_DOUBLE_EQ(glass.ior, 1.5);
+  EXPECT_DOUBLE_EQ(s.materials[s.planes[0].material].transmit, 0.3);
+  EXPECT_DOUBLE_EQ(s.materials[s.planes[0].material].ior, 1);
 }
 
 TEST(SceneLoad, EveryShippedSceneLoads) {
@@ -161,6 +186,58 @@ const BadCase kBadCases[] = {
      "camera.type: must be \"pinhole\" or \"orthographic\""},
     {"max_depth over the cap", [](json& j) { j["max_depth"] = 1000; },
      "max_depth: must be at most 64"},
+    // Issue 13: coloured lights, transmit and ior.
+    {"ior zero", [](json& j) { j["materials"]["chrome"]["ior"] = 0; },
+     "materials.chrome.ior: must be > 0"},
+    {"negative inline ior", [](json& j) { j["objects"][1]["material"]["ior"] = -1.5; },
+     "objects[1].material.ior: must be > 0"},
+    {"ior not a number", [](json& j) { j["materials"]["chrome"]["ior"] = "glass"; },
+     "materials.chrome.ior: must be a number"},
+    {"ior too large", [](json& j) { j["materials"]["chrome"]["ior"] = 1e9; },
+     "materials.chrome.ior: must be from 1e-06 to 1e+06"},
+    {"negative transmit", [](json& j) { j["materials"]["chrome"]["transmit"] = -0.5; },
+     "materials.chrome.transmit: must be >= 0"},
+    {"transmit not a number", [](json& j) { j["objects"][1]["material"]["transmit"] = {1}; },
+     "objects[1].material.transmit: must be a number"},
+    {"negative intensity component",
+     [](json& j) {
+       j["lights"][0]["intensity"] = {1, -0.5, 1};
+     },
+     "lights[0].intensity: components must be >= 0"},
+    {"negative ambient", [](json& j) { j["lights"][0]["ambient"] = -0.1; },
+     "lights[0].ambient: must be >= 0"},
+    {"short ambient",
+     [](json& j) {
+       j["lights"][0]["ambient"] = {1, 1};
+     },
+     "lights[0].ambient: must be a number or an array of 3 numbers"},
+    {"long intensity",
+     [](json& j) {
+       j["lights"][0]["intensity"] = {1, 1, 1, 1};
+     },
+     "lights[0].intensity: must be a number or an array of 3 numbers"},
+    {"intensity a string", [](json& j) { j["lights"][0]["intensity"] = "bright"; },
+     "lights[0].intensity: must be a number or an array of 3 numbers"},
+    {"intensity component a string",
+     [](json& j) {
+       j["lights"][0]["intensity"] = {1, "x", 1};
+     },
+     "lights[0].intensity[1]: must be a number"},
+    {"ray tree too deep",
+     [](json& j) {
+       j["materials"]["chrome"]["transmit"] = 0.5;
+       j["max_depth"] = 64;
+     },
+     "materials.chrome: reflects and transmits, so the ray tree doubles per bounce: max_depth "
+     "must be at most 12 with it, not 64"},
+    {"ray tree too deep inline",
+     [](json& j) {
+       j["objects"][1]["material"]["transmit"] = 0.5;
+       j["objects"][1]["material"]["reflect"] = 0.5;
+       j["max_depth"] = 13;
+     },
+     "objects[1].material: reflects and transmits, so the ray tree doubles per bounce: "
+     "max_depth must be at most 12 with it, not 13"},
 };
 
 class BadScene : public ::testing::TestWithParam<BadCase> {};

@@ -11,6 +11,7 @@
 #include "lancer/precision.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
+#include "lancer/stats.hpp"
 
 namespace lancer {
 
@@ -28,6 +29,7 @@ struct BenchRow {
   double build_seconds = -1;  // the peer's scene build with that setup
   int threads = 1;
   std::uint64_t rays = 0;       // per run
+  RayCounts by_kind;            // the same rays by kind (camera, shadow, reflected, refracted)
   double seconds = 0;           // per render, median over the repeats
   std::vector<double> samples;  // seconds per render of each repeat, in the order they ran
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }

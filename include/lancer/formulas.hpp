@@ -188,6 +188,34 @@ inline T specular_power(const T& cos_nh, const T& shininess) {
   return power_int(positive_part(cos_nh), shininess);
 }
 
+// Snell-Descartes refraction (contract step 7) of unit d at a surface whose normal n faces the
+// ray, with eta the ratio of indices (1 / ior entering, ior leaving): c = -d.n and
+// k = 1 - eta^2 (1 - c^2). Where k >= 0 the refracted direction is eta d + (eta c - sqrt(k)) n,
+// not yet unit (callers normalise); where k < 0 the light is totally reflected and `dir` is
+// meaningless (callers take the mirror direction). sqrt of +0 there keeps every lane finite.
+template <class T>
+struct Refraction {
+  Vec3<T> dir;
+  T k;
+};
+
+template <class Math = ExactMath, class T>
+inline Refraction<T> refract(const Vec3<T>& d, const Vec3<T>& n, const T& eta) {
+  using std::sqrt;
+  const T c = -Math::dot(d, n);
+  const T k = T(1) - (eta * eta) * (T(1) - c * c);
+  const T along_n = eta * c - sqrt(positive_part(k));
+  return {d * eta + n * along_n, k};
+}
+
+// A shadow ray's transmittance after it meets one more object: T * transmit. Every path takes
+// the product in object-id order (spheres, then planes, in file order): a float product of
+// three or more factors depends on its order.
+template <class T>
+inline T attenuate(const T& transmittance, const T& transmit) {
+  return transmittance * transmit;
+}
+
 // Screen coordinates of pixel column i (row j) at sub-sample offset (a + 0.5) / s, as in the
 // contract: x = xmin + (i + (a+0.5)/s) * (xmax - xmin) / nx, y = ymax - (j + ...) * ... / ny.
 template <class T, class S>

@@ -20,6 +20,14 @@ struct Features {
   bool specular = false;              // any material with ks > 0
   bool reflection = false;            // max_depth > 0 and any material with reflect > 0
   bool fractional_shininess = false;  // a specular material whose shininess needs std::pow
+  // A light whose intensity or ambient is not grey: shading per channel. Grey lights shade one
+  // channel and scale it by the colour, the same bits as three equal channels.
+  bool coloured_lights = false;
+  // Any object with transmit > 0: shadow rays multiply transmittances instead of stopping at the
+  // first object, and fast mode's convexity shortcuts no longer hold for every ray.
+  bool transparency = false;
+  // transparency and max_depth > 0: rays split (refracted children), the packets trace a tree.
+  bool refraction = false;
 };
 
 template <class T>
@@ -71,6 +79,8 @@ struct PreparedScene {
   // Material of each object, by object id, structure-of-arrays (one gather per field).
   // Per-object vectors are padded with zeros to at least kMaxLanes entries: use the counts.
   std::vector<T> mat_r, mat_g, mat_b, mat_ka, mat_kd, mat_ks, mat_shininess, mat_reflect;
+  // transmit, ior and 1 / ior (rounded once: eta of a ray entering the object).
+  std::vector<T> mat_transmit, mat_ior, mat_inv_ior;
   // 1 where the shininess is a whole number that power_int() raises to exactly, else 0.
   std::vector<T> mat_shininess_int;
 
@@ -81,7 +91,11 @@ struct PreparedScene {
   Bvh<T> bvh;
 
   int num_lights = 0;
-  std::vector<T> light_x, light_y, light_z, light_intensity, light_ambient;
+  std::vector<T> light_x, light_y, light_z;
+  // Grey lights (features.coloured_lights false): intensity and ambient, one value per light.
+  std::vector<T> light_intensity, light_ambient;
+  // Per channel r, g, b: [c][light]. Filled for every scene; read when coloured_lights.
+  std::vector<T> light_intensity_rgb[3], light_ambient_rgb[3];
 
   int num_objects() const { return num_spheres + num_planes; }
 };

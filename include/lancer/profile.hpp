@@ -19,6 +19,7 @@ enum Stage : int {
   kShading,
   kShadowRays,
   kReflection,
+  kRefraction,
   kOutput,
   kStageCount
 };
@@ -52,7 +53,7 @@ struct ProfileResult {
   int width = 0;
   std::string isa;
   double total_seconds = 0;
-  std::uint64_t camera_rays = 0, shadow_rays = 0, reflected_rays = 0;
+  std::uint64_t camera_rays = 0, shadow_rays = 0, reflected_rays = 0, refracted_rays = 0;
   double tests_per_ray = 0;  // ray-object intersection tests per ray, all kinds
   std::vector<StageRow> stages;
 };

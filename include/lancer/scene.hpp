@@ -16,11 +16,13 @@ struct Rgb {
 struct Material {
   Rgb color{1, 1, 1};
   double ka = 0, kd = 1, ks = 0, shininess = 100, reflect = 0;
+  double transmit = 0;  // share passed on by refraction
+  double ior = 1;       // index of refraction, > 0
 };
 
 struct Light {
   Vec3<double> position{0, 0, 0};
-  double intensity = 1, ambient = 0;
+  Rgb intensity{1, 1, 1}, ambient{0, 0, 0};  // colours: Lorenzi's lights are rgb triplets
 };
 
 enum class CameraType { pinhole, orthographic };
@@ -76,6 +78,10 @@ inline constexpr int kMaxSupersample = 64;
 inline constexpr std::size_t kMaxObjects = std::size_t(1) << 25;
 inline constexpr std::size_t kMaxLights = std::size_t(1) << 16;
 inline constexpr std::size_t kMaxNamedMaterials = std::size_t(1) << 16;
+// A material that both reflects and transmits splits every ray it meets in two, so the ray tree
+// grows as 2^max_depth: scenes with such a material and a deeper max_depth are refused up front
+// (2^(12+1) - 1 = 8191 rays per camera ray at worst).
+inline constexpr int kMaxSplitDepth = 12;
 
 // Throws InputError with a one-line message naming the place: `objects[2].radius: must be > 0`
 // or `scene.json:14: syntax error ...`.

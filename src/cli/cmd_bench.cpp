@@ -90,6 +90,17 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows, in
     if (!r.config.empty()) std::printf("  (%s)", r.config.c_str());
     std::printf("\n");
   }
+  // What a full render traces, by kind: the same for every width (exact, double) of a scene.
+  for (const BenchRow& r : rows)
+    if (r.engine == "lancer" && r.mode == "full") {
+      const RayCounts& k = r.by_kind;
+      std::printf(
+          "  full render rays by kind: %llu camera, %llu shadow, %llu reflected, %llu "
+          "refracted\n",
+          (unsigned long long)k.camera, (unsigned long long)k.shadow,
+          (unsigned long long)k.reflected, (unsigned long long)k.refracted);
+      break;
+    }
   if (peak)
     std::printf(
         "  GFLOP/s: flops of lancer's ray-sphere and ray-plane tests per camera ray (counts in "
@@ -124,6 +135,10 @@ void print_json(const std::string& scene, const BenchResult& result,
     row["samples_seconds"] = r.samples;
     row["seconds_min"] = sp.min, row["seconds_max"] = sp.max;
     row["cv"] = sp.cv();
+    row["rays_by_kind"] = {{"camera", r.by_kind.camera},
+                           {"shadow", r.by_kind.shadow},
+                           {"reflected", r.by_kind.reflected},
+                           {"refracted", r.by_kind.refracted}};
     if (r.gflops) row["gflops"] = *r.gflops;
     if (r.lane_gflops) row["lane_gflops"] = *r.lane_gflops;
     if (r.peak_fraction) row["peak_fraction"] = *r.peak_fraction;

@@ -28,8 +28,10 @@ void run_profile(const ProfileArgs& a) {
     out["width"] = r.width;
     out["isa"] = r.isa;
     out["total_seconds"] = r.total_seconds;
-    out["rays"] = {
-        {"camera", r.camera_rays}, {"shadow", r.shadow_rays}, {"reflected", r.reflected_rays}};
+    out["rays"] = {{"camera", r.camera_rays},
+                   {"shadow", r.shadow_rays},
+                   {"reflected", r.reflected_rays},
+                   {"refracted", r.refracted_rays}};
     out["tests_per_ray"] = r.tests_per_ray;
     out["stages"] = nlohmann::json::array();
     for (const auto& st : r.stages) {
@@ -52,9 +54,11 @@ void run_profile(const ProfileArgs& a) {
   }
   std::printf("lancer profile: %s, width %d (%s), exact precision, 1 thread\n", a.scene.c_str(),
               r.width, r.isa.c_str());
-  std::printf("  rays: %llu camera, %llu shadow, %llu reflected; %.2f ray-object tests per ray\n",
-              (unsigned long long)r.camera_rays, (unsigned long long)r.shadow_rays,
-              (unsigned long long)r.reflected_rays, r.tests_per_ray);
+  std::printf(
+      "  rays: %llu camera, %llu shadow, %llu reflected, %llu refracted; %.2f ray-object tests "
+      "per ray\n",
+      (unsigned long long)r.camera_rays, (unsigned long long)r.shadow_rays,
+      (unsigned long long)r.reflected_rays, (unsigned long long)r.refracted_rays, r.tests_per_ray);
   std::printf("  %-22s %10s %7s %12s %10s  %s\n", "stage", "seconds", "share", "rays", "occupancy",
               "packets by active lanes (0..W)");
   for (const auto& st : r.stages) {

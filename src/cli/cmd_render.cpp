@@ -2,9 +2,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "commands.hpp"
 #include "lancer/error.hpp"
@@ -44,9 +43,10 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
                 st.spheres, st.nodes, st.build_seconds * 1e3, st.bytes);
   else
     std::printf("  structure  none: plain loop\n");
-  std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu in all\n",
+  std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu refracted, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
-              (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.total());
+              (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.refracted,
+              (unsigned long long)r.rays.total());
   std::printf("  time     %.4f s, %.2f Mrays/s", r.seconds,
               r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0);
   if (write_seconds >= 0) std::printf("; writing the image %.4f s", write_seconds);
@@ -76,6 +76,7 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r,
                     {{"camera", r.rays.camera},
                      {"shadow", r.rays.shadow},
                      {"reflected", r.rays.reflected},
+                     {"refracted", r.rays.refracted},
                      {"total", r.rays.total()}}},
                    {"render_seconds", r.seconds},
                    {"write_seconds", write_seconds},

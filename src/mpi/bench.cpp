@@ -64,9 +64,7 @@ Timed run(const Frame& f, Config& c, Image& image, int reps) {
   MPI_Reduce(&compute, &t.compute_max, 1, MPI_DOUBLE, MPI_MAX, 0, c.comm);
   MPI_Reduce(&compute, &t.compute_mean, 1, MPI_DOUBLE, MPI_SUM, 0, c.comm);
   t.compute_mean /= c.ranks;
-  std::uint64_t rays[3] = {t.rays.camera, t.rays.shadow, t.rays.reflected}, sum[3] = {};
-  MPI_Reduce(rays, sum, 3, MPI_UINT64_T, MPI_SUM, 0, c.comm);
-  t.rays.camera = sum[0], t.rays.shadow = sum[1], t.rays.reflected = sum[2];
+  t.rays = sum_rays(c.comm, t.rays);
   return t;
 }
 

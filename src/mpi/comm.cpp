@@ -109,4 +109,15 @@ void quiet_barrier(MPI_Comm comm) {
 
 double now() { return MPI_Wtime(); }
 
+RayCounts sum_rays(MPI_Comm comm, const RayCounts& mine) {
+  std::uint64_t rays[4] = {mine.camera, mine.shadow, mine.reflected, mine.refracted}, sum[4] = {};
+  MPI_Reduce(rays, sum, 4, MPI_UINT64_T, MPI_SUM, 0, comm);
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  if (rank != 0) return mine;
+  RayCounts all = mine;
+  all.camera = sum[0], all.shadow = sum[1], all.reflected = sum[2], all.refracted = sum[3];
+  return all;
+}
+
 }  // namespace lancer::mpi

@@ -7,6 +7,8 @@
 #include <functional>
 #include <string>
 
+#include "lancer/stats.hpp"
+
 namespace lancer::mpi {
 
 // MPI_Init_thread at construction (FUNNELED: only the main thread calls MPI, TBB's workers never
@@ -36,5 +38,8 @@ void agree(MPI_Comm comm, const std::function<void()>& fn);
 void quiet_barrier(MPI_Comm comm);
 
 double now();  // MPI_Wtime
+
+// The rays of every rank by kind, summed onto rank 0 (other ranks get their own back).
+RayCounts sum_rays(MPI_Comm comm, const RayCounts& mine);
 
 }  // namespace lancer::mpi

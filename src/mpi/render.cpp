@@ -114,9 +114,7 @@ void render_command(
   }
   st.gather_seconds = end - gather_start;
   // The counts and times of every rank, summed or maxed onto rank 0.
-  std::uint64_t rays[3] = {res.rays.camera, res.rays.shadow, res.rays.reflected}, sum[3];
-  MPI_Reduce(rays, sum, 3, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
-  res.rays.camera = sum[0], res.rays.shadow = sum[1], res.rays.reflected = sum[2];
+  res.rays = sum_rays(MPI_COMM_WORLD, res.rays);
   double times[2] = {compute, f.load_seconds}, max_times[2];
   MPI_Reduce(times, max_times, 2, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
   MPI_Reduce(&compute, &st.compute_mean_seconds, 1, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);

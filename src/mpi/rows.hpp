@@ -10,8 +10,8 @@
 
 #include "lancer/image.hpp"
 #include "lancer/precision.hpp"
-#include "lancer/scene.hpp"
 #include "lancer/render.hpp"
+#include "lancer/scene.hpp"
 #include "lancer/stats.hpp"
 
 namespace lancer::mpi {

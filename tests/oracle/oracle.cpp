@@ -55,6 +55,7 @@ struct Rgb {
 
 Rgb operator+(Rgb a, Rgb b) { return {a.r + b.r, a.g + b.g, a.b + b.b}; }
 Rgb operator*(double s, Rgb a) { return {s * a.r, s * a.g, s * a.b}; }
+Rgb operator*(Rgb a, Rgb b) { return {a.r * b.r, a.g * b.g, a.b * b.b}; }
 
 // ---------------------------------------------------------------------------------------------
 // Scene
@@ -62,11 +63,12 @@ Rgb operator*(double s, Rgb a) { return {s * a.r, s * a.g, s * a.b}; }
 struct Material {
   Rgb color{1, 1, 1};
   double ka = 0, kd = 1, ks = 0, shininess = 100, reflect = 0;
+  double transmit = 0, ior = 1;
 };
 
 struct Light {
   Vec position;
-  double intensity = 1, ambient = 0;
+  Rgb intensity{1, 1, 1}, ambient{0, 0, 0};
 };
 
 enum class Shape { kSphere, kPlane };
@@ -168,7 +170,7 @@ Rgb color(const json& j, const std::string& where) {
 }
 
 Material parse_material(const json& j, const std::string& where) {
-  only_keys(j, where, {"color", "ka", "kd", "ks", "shininess", "reflect"});
+  only_keys(j, where, {"color", "ka", "kd", "ks", "shininess", "reflect", "transmit", "ior"});
   Material m;
   if (const json* c = field(j, "color")) m.color = color(*c, at(where, "color"));
   auto coefficient = [&](const char* key, double& out) {
@@ -179,6 +181,11 @@ Material parse_material(const json& j, const std::string& where) {
   coefficient("ks", m.ks);
   coefficient("shininess", m.shininess);
   coefficient("reflect", m.reflect);
+  coefficient("transmit", m.transmit);
+  if (const json* i = field(j, "ior")) {
+    m.ior = number(*i, at(where, "ior"));
+    if (m.ior <= 0) bad(at(where, "ior"), "must be > 0");
+  }
   return m;
 }
 
@@ -225,8 +232,14 @@ Light parse_light(const json& j, const std::string& where) {
   only_keys(j, where, {"position", "intensity", "ambient"});
   Light l;
   l.position = vec3(required(j, where, "position"), at(where, "position"));
-  if (const json* i = field(j, "intensity")) l.intensity = number(*i, at(where, "intensity"));
-  if (const json* a = field(j, "ambient")) l.ambient = number(*a, at(where, "ambient"));
+  auto non_negative_color = [&](const char* key, Rgb& out) {
+    if (const json* c = field(j, key)) {
+      out = color(*c, at(where, key));
+      if (out.r < 0 || out.g < 0 || out.b < 0) bad(at(where, key), "must be >= 0");
+    }
+  };
+  non_negative_color("intensity", l.intensity);
+  non_negative_color("ambient", l.ambient);
   return l;
 }
 
@@ -347,12 +360,15 @@ std::optional<Hit> closest_hit(const Scene& s, Vec origin, Vec dir) {
   return best;
 }
 
-bool blocked(const Scene& s, Vec p, Vec to_light, double light_distance) {
+// The share of a light that reaches p: the product of `transmit` over every object whose
+// nearest hit beyond epsilon lies before the light, each object once. 0 if any is opaque.
+double transmittance(const Scene& s, Vec p, Vec to_light, double light_distance) {
+  double product = 1;
   for (const Object& o : s.objects) {
     std::optional<double> t = intersect(o, p, to_light, s.epsilon);
-    if (t && *t < light_distance) return true;
+    if (t && *t < light_distance) product *= o.material.transmit;
   }
-  return false;
+  return product;
 }
 
 Rgb trace(const Scene& s, Vec origin, Vec dir, int depth) {
@@ -362,34 +378,45 @@ Rgb trace(const Scene& s, Vec origin, Vec dir, int depth) {
   const Object& o = *hit->object;
   const Material& m = o.material;
   Vec p = origin + hit->t * dir;
-  Vec n = o.normal;
+  Vec geometric = o.normal;
   if (o.shape == Shape::kSphere) {  // (P - C) / r, divided as written rather than normalised
     Vec d = p - o.center;
-    n = {d.x / o.radius, d.y / o.radius, d.z / o.radius};
+    geometric = {d.x / o.radius, d.y / o.radius, d.z / o.radius};
   }
-  if (dot(n, dir) > 0) n = -n;
+  Vec n = dot(geometric, dir) > 0 ? -geometric : geometric;
   Vec view = -dir;
 
-  double ambient = 0, diffuse = 0, specular = 0;
+  // Per channel: lights are colours.
+  Rgb ambient, diffuse, specular;
   for (const Light& light : s.lights) {
-    ambient += m.ka * light.ambient;
+    ambient = ambient + m.ka * light.ambient;
     Vec to_light = light.position - p;
     double light_distance = length(to_light);
     Vec l = normalize(to_light);
-    if (blocked(s, p, l, light_distance)) continue;
-    diffuse += m.kd * light.intensity * std::max(0.0, dot(n, l));
+    double share = transmittance(s, p, l, light_distance);
+    if (share == 0) continue;
+    Rgb arriving = share * light.intensity;
+    diffuse = diffuse + (m.kd * std::max(0.0, dot(n, l))) * arriving;
     Vec half = l + view;
     if (!is_zero(half)) {
       Vec h = normalize(half);
-      specular += m.ks * light.intensity * std::pow(std::max(0.0, dot(n, h)), m.shininess);
+      specular = specular + (m.ks * std::pow(std::max(0.0, dot(n, h)), m.shininess)) * arriving;
     }
   }
-  double shade = ambient + diffuse + specular;
-  Rgb local{m.color.r * shade, m.color.g * shade, m.color.b * shade};
+  Rgb local = m.color * (ambient + diffuse + specular);
 
+  Vec r = dir - 2 * dot(dir, n) * n;  // the mirror direction, for reflection and TIR
   if (depth < s.max_depth && m.reflect > 0) {
-    Vec r = dir - 2 * dot(dir, n) * n;
     local = local + m.reflect * trace(s, p, normalize(r), depth + 1);
+  }
+  if (depth < s.max_depth && m.transmit > 0) {
+    // Snell-Descartes. Entering when the ray meets the geometric normal's side.
+    bool entering = dot(geometric, dir) < 0;
+    double eta = entering ? 1 / m.ior : m.ior;
+    double c = -dot(dir, n);
+    double k = 1 - eta * eta * (1 - c * c);
+    Vec t = k >= 0 ? eta * dir + (eta * c - std::sqrt(k)) * n : r;  // k < 0: total reflection
+    local = local + m.transmit * trace(s, p, normalize(t), depth + 1);
   }
   return local;
 }
@@ -599,6 +626,68 @@ int self_check() {
                                      "material": {"ka": 0.8, "kd": 0}}]})",
                      0, 0),
                grey(0.2));
+
+  // A coloured light: each channel of kd * I * cos, times the colour. Head-on light: cos = 1.
+  ok &= expect(
+      "coloured light",
+      pixel("{" + head_on_camera + R"(, "objects": [{"type": "sphere",
+                        "center": [0, 0, 0], "radius": 1, "material": {"color": [1, 0.5, 0.25],
+                        "kd": 0.6, "ka": 0.5}}],
+                        "lights": [{"position": [0, 0, 10], "intensity": [0.7, 0.2, 0.1],
+                                    "ambient": [0.1, 0.2, 0.4]}]})",
+            1, 1),
+      {1 * (0.5 * 0.1 + 0.6 * 0.7), 0.5 * (0.5 * 0.2 + 0.6 * 0.2), 0.25 * (0.5 * 0.4 + 0.6 * 0.1)});
+
+  // Shadow through two glass spheres stacked between the ground and the light: the light is
+  // passed on by 0.5 * 0.4, each sphere counted once although the segment crosses it twice.
+  ok &= expect("shadow through glass",
+               pixel(R"({"camera": {"type": "orthographic", "position": [0, 5, 0],
+                                    "direction": [0, -1, 0], "resolution": [1, 1],
+                                    "bounds": [-0.1, 0.1, -0.1, 0.1]},
+                        "lights": [{"position": [0, 20, 0], "intensity": 0.8}],
+                        "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                                     "material": {"kd": 0.5}},
+                                    {"type": "sphere", "center": [0, 7, 0], "radius": 0.5,
+                                     "material": {"transmit": 0.5}},
+                                    {"type": "sphere", "center": [0, 12, 0], "radius": 0.5,
+                                     "material": {"transmit": 0.4}}]})",
+                     0, 0),
+               grey(0.5 * 0.8 * 0.5 * 0.4));
+
+  // Head-on through a glass plane: c = 1, k = 1, the ray goes straight on and misses:
+  // transmit * environment. With max_depth 0 nothing is transmitted.
+  {
+    const std::string slab =
+        R"({"camera": {"type": "orthographic", "position": [0, 0, 5], "direction": [0, 0, -1],
+                       "resolution": [1, 1], "bounds": [-1, 1, -1, 1]},
+            "background": 0.9, "environment": 0.2, "max_depth": 1,
+            "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1],
+                         "material": {"kd": 0, "transmit": 0.5, "ior": 1.5}}]})";
+    ok &= expect("through a glass plane", pixel(slab, 0, 0), grey(0.1));
+  }
+
+  // Total internal reflection: an orthographic camera looks down at 60 degrees from the normal
+  // onto a plane of ior 0.5 (eta = 2 entering: k = 1 - 4 * 0.75 < 0), so the transmitted share
+  // follows the mirror direction, up into a sphere of ka 1 above. With ior 1.5 it refracts
+  // downwards and misses (environment 0).
+  {
+    const double s60 = std::sqrt(3.0) / 2;
+    char buf[1024];
+    auto scene = [&](double ior) {
+      std::snprintf(buf, sizeof buf, R"({"camera": {"type": "orthographic",
+          "position": [%.17g, 1, 0], "direction": [%.17g, -0.5, 0], "resolution": [1, 1],
+          "bounds": [-0.01, 0.01, -0.01, 0.01]}, "max_depth": 1,
+          "lights": [{"position": [0, 50, 0], "intensity": 0, "ambient": 1}],
+          "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                       "material": {"kd": 0, "transmit": 0.5, "ior": %.17g}},
+                      {"type": "sphere", "center": [%.17g, 1, 0], "radius": 0.3,
+                       "material": {"ka": 1, "kd": 0}}]})",
+                    -2 * s60, s60, ior, 2 * s60);
+      return std::string(buf);
+    };
+    ok &= expect("total internal reflection", pixel(scene(0.5), 0, 0), grey(0.5));
+    ok &= expect("refraction below the critical angle", pixel(scene(1.5), 0, 0), grey(0));
+  }
 
   std::printf(ok ? "self-check passed\n" : "self-check FAILED\n");
   return ok ? 0 : 1;

@@ -47,7 +47,7 @@ json random_color(Rng& rng) {
 }
 
 // Every field is sometimes left out so that the contract's defaults get exercised.
-json random_material(Rng& rng) {
+json random_material(Rng& rng, const RandomSceneOptions& opt) {
   json m = json::object();
   if (rng.chance(0.8)) m["color"] = random_color(rng);
   if (rng.chance(0.8)) m["ka"] = rng.uniform();
@@ -64,6 +64,11 @@ json random_material(Rng& rng) {
     m["reflect"] = 1 - rng.uniform();  // (0, 1]
   } else if (rng.chance(0.5)) {
     m["reflect"] = 0;
+  }
+  if (opt.glass && rng.chance(0.35)) {
+    m["transmit"] = rng.uniform(0.1, 1);
+    if (rng.chance(0.85))
+      m["ior"] = rng.chance(0.25) ? rng.uniform(0.5, 0.95) : rng.uniform(1.05, 2.5);
   }
   return m;
 }
@@ -89,12 +94,20 @@ json random_plane(Rng& rng, const RandomSceneOptions& opt) {
           {"normal", to_json(scaled(normal, rng.uniform(0.5, 3)))}};
 }
 
-json random_light(Rng& rng) {
+json random_light(Rng& rng, const RandomSceneOptions& opt) {
   // One draw per statement: the order of evaluation of function arguments is unspecified.
   Vec direction = random_direction(rng);
   json light = {{"position", to_json(scaled(direction, rng.log_uniform(1, 100)))}};
   if (rng.chance(0.8)) light["intensity"] = rng.uniform(0, 1.5);
   if (rng.chance(0.5)) light["ambient"] = rng.uniform(0, 0.5);
+  if (opt.glass && rng.chance(0.4)) {
+    const double r = rng.uniform(0, 1.5), g = rng.uniform(0, 1.5), b = rng.uniform(0, 1.5);
+    light["intensity"] = json::array({r, g, b});
+  }
+  if (opt.glass && rng.chance(0.3)) {
+    const double r = rng.uniform(0, 0.5), g = rng.uniform(0, 0.5), b = rng.uniform(0, 0.5);
+    light["ambient"] = json::array({r, g, b});
+  }
   return light;
 }
 
@@ -146,12 +159,12 @@ json random_scene(uint64_t seed, const RandomSceneOptions& opt) {
 
   int named = rng.integer(0, 3);
   for (int k = 0; k < named; ++k) {
-    scene["materials"]["mat" + std::to_string(k)] = random_material(rng);
+    scene["materials"]["mat" + std::to_string(k)] = random_material(rng, opt);
   }
 
   scene["lights"] = json::array();
   int lights = rng.integer(0, 4);
-  for (int k = 0; k < lights; ++k) scene["lights"].push_back(random_light(rng));
+  for (int k = 0; k < lights; ++k) scene["lights"].push_back(random_light(rng, opt));
 
   // Log-uniform count: small scenes (easy to debug) are common, max_objects still occurs.
   int count = static_cast<int>(rng.log_uniform(1, opt.max_objects + 1));
@@ -166,7 +179,7 @@ json random_scene(uint64_t seed, const RandomSceneOptions& opt) {
     if (named > 0 && rng.chance(0.3)) {
       object["material"] = "mat" + std::to_string(rng.integer(0, named - 1));
     } else if (rng.chance(0.9)) {
-      object["material"] = random_material(rng);
+      object["material"] = random_material(rng, opt);
     }  // else: no material, all defaults
     scene["objects"].push_back(object);
   }

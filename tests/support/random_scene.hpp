@@ -17,6 +17,10 @@ struct RandomSceneOptions {
   int max_depth = 8;          // the scene's max_depth is uniform in 0..max_depth
   int nx = 37;                // resolution; deliberately not multiples of 4, 8 or 16
   int ny = 23;
+  // Transparent materials (transmit, ior; some below 1, so that rays arriving from outside are
+  // totally reflected past the critical angle; many both reflect and transmit) and coloured
+  // lights (intensity, ambient as [r, g, b]).
+  bool glass = true;
 };
 
 // A valid scene, the same for the same seed and options on every run and machine (up to the

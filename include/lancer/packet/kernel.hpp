@@ -374,9 +374,12 @@ struct Kernel {
   // Spheres through the hierarchy where the scene has one (and every lane starts within its
   // origin limit), else all in a loop; planes always in a loop, after the spheres (higher ids).
   // `leaving`: per lane, the sphere the ray leaves from outside (-1: none); see skip().
+  // Always inlined: with the ray tree's second copy of shade(), GCC stopped inlining it into
+  // render_rows, and opaque scenes lost 5% to 15% at width 16.
   template <bool kFromEye = false>
-  static M closest_hit(const Scene& s, M valid, const V& o, const V& d, B& best_t, I& best_id,
-                       RayCounts& counts, const I& leaving = I(Id(-1))) noexcept {
+  [[gnu::always_inline]] static M closest_hit(const Scene& s, M valid, const V& o, const V& d,
+                                              B& best_t, I& best_id, RayCounts& counts,
+                                              const I& leaving = I(Id(-1))) noexcept {
     if (s.features.spheres) {
       const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
       if (reach < 2) {
@@ -412,17 +415,11 @@ struct Kernel {
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
   }
 
-  // What a shadow ray's lanes `m` do on meeting object `id` before the light: they are blocked.
-  // Returns the lanes still pending. The one step of the any-hit query that depends on what an
-  // object does to light; the traversal around it visits objects in a fixed order.
-  struct Block {
-    M operator()(Id /*id*/, const M& m, const M& pending) const noexcept { return pending & ~m; }
-  };
-
   // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)
   // for each object the lanes' segments meet (each object once per lane, spheres in the
   // hierarchy's fixed depth-first order or id order, then planes), and returns the lanes of
-  // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit.
+  // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit. The order is
+  // the reference's (a float product of three or more transmits depends on it).
   template <class Step>
   [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
                                           const B& dist, RayCounts& counts, const I& leaving,
@@ -475,16 +472,48 @@ struct Kernel {
     return pending;
   }
 
-  // The lanes of `valid` blocked before `dist`.
-  static M occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
-                    RayCounts& counts, const I& leaving) noexcept {
-    return valid & ~any_hit(s, valid, p, l, dist, counts, leaving, Block{});
+  // A packet of shadow rays under way: the lanes still looking for what they meet, and each
+  // lane's transmittance so far (contract step 4; stays 1 in scenes without transparency).
+  struct Shadow {
+    M pending;
+    B transmittance;
+  };
+
+  // The any-hit query's per-object step: the lanes of `met` meet object `id` (nearest hit beyond
+  // epsilon, nearer than the light). Their transmittance is multiplied by its transmit; a lane
+  // is done once that is 0. Without transparency every object is opaque: done at once, no
+  // product. kGlass false: the scene has no transparency (compiled out of the grey opaque path).
+  template <bool kGlass>
+  static void shadow_hit(const Scene& s, Shadow& sh, const M& met, Id id) noexcept {
+    if (!kGlass || !s.features.transparency) {
+      sh.pending = sh.pending & ~met;
+      return;
+    }
+    sh.transmittance = xsimd::select(
+        met, attenuate(sh.transmittance, B(s.mat_transmit[std::size_t(id)])), sh.transmittance);
+    sh.pending = sh.pending & ~(met & (sh.transmittance == B(0)));
+  }
+
+  // Shadow rays from p along unit l towards lights at `dist`: each lane's transmittance over
+  // the objects it meets; `pending` keeps the lanes whose transmittance is not 0 (in opaque
+  // scenes, those not blocked). `leaving` as for closest_hit.
+  template <bool kGlass>
+  static Shadow occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
+                         RayCounts& counts, const I& leaving) noexcept {
+    Shadow sh{valid, B(T(1))};
+    sh.pending =
+        any_hit(s, valid, p, l, dist, counts, leaving, [&](Id id, const M& met, const M& pending) {
+          sh.pending = pending;
+          shadow_hit<kGlass>(s, sh, met, id);
+          return sh.pending;
+        });
+    return sh;
   }
 
   // max(0, c)^shininess per lane: binary powering for whole exponents; std::pow lane by lane
   // for the rare fractional ones, exactly as the reference does for that material.
-  static B power(const Scene& s, const B& cos_nh, const B& shininess,
-                 const B& shininess_int) noexcept {
+  [[gnu::always_inline]] static B power(const Scene& s, const B& cos_nh, const B& shininess,
+                                        const B& shininess_int) noexcept {
     // One whole exponent for every lane (one material's area, the common case): drive binary
     // powering from the exponent's bits as an integer, a chain of multiplications only.
     const T first = shininess.get(0);
@@ -537,17 +566,113 @@ struct Kernel {
     B r, g, b;    // local colour (or background/environment where the ray missed)
     B reflect;    // the hit material's reflection coefficient
     M reflected;  // lanes that went on to a reflected ray
+    // Scenes with refraction only: the lanes that went on to a refracted (or totally
+    // reflected) ray, the material's transmit, and those rays, with `leaving` as for shade().
+    M refracted;
+    B transmit;
+    V to, td;
+    I t_leaving;
   };
 
+  // Contract steps 4 and 5 for the lanes of `hit` over C channels of the lights (1: grey, the
+  // colour then scales one sum; 3: coloured): shade[c] = (ambient + diffuse) + specular.
+  // `here`: the sphere hit from outside (fast mode), which shadow rays leaving outwards skip.
+  // kGlass false: grey opaque scenes, with no transparency code at all.
+  struct Shade {
+    B r, g, b;
+  };
+  template <int C, bool kGlass>
+  [[gnu::always_inline]] static Shade light_sums(const Scene& s, const M& hit, const I& id,
+                                                 const V& o, const B& best_t, const V& p,
+                                                 const V& n, const V& view, const I& here,
+                                                 RayCounts& counts) noexcept {
+    const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
+    B ks(0), shininess(0), shininess_int(0);
+    if (s.features.specular) {
+      ks = gather(s, s.mat_ks, id);
+      shininess = gather(s, s.mat_shininess, id);
+      if constexpr (!kFast) shininess_int = gather(s, s.mat_shininess_int, id);
+    }
+    // Fast mode's shortcuts for shadow rays (below) assume opaque objects.
+    const bool glass = kGlass && s.features.transparency;
+    const bool shortcuts = kFast && !glass;
+    B ambient[C], diffuse[C], specular[C];
+    for (int c = 0; c < C; ++c) ambient[c] = diffuse[c] = specular[c] = B(0);
+    for (int k = 0; k < s.num_lights; ++k) {
+      for (int c = 0; c < C; ++c)
+        ambient[c] = ambient[c] + ka * B(C == 1 ? s.light_ambient[k] : s.light_ambient_rgb[c][k]);
+      const V to_light = V{B(s.light_x[k]), B(s.light_y[k]), B(s.light_z[k])} - p;
+      B dist;
+      const V l = unit(to_light, dist);
+      const M lit = hit & (dist > B(0));
+      counts.shadow += count(lit);
+      if (!xsimd::any(lit)) continue;
+      const B cos_nl = Mth::dot(l, n);
+      // Fast mode, opaque scenes: a light behind the surface is blocked by the surface itself
+      // (the offset origin lies on the viewer's side), so its shadow ray is answered without
+      // tracing; the rays traced all leave on the normal's side, and those leaving a sphere
+      // from outside skip it. Through glass the surface passes part of the light: traced, and
+      // only the rays leaving outwards skip their sphere.
+      const M traced = shortcuts ? lit & (cos_nl > B(0)) : lit;
+      const V from = offset_origin<B, T>(p, n, shortcuts ? B(1) : cos_nl, o, best_t);
+      I skip_sphere = here;
+      if constexpr (kFast)
+        if (!shortcuts) skip_sphere = xsimd::select(to_mi(cos_nl > B(0)), here, I(Id(-1)));
+      lap(counts, kShading);
+      occupancy(counts, kShadowRays, traced);
+      const Shadow sh = occluded<kGlass>(s, traced, from, l, dist, counts, skip_sphere);
+      const M unblocked = traced & sh.pending;
+      lap(counts, kShadowRays);
+      if (!xsimd::any(unblocked)) continue;
+      const B cos_term = positive_part(cosine(cos_nl));
+      B spec_power(0);
+      M spec_lanes(false);
+      if (s.features.specular) {
+        B half_len;
+        const V h = unit(l + view, half_len);
+        spec_lanes = unblocked & (half_len > B(0));
+        spec_power = power(s, cosine(Mth::dot(n, h)), shininess, shininess_int);
+      }
+      for (int c = 0; c < C; ++c) {
+        B intensity(C == 1 ? s.light_intensity[k] : s.light_intensity_rgb[c][k]);
+        if (glass) intensity = intensity * sh.transmittance;
+        diffuse[c] = xsimd::select(unblocked, diffuse[c] + (kd * intensity) * cos_term, diffuse[c]);
+        if (s.features.specular)
+          specular[c] =
+              xsimd::select(spec_lanes, specular[c] + (ks * intensity) * spec_power, specular[c]);
+      }
+    }
+    const B sum0 = (ambient[0] + diffuse[0]) + specular[0];
+    if constexpr (C == 1)
+      return {sum0, sum0, sum0};
+    else
+      return {sum0, (ambient[C - 2] + diffuse[C - 2]) + specular[C - 2],
+              (ambient[C - 1] + diffuse[C - 1]) + specular[C - 1]};
+  }
+
+  // Coloured lights or transparency: out of line. Inlined beside the grey opaque sums they made
+  // GCC stop inlining the intersection loops into render_rows, which cost grey opaque scenes
+  // their speed (issue 13: a scene pays only for what it uses). Arguments by value: references
+  // would give the hot path's vectors a home in memory.
+  [[gnu::noinline]] static Shade general_light_sums(const Scene& s, M hit, I id, V o, B best_t, V p,
+                                                    V n, V view, I here,
+                                                    RayCounts& counts) noexcept {
+    if (s.features.coloured_lights)
+      return light_sums<3, true>(s, hit, id, o, best_t, p, n, view, here, counts);
+    return light_sums<1, true>(s, hit, id, o, best_t, p, n, view, here, counts);
+  }
+
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
-  // o, d to their reflected rays.
+  // o, d to their reflected rays; in scenes with refraction, out.refracted, out.to, out.td to
+  // the refracted ones. `stage`: the stage the ray's intersection is charged to.
   // `leaving` (fast mode): the sphere each lane's ray leaves from outside, -1 for none; set for
-  // the reflected rays.
-  [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, V& o, V& d, I& leaving,
-                                        Level& out, RayCounts& counts) noexcept {
+  // the reflected rays (out.t_leaving for the refracted ones).
+  // kTree: the ray tree's levels (scenes with refraction); the chain's have no refraction code.
+  template <bool kTree>
+  [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, int stage, V& o, V& d,
+                                        I& leaving, Level& out, RayCounts& counts) noexcept {
     B best_t(std::numeric_limits<T>::infinity());
     I best_id(Id(-1));
-    const int stage = depth == 0 ? kPrimaryIntersection : kReflection;
     occupancy(counts, stage, active);
     const M hit = depth == 0 && !s.camera.orthographic
                       ? closest_hit<true>(s, active, o, d, best_t, best_id, counts)
@@ -556,6 +681,7 @@ struct Kernel {
     const T* miss_color = depth == 0 ? s.background : s.environment;
     out.r = B(miss_color[0]), out.g = B(miss_color[1]), out.b = B(miss_color[2]);
     out.reflected = M(false);
+    out.refracted = M(false);
     if (!xsimd::any(hit)) return out.reflected;
     occupancy(counts, kShading, hit);
 
@@ -579,7 +705,9 @@ struct Kernel {
                  gather(s.plane_nz, pid, np)};
       n = s.features.spheres ? select3(to_m(best_id < I(Id(s.num_spheres))), n, pn) : pn;
     }
-    const M inside = Mth::dot(n, d) > B(0);
+    // The geometric normal's side: the ray enters the object where cos_in < 0 (step 7).
+    const B cos_in = Mth::dot(n, d);
+    const M inside = cos_in > B(0);
     n = select3(inside, -n, n);
     const V view = -d;
     // The sphere hit from outside, which this level's shadow rays and reflections leave.
@@ -589,53 +717,25 @@ struct Kernel {
         here =
             xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id, here);
 
-    const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
-    B ks(0), shininess(0), shininess_int(0);
-    if (s.features.specular) {
-      ks = gather(s, s.mat_ks, id);
-      shininess = gather(s, s.mat_shininess, id);
-      if constexpr (!kFast) shininess_int = gather(s, s.mat_shininess_int, id);
-    }
-    B ambient(0), diffuse(0), specular(0);
-    for (int k = 0; k < s.num_lights; ++k) {
-      ambient = ambient + ka * B(s.light_ambient[k]);
-      const V to_light = V{B(s.light_x[k]), B(s.light_y[k]), B(s.light_z[k])} - p;
-      B dist;
-      const V l = unit(to_light, dist);
-      const M lit = hit & (dist > B(0));
-      counts.shadow += count(lit);
-      if (!xsimd::any(lit)) continue;
-      const B cos_nl = Mth::dot(l, n);
-      // Fast mode: a light behind the surface is blocked by the surface itself (the offset
-      // origin lies on the viewer's side), so its shadow ray is answered without tracing; the
-      // rays traced all leave on the normal's side.
-      const M traced = kFast ? lit & (cos_nl > B(0)) : lit;
-      const V from = offset_origin<B, T>(p, n, kFast ? B(1) : cos_nl, o, best_t);
-      lap(counts, kShading);
-      occupancy(counts, kShadowRays, traced);
-      const M unblocked = traced & ~occluded(s, traced, from, l, dist, counts, here);
-      lap(counts, kShadowRays);
-      if (!xsimd::any(unblocked)) continue;
-      const B intensity(s.light_intensity[k]);
-      diffuse = xsimd::select(unblocked, diffuse + (kd * intensity) * positive_part(cosine(cos_nl)),
-                              diffuse);
-      if (s.features.specular) {
-        B half_len;
-        const V h = unit(l + view, half_len);
-        const M m = unblocked & (half_len > B(0));
-        const B term =
-            (ks * intensity) * power(s, cosine(Mth::dot(n, h)), shininess, shininess_int);
-        specular = xsimd::select(m, specular + term, specular);
-      }
-    }
-    const B shade_k = (ambient + diffuse) + specular;
-    out.r = xsimd::select(hit, gather(s, s.mat_r, id) * shade_k, out.r);
-    out.g = xsimd::select(hit, gather(s, s.mat_g, id) * shade_k, out.g);
-    out.b = xsimd::select(hit, gather(s, s.mat_b, id) * shade_k, out.b);
+    const Shade sum = s.features.coloured_lights || s.features.transparency
+                          ? general_light_sums(s, hit, id, o, best_t, p, n, view, here, counts)
+                          : light_sums<1, false>(s, hit, id, o, best_t, p, n, view, here, counts);
+    out.r = xsimd::select(hit, gather(s, s.mat_r, id) * sum.r, out.r);
+    out.g = xsimd::select(hit, gather(s, s.mat_g, id) * sum.g, out.g);
+    out.b = xsimd::select(hit, gather(s, s.mat_b, id) * sum.b, out.b);
 
-    if (!s.features.reflection || depth >= s.max_depth) {
+    if (!(kTree || s.features.reflection) || depth >= s.max_depth) {
       lap(counts, kShading);
       return out.reflected;
+    }
+    // Refracted rays first, while o and d are still this level's rays; their term is added
+    // after the reflection's all the same (radiance_tree).
+    if constexpr (kTree) {
+      refract_rays(s, hit, id, o, d, best_t, p, n, cos_in, here, out, counts);
+      if (!s.features.reflection) {
+        lap(counts, kShading);
+        return out.reflected;
+      }
     }
     out.reflect = gather(s, s.mat_reflect, id);
     out.reflected = hit & (out.reflect > B(0));
@@ -658,15 +758,80 @@ struct Kernel {
     return out.reflected;
   }
 
-  // The radiance of a packet of camera rays. Reflection is an iterative loop over levels with
-  // an active mask; the levels are then folded from the deepest up, local + reflect * child,
-  // which is the order the reference's recursion adds in (a running weight would not be).
-  static void radiance(const Scene& s, M active, V o, V d, std::vector<Level>& levels, B& r, B& g,
-                       B& b, RayCounts& counts) noexcept {
+  // Contract step 7 for the lanes of `hit` whose material transmits: out.refracted and their
+  // rays out.to, out.td. eta is 1 / ior entering (cos_in < 0 for the geometric normal), ior
+  // leaving; where k < 0 (total internal reflection) the ray takes the mirror direction. The
+  // refracted ray leaves on the far side of the surface (t.n = -sqrt(k) <= 0), so its origin
+  // moves there. Fast mode: a refracted ray may meet the sphere it crosses again, so it skips
+  // nothing; a totally reflected one leaves on the near side like a reflection.
+  [[gnu::always_inline]] static void refract_rays(const Scene& s, const M& hit, const I& id,
+                                                  const V& o, const V& d, const B& best_t,
+                                                  const V& p, const V& n, const B& cos_in,
+                                                  const I& here, Level& out,
+                                                  RayCounts& counts) noexcept {
+    out.transmit = gather(s, s.mat_transmit, id);
+    out.refracted = hit & (out.transmit > B(0));
+    if (!xsimd::any(out.refracted)) return;
+    lap(counts, kShading);
+    counts.refracted += count(out.refracted);
+    const B eta =
+        xsimd::select(cos_in < B(0), gather(s, s.mat_inv_ior, id), gather(s, s.mat_ior, id));
+    const Refraction<B> rf = refract<Mth>(d, n, eta);
+    const M through = rf.k >= B(0);
+    V t = Mth::normalize(rf.dir);
+    if (!xsimd::all(through | ~out.refracted))
+      t = select3(through, t, Mth::normalize(Mth::reflect(d, n)));
+    const B side = kFast ? xsimd::select(through, B(T(-1)), B(T(1))) : Mth::dot(t, n);
+    out.to = offset_origin<B, T>(p, n, side, o, best_t);
+    out.td = t;
+    out.t_leaving = xsimd::select(to_mi(through), I(Id(-1)), here);
+    lap(counts, kRefraction);
+  }
+
+  // The ray tree of the lanes of `active` from `depth` on, for scenes with refraction:
+  // recursion over packets with masks, depth first. Each level shades its lanes, then traces
+  // the reflected packet, then the refracted one, each on the lanes that spawned it, and adds
+  // local + reflect * child, then + transmit * child: the reference's order, bottom-up.
+  // Recursion is at most max_depth + 1 deep; splitting materials bound it (kMaxSplitDepth).
+  [[gnu::noinline]] static void radiance_tree(const Scene& s, M active, int depth, int stage, V o,
+                                              V d, I leaving, B& r, B& g, B& b,
+                                              RayCounts& counts) noexcept {
+    Level lv;
+    const M reflected = shade<true>(s, active, depth, stage, o, d, leaving, lv, counts);
+    r = lv.r, g = lv.g, b = lv.b;
+    if (xsimd::any(reflected)) {
+      B cr, cg, cb;
+      radiance_tree(s, reflected, depth + 1, kReflection, o, d, leaving, cr, cg, cb, counts);
+      r = xsimd::select(reflected, r + lv.reflect * cr, r);
+      g = xsimd::select(reflected, g + lv.reflect * cg, g);
+      b = xsimd::select(reflected, b + lv.reflect * cb, b);
+    }
+    if (xsimd::any(lv.refracted)) {
+      B cr, cg, cb;
+      radiance_tree(s, lv.refracted, depth + 1, kRefraction, lv.to, lv.td, lv.t_leaving, cr, cg, cb,
+                    counts);
+      r = xsimd::select(lv.refracted, r + lv.transmit * cr, r);
+      g = xsimd::select(lv.refracted, g + lv.transmit * cg, g);
+      b = xsimd::select(lv.refracted, b + lv.transmit * cb, b);
+    }
+  }
+
+  // The radiance of a packet of camera rays. Without refraction, reflection is an iterative
+  // loop over levels with an active mask; the levels are then folded from the deepest up,
+  // local + reflect * child, which is the order the reference's recursion adds in (a running
+  // weight would not be). With refraction the rays form a tree: radiance_tree.
+  [[gnu::always_inline]] static void radiance(const Scene& s, M active, V o, V d,
+                                              std::vector<Level>& levels, B& r, B& g, B& b,
+                                              RayCounts& counts) noexcept {
     int depth = 0;
     I leaving(Id(-1));
+    if (s.features.refraction) {
+      radiance_tree(s, active, 0, kPrimaryIntersection, o, d, leaving, r, g, b, counts);
+      return;
+    }
     for (;;) {
-      active = shade(s, active, depth, o, d, leaving, levels[depth], counts);
+      active = shade<false>(s, active, depth, depth == 0 ? kPrimaryIntersection : kReflection, o, d,
+                            leaving, levels[depth], counts);
       if (!xsimd::any(active)) break;
       ++depth;
     }
@@ -876,7 +1041,9 @@ struct Kernel {
               B::load_unaligned(rays + 5 * W)};
     RayCounts unused;
     // No sphere is being left (-1): the rays start wherever the caller put them.
-    const unsigned bb = bits(occluded(s, v, o, d, B::load_unaligned(tfar), unused, I(-1)));
+    // Any object blocks here (kGlass false): the API's occlusion is a yes/no query.
+    const unsigned bb =
+        bits(v & ~occluded<false>(s, v, o, d, B::load_unaligned(tfar), unused, I(-1)).pending);
     for (int k = 0; k < W; ++k) blocked_out[k] = (bb >> k) & 1u;
   }
 };
