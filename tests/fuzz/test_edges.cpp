@@ -189,6 +189,9 @@ TEST(Formats, ImagesAreNeverStdout) {
 // --- 5. memory ----------------------------------------------------------------------------------
 
 TEST(Memory, AnImageBeyondTheProcessMemoryIsRefusedBeforeWork) {
+#ifdef LANCER_TEST_UNDER_ASAN
+  GTEST_SKIP() << "caps the address space, which AddressSanitizer's shadow memory needs";
+#endif
   TempDir dir;
   const CommandResult r = testing::run_command(
       "ulimit -v 2000000; '" + testing::cli() + "' render " + scene("lorenzi-shadows.json") +
@@ -200,6 +203,9 @@ TEST(Memory, AnImageBeyondTheProcessMemoryIsRefusedBeforeWork) {
 // An allocation that fails anyway (bench's kernel mode holds 24 bytes of ray per sample) is one
 // line and exit status 3, not std::bad_alloc's abort.
 TEST(Memory, AllocationFailureIsACleanError) {
+#ifdef LANCER_TEST_UNDER_ASAN
+  GTEST_SKIP() << "caps the address space, which AddressSanitizer's shadow memory needs";
+#endif
   const CommandResult r = testing::run_command(
       "ulimit -v 1000000; '" + testing::cli() + "' bench " + scene("lorenzi-shadows.json") +
       " --mode kernel --resolution 2048x2048 --supersample 8 --width " +

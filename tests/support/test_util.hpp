@@ -17,6 +17,16 @@
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 
+// AddressSanitizer reserves terabytes of address space for its shadow memory, so a test that
+// caps the address space (ulimit -v, RLIMIT_AS) cannot run under it (the asan preset).
+#if defined(__SANITIZE_ADDRESS__)
+#define LANCER_TEST_UNDER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LANCER_TEST_UNDER_ASAN 1
+#endif
+#endif
+
 namespace lancer::testing {
 
 // The message of the InputError that loading `text` as a scene file named s.json gives, or
