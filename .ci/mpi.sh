@@ -90,7 +90,8 @@ expect_failure "bad resolution" 2 "--resolution" \
 
 # A killed rank: SIGKILL rank 1 mid-render; mpirun ends the job (SIGTERM to the others), rank 0
 # says so in one line and writes no file.
-big=(--resolution 1600x1200 --supersample 4 --threads 1)
+# Long enough (seconds, with the BVH, on an idle machine) that rank 1 dies mid-render.
+big=(--resolution 2400x1800 --supersample 8 --threads 1)
 timeout --kill-after=10 120 "${mpirun[@]}" -np 3 "$lancer" render scenes/many-spheres.json \
   -o "$out/dir/killed.png" "${big[@]}" >"$out/stdout" 2>"$out/stderr" &
 job=$!

@@ -16,14 +16,19 @@ namespace lancer::mpi {
 
 namespace {
 void (*previous_term)(int) = nullptr;
+// Set once this rank has said why the job ends: mpirun's SIGTERM, which can reach rank 0 while it
+// still exits with that message, then adds no second line.
+volatile std::sig_atomic_t said_why = 0;
 
 // mpirun ends the surviving ranks with SIGTERM when one dies: rank 0 says so (mpirun -q says
 // nothing itself), then the CLI's handler removes any temporary output and the signal ends it.
 extern "C" void on_term(int sig) {
   static const char message[] =
       "lancer: the MPI job was ended (a rank died or the job was cancelled); no output written\n";
-  ssize_t ignored = write(STDERR_FILENO, message, sizeof message - 1);
-  (void)ignored;
+  if (!said_why) {
+    ssize_t ignored = write(STDERR_FILENO, message, sizeof message - 1);
+    (void)ignored;
+  }
   if (previous_term && previous_term != SIG_IGN && previous_term != SIG_DFL) {
     previous_term(sig);
   } else {
@@ -77,6 +82,7 @@ void agree(MPI_Comm comm, const std::function<void()>& fn) {
   // Max of the status and of -rank: the highest status and the lowest failing rank.
   MPI_Allreduce(mine, all, 2, MPI_INT, MPI_MAX, comm);
   if (all[0] == 0) return;
+  said_why = 1;  // the failing rank says it below; the others have nothing to add
   if (-all[1] == rank) {
     // Rank 0's message is the single-process one; another rank's says where it came from.
     if (rank == 0)
@@ -91,6 +97,7 @@ void agree(MPI_Comm comm, const std::function<void()>& fn) {
 }
 
 void abort_job(const std::string& message, int status) {
+  said_why = 1;
   std::fprintf(stderr, "lancer: %s\n", message.c_str());
   std::fflush(stderr);
   MPI_Abort(MPI_COMM_WORLD, status);
