@@ -89,9 +89,12 @@ const KernelTable<float>* profiled_kernels(int width) {
   Isa isa;
   if (!runnable(width, false, isa)) return nullptr;
   switch (isa) {
-    case Isa::sse4_2: return table<xsimd::sse4_2, float, ProfiledMode>();
-    case Isa::avx2: return table<xsimd::avx2, float, ProfiledMode>();
-    case Isa::avx512f: return table<xsimd::avx512f, float, ProfiledMode>();
+    case Isa::sse4_2:
+      return table<xsimd::sse4_2, float, ProfiledMode>();
+    case Isa::avx2:
+      return table<xsimd::avx2, float, ProfiledMode>();
+    case Isa::avx512f:
+      return table<xsimd::avx512f, float, ProfiledMode>();
   }
   return nullptr;
 }
@@ -100,9 +103,12 @@ const KernelTable<double>* double_kernels(int width) {
   Isa isa;
   if (!runnable(width, true, isa)) return nullptr;
   switch (isa) {
-    case Isa::sse4_2: return table<xsimd::sse4_2, double, ExactMode>();
-    case Isa::avx2: return table<xsimd::avx2, double, ExactMode>();
-    case Isa::avx512f: return table<xsimd::avx512f, double, ExactMode>();
+    case Isa::sse4_2:
+      return table<xsimd::sse4_2, double, ExactMode>();
+    case Isa::avx2:
+      return table<xsimd::avx2, double, ExactMode>();
+    case Isa::avx512f:
+      return table<xsimd::avx512f, double, ExactMode>();
   }
   return nullptr;
 }

@@ -73,7 +73,7 @@ struct BenchResult {
   double peer_build_seconds = -1;
   // Every setup the peer ran, each row of it, before the fastest per row was kept.
   std::vector<BenchRow> peer_setups;
-  StructureInfo structure;     // as lancer's renders built it
+  StructureInfo structure;  // as lancer's renders built it
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);

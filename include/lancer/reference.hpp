@@ -23,14 +23,16 @@ struct PathLog {
     enum Kind { camera, reflected, light, refracted };
     Kind kind;
     Vec3<double> from, to;
-    // camera, reflected, refracted: the ray hit an object (`to` is the hit point) or, when false, nothing
+    // camera, reflected, refracted: the ray hit an object (`to` is the hit point) or, when false,
+    // nothing
     // (`to` is from + dir * miss_length). light: the ray to the light was blocked by an object
     // (the light was not counted); `to` is the light's position either way.
     bool hit;
     int depth;   // the recursion depth of the ray (light rays: of the ray whose hit they light)
     int pixel;   // j * nx + i of the camera ray the path started from
     int sample;  // b * s + a: its sub-sample
-    int id;      // camera, reflected, refracted: the object hit (-1 on a miss); light: the light's index
+    int id;      // camera, reflected, refracted: the object hit (-1 on a miss); light: the light's
+                 // index
   };
   // How far a ray that hits nothing is drawn: callers set it beyond the edge of their drawing.
   double miss_length = 1e3;

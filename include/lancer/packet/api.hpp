@@ -41,8 +41,8 @@ struct KernelTable {
   void (*intersect_camera_packets)(const PreparedScene<Real>&, const Real* rays, const int* lanes,
                                    std::size_t count, Real* t_out, RayCounts&);
   // One packet through the closest-hit kernel, for tests and the library API (src/api.cpp,
-  // which moves world-space rays into the prepared frame first): rays in SoA arrays of `width` lanes
-  // (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
+  // which moves world-space rays into the prepared frame first): rays in SoA arrays of `width`
+  // lanes (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
   // t and id. hit_out gets the lanes hit.
   void (*closest_hit_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                              Real* t, Real* id, bool* hit_out);
