@@ -49,39 +49,26 @@ struct Api<1> {
     if (valid[0]) rtcOccluded1(s, c, &r);
   }
 };
-template <>
-struct Api<4> {
-  using RayHit = RTCRayHit4;
-  using Ray = RTCRay4;
+// Widths 4, 8 and 16 differ only in their types and entry points.
+template <class RayHitT, class RayT,
+          void (*Intersect)(const int*, RTCScene, RTCIntersectContext*, RayHitT*),
+          void (*Occluded)(const int*, RTCScene, RTCIntersectContext*, RayT*)>
+struct PacketApi {
+  using RayHit = RayHitT;
+  using Ray = RayT;
   static void intersect(const int* v, RTCScene s, RTCIntersectContext* c, RayHit& r) {
-    rtcIntersect4(v, s, c, &r);
+    Intersect(v, s, c, &r);
   }
   static void occluded(const int* v, RTCScene s, RTCIntersectContext* c, Ray& r) {
-    rtcOccluded4(v, s, c, &r);
+    Occluded(v, s, c, &r);
   }
 };
 template <>
-struct Api<8> {
-  using RayHit = RTCRayHit8;
-  using Ray = RTCRay8;
-  static void intersect(const int* v, RTCScene s, RTCIntersectContext* c, RayHit& r) {
-    rtcIntersect8(v, s, c, &r);
-  }
-  static void occluded(const int* v, RTCScene s, RTCIntersectContext* c, Ray& r) {
-    rtcOccluded8(v, s, c, &r);
-  }
-};
+struct Api<4> : PacketApi<RTCRayHit4, RTCRay4, rtcIntersect4, rtcOccluded4> {};
 template <>
-struct Api<16> {
-  using RayHit = RTCRayHit16;
-  using Ray = RTCRay16;
-  static void intersect(const int* v, RTCScene s, RTCIntersectContext* c, RayHit& r) {
-    rtcIntersect16(v, s, c, &r);
-  }
-  static void occluded(const int* v, RTCScene s, RTCIntersectContext* c, Ray& r) {
-    rtcOccluded16(v, s, c, &r);
-  }
-};
+struct Api<8> : PacketApi<RTCRayHit8, RTCRay8, rtcIntersect8, rtcOccluded8> {};
+template <>
+struct Api<16> : PacketApi<RTCRayHit16, RTCRay16, rtcIntersect16, rtcOccluded16> {};
 
 // Sets lane k of a ray (of an RTCRayN laid out for W lanes).
 template <int W>
@@ -226,34 +213,8 @@ struct EmbreeScene::Impl {
     return t > RTCRayN_tnear(ray, N, i) && t < RTCRayN_tfar(ray, N, i);
   }
 
-  static void plane_intersect(const RTCIntersectFunctionNArguments* args) {
-    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
-    const unsigned N = args->N, k = args->primID;
-    RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, N);
-    RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, N);
-    for (unsigned i = 0; i < N; ++i) {
-      float t;
-      if (args->valid[i] != -1 || !plane_t(im.s, k, ray, N, i, t)) continue;
-      RTCRayN_tfar(ray, N, i) = t;
-      RTCHitN_Ng_x(hit, N, i) = im.s.plane_nx[k];
-      RTCHitN_Ng_y(hit, N, i) = im.s.plane_ny[k];
-      RTCHitN_Ng_z(hit, N, i) = im.s.plane_nz[k];
-      RTCHitN_u(hit, N, i) = 0.0f;
-      RTCHitN_v(hit, N, i) = 0.0f;
-      RTCHitN_primID(hit, N, i) = k;
-      RTCHitN_geomID(hit, N, i) = args->geomID;
-      RTCHitN_instID(hit, N, i, 0) = args->context->instID[0];
-    }
-  }
-
-  static void plane_occluded(const RTCOccludedFunctionNArguments* args) {
-    const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
-    const unsigned N = args->N, k = args->primID;
-    for (unsigned i = 0; i < N; ++i) {
-      float t;
-      if (args->valid[i] != -1 || !plane_t(im.s, k, args->ray, N, i, t)) continue;
-      RTCRayN_tfar(args->ray, N, i) = -kInf;
-    }
+  static Vec3<float> plane_normal(const PreparedScene<float>& s, unsigned k) {
+    return {s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
   }
 
   // ---- spheres as user geometry: one callback for a whole packet of N rays ---------------
@@ -290,18 +251,27 @@ struct EmbreeScene::Impl {
     t = t0 > tnear ? t0 : t1;
     return t > tnear && t < tfar;
   }
-  static void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
+  // lancer computes its own normal from the hit point; Embree gets a placeholder.
+  static Vec3<float> sphere_normal(const PreparedScene<float>&, unsigned) { return {0, 0, 1}; }
+
+  // ---- the callbacks of both user geometries, over their hit test and normal ------------
+  using HitTest = bool (*)(const PreparedScene<float>&, unsigned, RTCRayN*, unsigned, unsigned,
+                           float&);
+  using Normal = Vec3<float> (*)(const PreparedScene<float>&, unsigned);
+  template <HitTest Test, Normal Ng>
+  static void intersect_n(const RTCIntersectFunctionNArguments* args) {
     const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
     const unsigned N = args->N, k = args->primID;
     RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, N);
     RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, N);
     for (unsigned i = 0; i < N; ++i) {
       float t;
-      if (args->valid[i] != -1 || !sphere_t(im.s, k, ray, N, i, t)) continue;
+      if (args->valid[i] != -1 || !Test(im.s, k, ray, N, i, t)) continue;
+      const Vec3<float> n = Ng(im.s, k);
       RTCRayN_tfar(ray, N, i) = t;
-      RTCHitN_Ng_x(hit, N, i) = 0.0f;  // lancer computes its own normal from the hit point
-      RTCHitN_Ng_y(hit, N, i) = 0.0f;
-      RTCHitN_Ng_z(hit, N, i) = 1.0f;
+      RTCHitN_Ng_x(hit, N, i) = n.x;
+      RTCHitN_Ng_y(hit, N, i) = n.y;
+      RTCHitN_Ng_z(hit, N, i) = n.z;
       RTCHitN_u(hit, N, i) = 0.0f;
       RTCHitN_v(hit, N, i) = 0.0f;
       RTCHitN_primID(hit, N, i) = k;
@@ -309,14 +279,30 @@ struct EmbreeScene::Impl {
       RTCHitN_instID(hit, N, i, 0) = args->context->instID[0];
     }
   }
-  static void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
+  template <HitTest Test>
+  static void occluded_n(const RTCOccludedFunctionNArguments* args) {
     const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
     const unsigned N = args->N, k = args->primID;
     for (unsigned i = 0; i < N; ++i) {
       float t;
-      if (args->valid[i] != -1 || !sphere_t(im.s, k, args->ray, N, i, t)) continue;
+      if (args->valid[i] != -1 || !Test(im.s, k, args->ray, N, i, t)) continue;
       RTCRayN_tfar(args->ray, N, i) = -kInf;
     }
+  }
+  // A user geometry of count primitives with the given callbacks, attached to the scene.
+  template <HitTest Test, Normal Ng>
+  unsigned attach_user(int count, RTCBoundsFunction bounds) {
+    RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(g, unsigned(count));
+    rtcSetGeometryUserData(g, this);
+    rtcSetGeometryBoundsFunction(g, bounds, this);
+    rtcSetGeometryIntersectFunction(g, &Impl::intersect_n<Test, Ng>);
+    rtcSetGeometryOccludedFunction(g, &Impl::occluded_n<Test>);
+    if (config.high_quality) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+    rtcCommitGeometry(g);
+    const unsigned id = rtcAttachGeometry(scene, g);
+    rtcReleaseGeometry(g);
+    return id;
   }
 
   void build(const Scene& src, const std::string& device_config) {
@@ -338,16 +324,8 @@ struct EmbreeScene::Impl {
     rtcSetSceneFlags(scene, config.compact ? RTC_SCENE_FLAG_COMPACT : RTC_SCENE_FLAG_NONE);
 
     if (s.num_spheres > 0 && config.user_spheres) {
-      RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-      rtcSetGeometryUserPrimitiveCount(g, unsigned(s.num_spheres));
-      rtcSetGeometryUserData(g, this);
-      rtcSetGeometryBoundsFunction(g, &Impl::sphere_bounds, this);
-      rtcSetGeometryIntersectFunction(g, &Impl::sphere_intersect);
-      rtcSetGeometryOccludedFunction(g, &Impl::sphere_occluded);
-      if (config.high_quality) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
-      rtcCommitGeometry(g);
-      sphere_geom = rtcAttachGeometry(scene, g);
-      rtcReleaseGeometry(g);
+      sphere_geom =
+          attach_user<&Impl::sphere_t, &Impl::sphere_normal>(s.num_spheres, &Impl::sphere_bounds);
       check("spheres");
     } else if (s.num_spheres > 0) {
       RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
@@ -368,15 +346,8 @@ struct EmbreeScene::Impl {
     }
     if (s.num_planes > 0) {
       if (mode == PlaneMode::user) {
-        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-        rtcSetGeometryUserPrimitiveCount(g, unsigned(s.num_planes));
-        rtcSetGeometryUserData(g, this);
-        rtcSetGeometryBoundsFunction(g, &Impl::plane_bounds, this);
-        rtcSetGeometryIntersectFunction(g, &Impl::plane_intersect);
-        rtcSetGeometryOccludedFunction(g, &Impl::plane_occluded);
-        rtcCommitGeometry(g);
-        plane_geom = rtcAttachGeometry(scene, g);
-        rtcReleaseGeometry(g);
+        plane_geom =
+            attach_user<&Impl::plane_t, &Impl::plane_normal>(s.num_planes, &Impl::plane_bounds);
       } else {
         // A square of half-size plane_half about the plane's point: rays from within the scene
         // miss it only when they run within about 1/kPlaneExtent radian of parallel to it.
