@@ -83,6 +83,11 @@ expect_failure "bad width" 2 "--width" \
   run -np 2 "$lancer" render scenes/lorenzi-diffuse.json -o "$out/dir/x.png" --width 3
 expect_failure "bad resolution" 2 "--resolution" \
   run -np 2 "$lancer" render scenes/lorenzi-diffuse.json -o "$out/dir/x.png" --resolution 0x9
+# Commands that are not distributed are refused once, not run once per rank.
+expect_failure "validate under mpirun" 2 "validate: runs in one process" \
+  run -np 2 "$lancer" validate scenes/lorenzi-diffuse.json
+expect_failure "generate under mpirun" 2 "only render and bench are distributed" \
+  run -np 2 "$lancer" generate --spheres 8 -o "$out/dir/g.json"
 # A width one rank's CPU lacks: that rank's message, naming it.
 [ "$(LANCER_MAX_WIDTH=16 "$lancer" validate scenes/lorenzi-diffuse.json | grep -c '^ *16 ')" -gt 0 ] &&
   expect_failure "width a rank lacks" 2 "rank 1: --width: width 16" \
@@ -114,5 +119,5 @@ else
     { fail "killed rank: expected one line saying the job was ended, got:"; cat "$out/stderr"; }
   [ -z "$(ls -A "$out/dir")" ] || fail "killed rank: left files: $(ls -A "$out/dir")"
 fi
-[ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width or resolution, a width one rank lacks, a killed rank: each ends the job with one message, no file, no hang"
+[ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width or resolution, commands that are not distributed, a width one rank lacks, a killed rank: each ends the job with one message, no file, no hang"
 exit $status

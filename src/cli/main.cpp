@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/mpi.hpp"
 
 namespace {
 
@@ -76,6 +77,19 @@ int main(int argc, char** argv) {
                    argv[1], names.c_str());
       return kExitBadInput;
     }
+  }
+
+  // Only render and bench are distributed (docs/mpi.md). Any other command started by mpirun
+  // with N ranks would run N times over: N verdicts on stdout, N writers of one file.
+  const lancer::mpi::Launch launch = lancer::mpi::launch_from_environment();
+  if (launch.size > 1 && argc > 1 && argv[1][0] != '-' && std::strcmp(argv[1], "render") != 0 &&
+      std::strcmp(argv[1], "bench") != 0) {
+    if (launch.rank == 0)
+      std::fprintf(stderr,
+                   "lancer: %s: runs in one process, not across %d MPI ranks (%s); only render "
+                   "and bench are distributed: run it without mpirun\n",
+                   argv[1], launch.size, launch.variable);
+    return kExitBadInput;
   }
 
   try {
