@@ -220,6 +220,11 @@ TEST(JsonSummaries, RenderValidateProfile) {
     } else if (st["lane_occupancy"].is_number()) {
       EXPECT_GT(st["lane_occupancy"].get<double>(), 0) << st.dump();
     }
+    // Leaf occupancy is measured only where leaves were visited: never a 0 standing for none.
+    if (st["leaf_visits"] == 0)
+      EXPECT_TRUE(st["leaf_occupancy"].is_null()) << st.dump();
+    else
+      EXPECT_GT(st["leaf_occupancy"].get<double>(), 0) << st.dump();
   }
   EXPECT_TRUE(saw_null);
 }

@@ -41,13 +41,15 @@ void run_profile(const ProfileArgs& a) {
       const auto or_null = [measured](const auto& v) {
         return measured ? nlohmann::json(v) : nlohmann::json();
       };
-      out["stages"].push_back({{"name", st.name},
-                               {"seconds", st.seconds},
-                               {"rays", st.rays},
-                               {"lane_occupancy", or_null(st.lane_occupancy)},
-                               {"leaf_visits", st.leaves},
-                               {"leaf_occupancy", or_null(st.leaf_occupancy)},
-                               {"lane_histogram", or_null(st.histogram)}});
+      out["stages"].push_back(
+          {{"name", st.name},
+           {"seconds", st.seconds},
+           {"rays", st.rays},
+           {"lane_occupancy", or_null(st.lane_occupancy)},
+           {"leaf_visits", st.leaves},
+           // No leaves visited (no hierarchy, or not this stage's): null.
+           {"leaf_occupancy", st.leaves ? nlohmann::json(st.leaf_occupancy) : nlohmann::json()},
+           {"lane_histogram", or_null(st.histogram)}});
     }
     std::printf("%s\n", out.dump(2).c_str());
     return;
