@@ -193,6 +193,8 @@ TEST(JsonSummaries, RenderValidateProfile) {
   EXPECT_EQ(r["rays"]["camera"], 640);
   EXPECT_GE(r["write_seconds"].get<double>(), 0);
   EXPECT_GT(r["render_seconds"].get<double>(), 0);
+  EXPECT_GE(r["load_seconds"].get<double>(), 0);
+  EXPECT_GT(r["peak_resident_bytes"].get<double>(), 1e6);
   EXPECT_EQ(read_image(dir.file("r.png")).nx, 32);
 
   ASSERT_EQ(run_command(cli() + " validate " + scene + " --resolution 32x20 --json > " +

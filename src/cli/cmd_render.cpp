@@ -1,3 +1,5 @@
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -22,11 +24,20 @@ struct RenderArgs {
   SceneOverrides overrides;
 };
 
-// write_seconds < 0: the write is not this process's to time (MPI ranks).
+// The process's peak resident set so far (getrusage: Linux reports kilobytes).
+double peak_resident_bytes() {
+  struct rusage u {};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) * 1024.0;
+}
+
+// load_seconds, write_seconds < 0: not this process's to time (MPI ranks report their own).
 void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& r,
-                   double write_seconds) {
+                   double load_seconds, double write_seconds) {
   const auto& c = scene.camera;
   std::printf("lancer: %s -> %s\n", a.scene.c_str(), a.output.c_str());
+  if (load_seconds >= 0)
+    std::printf("  load     %.4f s (reading and checking the scene file)\n", load_seconds);
   std::printf("  image    %d x %d, %d sample%s per pixel\n", c.nx, c.ny,
               scene.supersample * scene.supersample, scene.supersample > 1 ? "s" : "");
   const std::string capped =
@@ -51,9 +62,11 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
               r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0);
   if (write_seconds >= 0) std::printf("; writing the image %.4f s", write_seconds);
   std::printf("\n");
+  std::printf("  memory   peak %.1f MB resident (the whole process so far)\n",
+              peak_resident_bytes() / 1e6);
 }
 
-void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r,
+void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, double load_seconds,
                 double write_seconds) {
   const auto& c = scene.camera;
   const StructureInfo& st = r.structure;
@@ -78,7 +91,9 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r,
                      {"reflected", r.rays.reflected},
                      {"refracted", r.rays.refracted},
                      {"total", r.rays.total()}}},
+                   {"load_seconds", load_seconds},
                    {"render_seconds", r.seconds},
+                   {"peak_resident_bytes", peak_resident_bytes()},
                    {"write_seconds", write_seconds},
                    {"mrays_per_s", r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0}};
   if (!r.precision_reason.empty()) j["precision_reason"] = r.precision_reason;
@@ -107,7 +122,7 @@ void run_render_mpi(const RenderArgs& a) {
     std::exit(2);
   }
   mpi::render_command(job, [&](const Scene& scene, const RenderResult& r, const mpi::RankStats& s) {
-    print_summary(a, scene, r, -1);
+    print_summary(a, scene, r, -1, -1);
     std::printf(
         "  ranks    %d x %d thread%s; slowest rank: load+prepare %.4f s, render %.4f s "
         "(%.2fx the mean); gather %.4f s, %.2f MB\n",
@@ -119,7 +134,10 @@ void run_render_mpi(const RenderArgs& a) {
 
 void run_render(const RenderArgs& a) {
   if (mpi::launch_from_environment().size > 1) return run_render_mpi(a);
+  const auto load_start = std::chrono::steady_clock::now();
   Scene scene = load_scene(a.scene);
+  const double load_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
   apply_overrides(scene, a.overrides);
   check_output_path(a.output, a.scene);  // before rendering, not after
   RenderOptions opt;
@@ -134,8 +152,8 @@ void run_render(const RenderArgs& a) {
   write_image(r.image, a.output);
   const double write_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count();
-  if (a.json) return print_json(a, scene, r, write_s);
-  print_summary(a, scene, r, write_s);
+  if (a.json) return print_json(a, scene, r, load_s, write_s);
+  print_summary(a, scene, r, load_s, write_s);
 }
 }  // namespace
 
