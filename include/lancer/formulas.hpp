@@ -216,15 +216,14 @@ inline SurfacePoint<T> sphere_point_along(const Vec3<T>& o, const Vec3<T>& d, co
 // computed relative to the sphere instead: the ray's closest approach to the centre,
 // perp = d x (f x d) = f - (f.d) d for f = o - c, whose cross products cancel only as far as the
 // geometry does (f - (f.d) d cancels along d, by an ulp of |f| whatever the geometry), then
-// p - c = perp -+ sqrt(r^2 - |perp|^2) d, the root's side taken from t + f.d (the near root is
-// -f.d - sqrt(disc)). |p - c| is r to an ulp of r, whatever error perp carries: that error moves
-// p along the sphere, not off it. So p = c + (p - c) lies off the sphere by its own rounding
-// only, half an ulp of each |p_i|, of which the normal's share counts, and the origin's own
-// rounding as much again (pbrt-v4's bound, Pharr et al. 2023, sec. 6.8.6): the origins move by
-// 2^-22 (|n|.|p| + 4 |p - c|inf) (twice that bound), not 64 ulps of the magnitude. On a sphere
-// 1e6 radii away that is a few hundredths of its radius instead of four radii, which put a
-// neighbour's contact shadow and its reflection out of reach (issue 17).
-// a b - c e with both products' rounding errors recovered (Dekker's two-product on Veltkamp's
+// p - c = perp -+ sqrt(r^2 - |perp|^2) d, - for the near root. |p - c| is r to an ulp of r,
+// whatever error perp carries: that error moves p along the sphere, not off it. So p = c + (p - c)
+// lies off the sphere by its own rounding only, half an ulp of each |p_i|, of which the normal's
+// share counts, and the origin's own rounding as much again (pbrt-v4's bound, Pharr et al. 2023,
+// sec. 6.8.6): the origins move by 2^-22 (|n|.|p| + 4 |p - c|inf) (twice that bound), not 64 ulps
+// of the magnitude. On a sphere 1e6 radii away that is a few hundredths of its radius instead of
+// four radii, which put a neighbour's contact shadow and its reflection out of reach (issue 17). a
+// b - c e with both products' rounding errors recovered (Dekker's two-product on Veltkamp's
 // splitting; no fused multiply-add, so the same bits on every ISA): accurate to about an ulp of
 // the result where a b and c e cancel. Coordinates are at most 1e18 (docs/limits.md), so the
 // split cannot overflow.
@@ -270,7 +269,13 @@ inline SurfacePoint<T> sphere_point_local(const Vec3<T>& o, const Vec3<T>& d, co
   const Vec3<T> f = o - c;
   const Vec3<T> perp = cross(d, accurate_cross<S>(f, d));
   const T s = sqrt(positive_part(r2 - Math::dot(perp, perp)));
-  const Vec3<T> local = perp + d * select(t + Math::dot(f, d) < T(0), -s, s);
+  // Which root t is: the nearer of the two, recomputed as the intersection did. (The sign of
+  // t + f.d, t against the closest approach, carries an ulp of |f| and flips where s is below
+  // it: a tenth of the radius at 1e-6.)
+  const SphereRoots<T> roots =
+      sphere_roots<Math>(sphere_disc<Math>(f, d, r2), sphere_c<Math>(f, r2));
+  const auto near = abs_of(t - roots.near_t) <= abs_of(t - roots.far_t);
+  const Vec3<T> local = perp + d * select(near, -s, s);
   const Vec3<T> p = c + local;
   const Vec3<T> n = Math::normalize(local);
   const T along_n =
