@@ -136,6 +136,8 @@ class Tracer {
       const Vec3<T> c{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]};
       const T r2 = s_.sphere_r2[id];
       if (sphere_is_small(r2, magnitude)) return sphere_point_local<T>(origin, dir, t, c, r2);
+      if (sphere_is_large(r2, magnitude))
+        return sphere_point_large<T>(origin, dir, t, c, r2, magnitude);
       return sphere_point_along<T>(origin, dir, t, c, magnitude);
     }
     const int k = id - s_.num_spheres;

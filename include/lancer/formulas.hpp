@@ -284,6 +284,46 @@ inline SurfacePoint<T> sphere_point_local(const Vec3<T>& o, const Vec3<T>& d, co
   return {p, n, (along_n + T(4) * radius) * T(OffsetScale<S>::value * S(0.0625))};
 }
 
+// The rounding error of s = a + b (Knuth's two-sum): a + b = s + two_sum_error(a, b, s).
+template <class T>
+inline T two_sum_error(const T& a, const T& b, const T& s) {
+  const T bb = s - a;
+  return (a - (s - bb)) + (b - bb);
+}
+
+// Where a sphere is huge against the magnitude of its hit point (r > 64 magnitude: a ground
+// sphere of radius 1e6 seen from a few units above it), c = |f|^2 - r^2 cancels: each square
+// carries an ulp of r^2 (65536 for r = 1e6), c is 2 r h for an origin h above the surface, and
+// the near root c / q moved the hit point by a few hundredths over a metre (issue 17). Here c
+// is summed with every product's and sum's rounding error recovered, so the root keeps its own
+// precision; the far root q had no cancellation. Which root t is: the nearer one, as above.
+template <class T>
+inline auto sphere_is_large(const T& r2, const T& magnitude) {
+  return r2 > T(4096) * (magnitude * magnitude);
+}
+template <class S, class T>
+inline T accurate_sphere_c(const Vec3<T>& f, const T& r2) {
+  const T xx = f.x * f.x, yy = f.y * f.y, zz = f.z * f.z;
+  const T lo = (product_error<S>(f.x, f.x, xx) + product_error<S>(f.y, f.y, yy)) +
+               product_error<S>(f.z, f.z, zz);
+  const T s1 = xx + yy, s2 = s1 + zz, s3 = s2 - r2;
+  const T e = (two_sum_error(xx, yy, s1) + two_sum_error(s1, zz, s2)) + two_sum_error(s2, -r2, s3);
+  return s3 + (e + lo);
+}
+template <class S, class Math = ExactMath, class T>
+inline SurfacePoint<T> sphere_point_large(const Vec3<T>& o, const Vec3<T>& d, const T& t,
+                                          const Vec3<T>& c, const T& r2, const T& magnitude) {
+  using std::sqrt;
+  const Vec3<T> f = o - c;
+  const SphereDisc<T> sd = sphere_disc<Math>(f, d, r2);
+  const T s = sqrt(positive_part(sd.disc));
+  const T q = select(sd.b < T(0), s - sd.b, -(sd.b + s));
+  const T small_root = Math::div(sphere_c<Math>(f, r2), q);
+  const T root =
+      select(abs_of(t - small_root) <= abs_of(t - q), Math::div(accurate_sphere_c<S>(f, r2), q), q);
+  return sphere_point_along<S, Math>(o, d, root, c, magnitude);
+}
+
 // Blinn-Phong's specular factor max(0, n.h)^shininess, exact for whole shininess.
 template <class T>
 inline T specular_power(const T& cos_nh, const T& shininess) {

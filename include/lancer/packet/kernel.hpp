@@ -686,7 +686,7 @@ struct Kernel {
 
     // The hit point, its geometric normal and its secondary rays' offset (formulas.hpp):
     // p = o + t d, except on spheres small against |o|inf + t, where exact mode computes p
-    // relative to the sphere, as the reference does.
+    // relative to the sphere, and huge ones, where it recomputes t accurately, as the reference.
     const B magnitude = hit_magnitude(o, best_t);
     V p = Mth::along(o, d, best_t);
     B delta = offset_delta<T>(magnitude);
@@ -708,6 +708,12 @@ struct Kernel {
           p = select3(small, at.p, p);
           n = select3(small, at.normal, n);
           delta = xsimd::select(small, at.delta, delta);
+        }
+        const M large = hit & to_m(best_id < I(Id(ns))) & sphere_is_large(r2, magnitude);
+        if (xsimd::any(large)) {
+          const SurfacePoint<B> at = sphere_point_large<T, Mth>(o, d, best_t, c, r2, magnitude);
+          p = select3(large, at.p, p);
+          n = select3(large, at.normal, n);
         }
       }
     }
