@@ -3,7 +3,7 @@
 // exact float stays within 0.5% of pixels off by more than 2/255 of double on tiny spheres far
 // away, ground spheres of radius 1e6 and scenes moved 1e5 from the origin; `auto` picks float
 // wherever the envelope (choose_precision) says it holds, and stays within 0.5% everywhere.
-// Scenes are seeded (log-uniform magnitudes), the same as scripts/extremes.py builds.
+// Scenes are seeded (log-uniform magnitudes), built as scripts/extremes.py builds its own.
 #include <gtest/gtest.h>
 
 #include <cmath>
