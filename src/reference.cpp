@@ -129,21 +129,29 @@ class Tracer {
   }
 
   // Step 3's point and geometric normal, and the offset of the rays that leave it.
-  SurfacePoint<T> surface_point(int id, const Vec3<T>& origin, const Vec3<T>& dir,
-                                const T& t) const {
+  [[gnu::always_inline]] SurfacePoint<T> surface_point(int id, const Vec3<T>& origin,
+                                                       const Vec3<T>& dir, const T& t) const {
     const T magnitude = hit_magnitude(origin, t);
     if (id < s_.num_spheres) {
       const Vec3<T> c{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]};
       const T r2 = s_.sphere_r2[id];
-      if (sphere_is_small(r2, magnitude)) return sphere_point_local<T>(origin, dir, t, c, r2);
-      if (sphere_is_large(r2, magnitude))
-        return sphere_point_large<T>(origin, dir, t, c, r2, magnitude);
+      if (sphere_is_small(r2, magnitude) || sphere_is_large(r2, magnitude))
+        return sphere_point_extreme(origin, dir, t, c, r2, magnitude);
       return sphere_point_along<T>(origin, dir, t, c, magnitude);
     }
     const int k = id - s_.num_spheres;
     return {along(origin, dir, t),
             {s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]},
             offset_delta<T>(magnitude)};
+  }
+
+  // Spheres small or huge against the hit's magnitude: out of the hot path.
+  [[gnu::noinline, gnu::cold]] static SurfacePoint<T> sphere_point_extreme(const Vec3<T>& origin,
+                                                                           const Vec3<T>& dir, T t,
+                                                                           const Vec3<T>& c, T r2,
+                                                                           T magnitude) {
+    if (sphere_is_small(r2, magnitude)) return sphere_point_local<T>(origin, dir, t, c, r2);
+    return sphere_point_large<T>(origin, dir, t, c, r2, magnitude);
   }
 
   T power(const T& cos_nh, int m) const {
