@@ -212,18 +212,7 @@ inline SurfacePoint<T> sphere_point_along(const Vec3<T>& o, const Vec3<T>& d, co
   return {p, sphere_normal<Math>(p, c), offset_delta<S>(magnitude)};
 }
 
-// Where a sphere is small against the magnitude of its hit point (r < magnitude / 64), p - c is
-// computed relative to the sphere instead: the ray's closest approach to the centre,
-// perp = d x (f x d) = f - (f.d) d for f = o - c, whose cross products cancel only as far as the
-// geometry does (f - (f.d) d cancels along d, by an ulp of |f| whatever the geometry), then
-// p - c = perp -+ sqrt(r^2 - |perp|^2) d, - for the near root. |p - c| is r to an ulp of r,
-// whatever error perp carries: that error moves p along the sphere, not off it. So p = c + (p - c)
-// lies off the sphere by its own rounding only, half an ulp of each |p_i|, of which the normal's
-// share counts, and the origin's own rounding as much again (pbrt-v4's bound, Pharr et al. 2023,
-// sec. 6.8.6): the origins move by 2^-22 (|n|.|p| + 4 |p - c|inf) (twice that bound), not 64 ulps
-// of the magnitude. On a sphere 1e6 radii away that is a few hundredths of its radius instead of
-// four radii, which put a neighbour's contact shadow and its reflection out of reach (issue 17). a
-// b - c e with both products' rounding errors recovered (Dekker's two-product on Veltkamp's
+// a b - c e with both products' rounding errors recovered (Dekker's two-product on Veltkamp's
 // splitting; no fused multiply-add, so the same bits on every ISA): accurate to about an ulp of
 // the result where a b and c e cancel. Coordinates are at most 1e18 (docs/limits.md), so the
 // split cannot overflow.
@@ -258,6 +247,17 @@ inline Vec3<T> accurate_cross(const Vec3<T>& f, const Vec3<T>& d) {
           difference_of_products<S>(f.x, d.y, f.y, d.x)};
 }
 
+// Where a sphere is small against the magnitude of its hit point (r < magnitude / 64), p - c is
+// computed relative to the sphere instead: the ray's closest approach to the centre,
+// perp = d x (f x d) = f - (f.d) d for f = o - c, whose cross products cancel only as far as the
+// geometry does (f - (f.d) d cancels along d, by an ulp of |f| whatever the geometry), then
+// p - c = perp -+ sqrt(r^2 - |perp|^2) d, - for the near root. |p - c| is r to an ulp of r,
+// whatever error perp carries: that error moves p along the sphere, not off it. So p = c + (p - c)
+// lies off the sphere by its own rounding only, half an ulp of each |p_i|, of which the normal's
+// share counts, and the origin's own rounding as much again (pbrt-v4's bound, Pharr et al. 2023,
+// sec. 6.8.6): the origins move by 2^-22 (|n|.|p| + 4 |p - c|inf) (twice that bound), not 64 ulps
+// of the magnitude. On a sphere 1e6 radii away that is a few hundredths of its radius instead of
+// four radii, which put a neighbour's contact shadow and its reflection out of reach (issue 17).
 template <class T>
 inline auto sphere_is_small(const T& r2, const T& magnitude) {
   return r2 * T(4096) < magnitude * magnitude;
