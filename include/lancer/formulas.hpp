@@ -260,7 +260,7 @@ inline Vec3<T> accurate_cross(const Vec3<T>& f, const Vec3<T>& d) {
 // four radii, which put a neighbour's contact shadow and its reflection out of reach (issue 17).
 template <class T>
 inline auto sphere_is_small(const T& r2, const T& magnitude) {
-  return r2 * T(4096) < magnitude * magnitude;
+  return r2 < (magnitude * magnitude) * T(1.0 / 4096);  // no overflow: magnitude <= 5e18
 }
 template <class S, class Math = ExactMath, class T>
 inline SurfacePoint<T> sphere_point_local(const Vec3<T>& o, const Vec3<T>& d, const T& t,
@@ -299,7 +299,7 @@ inline T two_sum_error(const T& a, const T& b, const T& s) {
 // precision; the far root q had no cancellation. Which root t is: the nearer one, as above.
 template <class T>
 inline auto sphere_is_large(const T& r2, const T& magnitude) {
-  return r2 > T(4096) * (magnitude * magnitude);
+  return r2 * T(1.0 / 4096) > magnitude * magnitude;
 }
 template <class S, class T>
 inline T accurate_sphere_c(const Vec3<T>& f, const T& r2) {
