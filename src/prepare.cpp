@@ -175,6 +175,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
                       &p.sphere_cy,
                       &p.sphere_cz,
                       &p.sphere_r,
+                      &p.sphere_r2,
                       &p.sphere_inv_r,
                       &p.plane_nx,
                       &p.plane_ny,

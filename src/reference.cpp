@@ -41,8 +41,9 @@ class Tracer {
     }
     // 3. The hit point and the normal facing the ray; the geometric normal's side tells
     // whether the ray enters the object (step 7).
-    const Vec3<T> p = along(origin, dir, hit.t);
-    const Vec3<T> geometric = normal_at(hit.id, p);
+    const SurfacePoint<T> at = surface_point(hit.id, origin, dir, hit.t);
+    const Vec3<T>& p = at.p;
+    const Vec3<T>& geometric = at.normal;
     const T cos_in = dot(geometric, dir);
     const Vec3<T> n = cos_in > T(0) ? -geometric : geometric;
     const Vec3<T> view = -dir;
@@ -50,16 +51,16 @@ class Tracer {
     // 4 and 5. One shading sum scaled by the colour for grey lights, one per channel otherwise:
     // the same bits per channel when the channels are equal.
     const int m = hit.id;
-    Color<T> local = s_.features.coloured_lights ? lights<3>(origin, hit.t, p, n, view, m, depth)
-                                                 : lights<1>(origin, hit.t, p, n, view, m, depth);
+    Color<T> local = s_.features.coloured_lights ? lights<3>(at.delta, p, n, view, m, depth)
+                                                 : lights<1>(at.delta, p, n, view, m, depth);
 
     // 6. Mirror reflection, recursively.
     const T reflect_k = s_.mat_reflect[m];
     if (depth < s_.max_depth && reflect_k > T(0)) {
       ++counts_.reflected;
       const Vec3<T> r = normalize(reflect(dir, n));
-      const Color<T> child = trace(offset_origin<T, T>(p, n, dot(r, n), origin, hit.t), r,
-                                   depth + 1, PathLog::Segment::reflected);
+      const Color<T> child = trace(offset_origin(p, n, dot(r, n), at.delta), r, depth + 1,
+                                   PathLog::Segment::reflected);
       for (int c = 0; c < 3; ++c) local[c] = local[c] + reflect_k * child[c];
     }
     // 7. Refraction (Snell-Descartes), or the mirror direction where the light is totally
@@ -71,8 +72,8 @@ class Tracer {
       const T eta = cos_in < T(0) ? s_.mat_inv_ior[m] : s_.mat_ior[m];
       const Refraction<T> rf = refract(dir, n, eta);
       const Vec3<T> t = rf.k >= T(0) ? normalize(rf.dir) : normalize(reflect(dir, n));
-      const Color<T> child = trace(offset_origin<T, T>(p, n, dot(t, n), origin, hit.t), t,
-                                   depth + 1, PathLog::Segment::refracted);
+      const Color<T> child = trace(offset_origin(p, n, dot(t, n), at.delta), t, depth + 1,
+                                   PathLog::Segment::refracted);
       for (int c = 0; c < 3; ++c) local[c] = local[c] + transmit_k * child[c];
     }
     // 8.
@@ -83,8 +84,8 @@ class Tracer {
   // Steps 4 and 5 over C channels of the lights (1: grey, 3: coloured): each light's ambient
   // always; diffuse and specular scaled by the light's transmittance where it is not 0.
   template <int C>
-  [[gnu::always_inline]] Color<T> lights(const Vec3<T>& origin, const T& hit_t, const Vec3<T>& p,
-                                         const Vec3<T>& n, const Vec3<T>& view, int m, int depth) {
+  [[gnu::always_inline]] Color<T> lights(const T& delta, const Vec3<T>& p, const Vec3<T>& n,
+                                         const Vec3<T>& view, int m, int depth) {
     const auto& in = s_.light_intensity_rgb;
     const auto& am = s_.light_ambient_rgb;
     T ambient[C], diffuse[C], specular[C];
@@ -97,8 +98,7 @@ class Tracer {
       if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
       ++counts_.shadow;
       const Vec3<T> l = to_light / dist;
-      const T transmittance =
-          shadow_transmittance(offset_origin<T, T>(p, n, dot(l, n), origin, hit_t), l, dist);
+      const T transmittance = shadow_transmittance(offset_origin(p, n, dot(l, n), delta), l, dist);
       if (log_) log_light(p, k, depth, transmittance == T(0));
       if (transmittance == T(0)) continue;
       const T cos_nl = positive_part(dot(n, l));
@@ -128,11 +128,30 @@ class Tracer {
     return local;
   }
 
-  Vec3<T> normal_at(int id, const Vec3<T>& p) const {
-    if (id < s_.num_spheres)
-      return sphere_normal(p, Vec3<T>{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]});
+  // Step 3's point and geometric normal, and the offset of the rays that leave it.
+  [[gnu::always_inline]] SurfacePoint<T> surface_point(int id, const Vec3<T>& origin,
+                                                       const Vec3<T>& dir, const T& t) const {
+    const T magnitude = hit_magnitude(origin, t);
+    if (id < s_.num_spheres) {
+      const Vec3<T> c{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]};
+      const T r2 = s_.sphere_r2[id];
+      if (sphere_is_small(r2, magnitude) || sphere_is_large(r2, magnitude))
+        return sphere_point_extreme(origin, dir, t, c, r2, magnitude);
+      return sphere_point_along<T>(origin, dir, t, c, magnitude);
+    }
     const int k = id - s_.num_spheres;
-    return {s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
+    return {along(origin, dir, t),
+            {s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]},
+            offset_delta<T>(magnitude)};
+  }
+
+  // Spheres small or huge against the hit's magnitude: out of the hot path.
+  [[gnu::noinline, gnu::cold]] static SurfacePoint<T> sphere_point_extreme(const Vec3<T>& origin,
+                                                                           const Vec3<T>& dir, T t,
+                                                                           const Vec3<T>& c, T r2,
+                                                                           T magnitude) {
+    if (sphere_is_small(r2, magnitude)) return sphere_point_local<T>(origin, dir, t, c, r2);
+    return sphere_point_large<T>(origin, dir, t, c, r2, magnitude);
   }
 
   T power(const T& cos_nh, int m) const {

@@ -101,7 +101,9 @@ TEST(Extremes, TinySpheresFarAway) {
                   {"objects", {sphere({0.3 * r, 0, -dist}, r, {{"ks", 1}})}}});
     char name[64];
     std::snprintf(name, sizeof name, "sphere r/dist %g", ratio);
-    report(name, from(j), ratio >= 1e-4 ? 0.01 : 1.0, 0.005);
+    // Issue 17: 8.7% of pixels off at 1e-6 before hit points were computed relative to the
+    // sphere; now none (docs/precision.md).
+    report(name, from(j), 0.005, 0.005);
   }
 }
 
@@ -125,7 +127,7 @@ TEST(Extremes, TranslatedScenes) {
     j["camera"]["resolution"] = {150, 100};
     char name[64];
     std::snprintf(name, sizeof name, "lorenzi-shadows moved by %g", offset);
-    report(name, from(j), offset <= 1e3 ? 0.01 : 1.0, 0.005);
+    report(name, from(j), 0.005, 0.005);
   }
 }
 

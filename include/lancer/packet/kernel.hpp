@@ -583,8 +583,8 @@ struct Kernel {
   };
   template <int C, bool kGlass>
   [[gnu::always_inline]] static Shade light_sums(const Scene& s, const M& hit, const I& id,
-                                                 const V& o, const B& best_t, const V& p,
-                                                 const V& n, const V& view, const I& here,
+                                                 const B& delta, const V& p, const V& n,
+                                                 const V& view, const I& here,
                                                  RayCounts& counts) noexcept {
     const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);
@@ -614,7 +614,7 @@ struct Kernel {
       // from outside skip it. Through glass the surface passes part of the light: traced, and
       // only the rays leaving outwards skip their sphere.
       const M traced = shortcuts ? lit & (cos_nl > B(0)) : lit;
-      const V from = offset_origin<B, T>(p, n, shortcuts ? B(1) : cos_nl, o, best_t);
+      const V from = offset_origin(p, n, shortcuts ? B(1) : cos_nl, delta);
       I skip_sphere = here;
       if constexpr (kFast)
         if (!shortcuts) skip_sphere = xsimd::select(to_mi(cos_nl > B(0)), here, I(Id(-1)));
@@ -654,12 +654,11 @@ struct Kernel {
   // GCC stop inlining the intersection loops into render_rows, which cost grey opaque scenes
   // their speed (issue 13: a scene pays only for what it uses). Arguments by value: references
   // would give the hot path's vectors a home in memory.
-  [[gnu::noinline]] static Shade general_light_sums(const Scene& s, M hit, I id, V o, B best_t, V p,
-                                                    V n, V view, I here,
-                                                    RayCounts& counts) noexcept {
+  [[gnu::noinline]] static Shade general_light_sums(const Scene& s, M hit, I id, B delta, V p, V n,
+                                                    V view, I here, RayCounts& counts) noexcept {
     if (s.features.coloured_lights)
-      return light_sums<3, true>(s, hit, id, o, best_t, p, n, view, here, counts);
-    return light_sums<1, true>(s, hit, id, o, best_t, p, n, view, here, counts);
+      return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts);
+    return light_sums<1, true>(s, hit, id, delta, p, n, view, here, counts);
   }
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
@@ -685,7 +684,12 @@ struct Kernel {
     if (!xsimd::any(hit)) return out.reflected;
     occupancy(counts, kShading, hit);
 
-    const V p = Mth::along(o, d, best_t);
+    // The hit point, its geometric normal and its secondary rays' offset (formulas.hpp):
+    // p = o + t d, except on spheres small against |o|inf + t, where exact mode computes p
+    // relative to the sphere, and huge ones, where it recomputes t accurately, as the reference.
+    const B magnitude = hit_magnitude(o, best_t);
+    V p = Mth::along(o, d, best_t);
+    B delta = offset_delta<T>(magnitude);
     const I id = xsimd::select(to_mi(hit), best_id, I(0));
     V n{B(0), B(0), B(0)};
     if (s.features.spheres) {
@@ -693,10 +697,25 @@ struct Kernel {
       const int ns = s.num_spheres;
       const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
                 gather(s.sphere_cz, sid, ns)};
-      if constexpr (kFast)  // (p - c) / r, the contract's normal, by a multiplication
+      if constexpr (kFast) {  // (p - c) / r, the contract's normal, by a multiplication
         n = (p - c) * gather(s.sphere_inv_r, sid, ns);
-      else
+      } else {
         n = sphere_normal<Mth>(p, c);
+        const B r2 = gather(s.sphere_r2, sid, ns);
+        const M small = hit & to_m(best_id < I(Id(ns))) & sphere_is_small(r2, magnitude);
+        if (xsimd::any(small)) {
+          const SurfacePoint<B> at = sphere_point_local<T, Mth>(o, d, best_t, c, r2);
+          p = select3(small, at.p, p);
+          n = select3(small, at.normal, n);
+          delta = xsimd::select(small, at.delta, delta);
+        }
+        const M large = hit & to_m(best_id < I(Id(ns))) & sphere_is_large(r2, magnitude);
+        if (xsimd::any(large)) {
+          const SurfacePoint<B> at = sphere_point_large<T, Mth>(o, d, best_t, c, r2, magnitude);
+          p = select3(large, at.p, p);
+          n = select3(large, at.normal, n);
+        }
+      }
     }
     if (s.features.planes) {
       const I pid = xsimd::max(id - I(Id(s.num_spheres)), I(0));
@@ -718,8 +737,8 @@ struct Kernel {
             xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id, here);
 
     const Shade sum = s.features.coloured_lights || s.features.transparency
-                          ? general_light_sums(s, hit, id, o, best_t, p, n, view, here, counts)
-                          : light_sums<1, false>(s, hit, id, o, best_t, p, n, view, here, counts);
+                          ? general_light_sums(s, hit, id, delta, p, n, view, here, counts)
+                          : light_sums<1, false>(s, hit, id, delta, p, n, view, here, counts);
     out.r = xsimd::select(hit, gather(s, s.mat_r, id) * sum.r, out.r);
     out.g = xsimd::select(hit, gather(s, s.mat_g, id) * sum.g, out.g);
     out.b = xsimd::select(hit, gather(s, s.mat_b, id) * sum.b, out.b);
@@ -731,7 +750,7 @@ struct Kernel {
     // Refracted rays first, while o and d are still this level's rays; their term is added
     // after the reflection's all the same (radiance_tree).
     if constexpr (kTree) {
-      refract_rays(s, hit, id, o, d, best_t, p, n, cos_in, here, out, counts);
+      refract_rays(s, hit, id, d, delta, p, n, cos_in, here, out, counts);
       if (!s.features.reflection) {
         lap(counts, kShading);
         return out.reflected;
@@ -749,7 +768,7 @@ struct Kernel {
       const V r = Mth::normalize(Mth::reflect(d, n));
       // n faces the incoming ray, so the reflected one leaves on its side: r.n = -d.n >= 0.
       // Exact computes r.n as the reference does; fast takes the sign as known.
-      const V from = offset_origin<B, T>(p, n, kFast ? B(1) : Mth::dot(r, n), o, best_t);
+      const V from = offset_origin(p, n, kFast ? B(1) : Mth::dot(r, n), delta);
       o = select3(out.reflected, from, o);
       d = select3(out.reflected, r, d);
       if constexpr (kFast) leaving = here;
@@ -765,10 +784,9 @@ struct Kernel {
   // moves there. Fast mode: a refracted ray may meet the sphere it crosses again, so it skips
   // nothing; a totally reflected one leaves on the near side like a reflection.
   [[gnu::always_inline]] static void refract_rays(const Scene& s, const M& hit, const I& id,
-                                                  const V& o, const V& d, const B& best_t,
-                                                  const V& p, const V& n, const B& cos_in,
-                                                  const I& here, Level& out,
-                                                  RayCounts& counts) noexcept {
+                                                  const V& d, const B& delta, const V& p,
+                                                  const V& n, const B& cos_in, const I& here,
+                                                  Level& out, RayCounts& counts) noexcept {
     out.transmit = gather(s, s.mat_transmit, id);
     out.refracted = hit & (out.transmit > B(0));
     if (!xsimd::any(out.refracted)) return;
@@ -782,7 +800,7 @@ struct Kernel {
     if (!xsimd::all(through | ~out.refracted))
       t = select3(through, t, Mth::normalize(Mth::reflect(d, n)));
     const B side = kFast ? xsimd::select(through, B(T(-1)), B(T(1))) : Mth::dot(t, n);
-    out.to = offset_origin<B, T>(p, n, side, o, best_t);
+    out.to = offset_origin(p, n, side, delta);
     out.td = t;
     out.t_leaving = xsimd::select(to_mi(through), I(Id(-1)), here);
     lap(counts, kRefraction);
