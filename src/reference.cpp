@@ -98,7 +98,9 @@ class Tracer {
       if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
       ++counts_.shadow;
       const Vec3<T> l = to_light / dist;
-      const T transmittance = shadow_transmittance(offset_origin(p, n, dot(l, n), delta), l, dist);
+      const Vec3<T> from = offset_origin(p, n, dot(l, n), delta);
+      const T transmittance = s_.features.transparency ? shadow_transmittance<true>(from, l, dist)
+                                                       : shadow_transmittance<false>(from, l, dist);
       if (log_) log_light(p, k, depth, transmittance == T(0));
       if (transmittance == T(0)) continue;
       const T cos_nl = positive_part(dot(n, l));
@@ -165,6 +167,10 @@ class Tracer {
   // each once; 0 as soon as it is 0 (an opaque object). A float product of three or more factors
   // depends on their order, so the order is fixed: spheres through the hierarchy where there is
   // one (its fixed depth-first order, as the packets visit it), else in id order; then planes.
+  // kGlass: some object transmits, so the product of transmittances is taken; without it
+  // (every scene before glass) the first object met blocks the light and the walk ends there,
+  // as cheap as a plain occlusion test.
+  template <bool kGlass>
   T shadow_transmittance(const Vec3<T>& p, const Vec3<T>& l, const T& dist) const {
     const T eps = s_.epsilon;
     T transmittance(1);
@@ -175,7 +181,7 @@ class Tracer {
       if (!(sd.disc >= T(0))) return false;
       const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       if (!(t > eps && t < dist)) return false;
-      transmittance = attenuate(transmittance, s_.mat_transmit[id]);
+      transmittance = kGlass ? attenuate(transmittance, s_.mat_transmit[id]) : T(0);
       return transmittance == T(0);
     };
     const Bvh<T>& h = s_.bvh;
@@ -197,6 +203,7 @@ class Tracer {
       if (denom == T(0)) continue;
       const T t = dot(Vec3<T>{s_.plane_px[k], s_.plane_py[k], s_.plane_pz[k]} - p, normal) / denom;
       if (t > eps && t < dist) {
+        if (!kGlass) return T(0);
         transmittance = attenuate(transmittance, s_.mat_transmit[s_.num_spheres + k]);
         if (transmittance == T(0)) return transmittance;
       }
