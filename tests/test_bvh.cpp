@@ -204,22 +204,25 @@ TEST(Bvh, SquarePrimaryPacketsMatchThePlainLoop) {
   o.spheres = 2000;
   o.duplicates = 0.2;
   o.nx = 37, o.ny = 23;
-  const Scene s = cloud(21, o);
-  for (Precision p : {Precision::exact, Precision::dbl}) {
-    RenderOptions po;
-    po.precision = p, po.threads = 2;
-    po.width = 1, po.accel = Accel::none;
-    const PrimaryResult plain = render_primary_with_ids(s, po);
-    int hits = 0;
-    for (float id : plain.id) hits += id >= 0;
-    EXPECT_GT(hits, 100);
-    for (int w : testing::packet_widths(p)) {
-      po.width = w, po.accel = Accel::bvh;
-      const PrimaryResult tree = render_primary_with_ids(s, po);
-      EXPECT_EQ(plain.t, tree.t) << "width " << w;
-      EXPECT_EQ(plain.id, tree.id) << "width " << w;
+  Scene ortho = cloud(21, o);  // orthographic (no shared eye) and 2x2 sub-samples per pixel
+  ortho.camera.type = CameraType::orthographic;
+  ortho.supersample = 2;
+  for (const Scene& s : {cloud(21, o), ortho})
+    for (Precision p : {Precision::exact, Precision::dbl}) {
+      RenderOptions po;
+      po.precision = p, po.threads = 2;
+      po.width = 1, po.accel = Accel::none;
+      const PrimaryResult plain = render_primary_with_ids(s, po);
+      int hits = 0;
+      for (float id : plain.id) hits += id >= 0;
+      EXPECT_GT(hits, 100);
+      for (int w : testing::packet_widths(p)) {
+        po.width = w, po.accel = Accel::bvh;
+        const PrimaryResult tree = render_primary_with_ids(s, po);
+        EXPECT_EQ(plain.t, tree.t) << "width " << w;
+        EXPECT_EQ(plain.id, tree.id) << "width " << w;
+      }
     }
-  }
 }
 
 // The build runs large subtrees as parallel tasks: the same bytes on one thread as on two.
