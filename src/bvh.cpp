@@ -1,6 +1,6 @@
-// Binned SAH build of the sphere hierarchy (include/lancer/bvh.hpp): top-down, 16 bins per axis
-// over the centroids, in-place partition of the spheres' boxes; large subtrees build as parallel
-// tasks (TBB) into preassigned node slots, so the result is the same for any thread count.
+// Binned SAH build of the sphere hierarchy (include/lancer/bvh.hpp): top-down, up to 32 bins per
+// axis over the centroids, in-place partition of the spheres' boxes; large subtrees build as
+// parallel tasks (TBB) into preassigned node slots, so the result is the same for any thread count.
 #include "lancer/bvh.hpp"
 
 #include <tbb/task_group.h>
@@ -95,7 +95,7 @@ struct Prim {
   V4<T> centroid() const { return box.lo + box.hi; }
 };
 
-constexpr int kBins = 16;
+constexpr int kBins = 32;               // per axis, at most (min(kBins, n)); docs/accel.md
 constexpr int kMaxLeaf = 4;             // always a leaf at or below
 constexpr int kMaxSahLeaf = 8;          // a leaf up to here where the SAH says a split does not pay
 constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
