@@ -6,9 +6,9 @@
 # For N in 4 64 1024 16384 65536 (and 1048576 with --million): `lancer generate --spheres N
 # --seed 1` (spheres in a box on a ground plane, the same file on any machine), then
 # `lancer bench SCENE --mode primary --width 16 --threads 1 --peer embree --json --repeat R`.
-# Writes DIR/scaling.csv and DIR/scaling.md (default DIR: out/scaling), and prints the table.
-# Columns the bench JSON does not have yet (Embree's configuration and build time, the
-# acceleration structure's "structure" object) are left empty.
+# Writes DIR/scaling.csv and DIR/scaling.md (default DIR: out/scaling), and prints the table and
+# the ratios issue 12 sets targets for (lancer / Embree, build time / Embree's, time per ray of
+# the largest size over the smallest). Needs jq and python3.
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -65,5 +65,24 @@ for n in "${sizes[@]}"; do
   jq -r '@csv' <<<"$rows" >>"$csv"
   jq -r '"| " + join(" | ") + " |"' <<<"$rows" >>"$md"
 done
+# Issue 12's ratios, from this run's rows: lancer / Embree per size, and the time per ray of
+# the largest size against the smallest (the rows are one per size: one lancer configuration).
+python3 - "$csv" >>"$md" <<'PY'
+import csv, sys
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["mrays_per_s"]]
+if rows:
+    print()
+    for r in rows:
+        e = r["embree_mrays_per_s"]
+        b, eb = r["build_s"], r["embree_build_s"]
+        print(f"- {r['spheres']} spheres: lancer / Embree {float(r['mrays_per_s']) / float(e):.2f}x"
+              if e else f"- {r['spheres']} spheres: no Embree figure", end="")
+        print(f"; build {float(b) / float(eb):.2f}x Embree's" if b and eb else "")
+    lo = min(rows, key=lambda r: int(r["spheres"]))
+    hi = max(rows, key=lambda r: int(r["spheres"]))
+    if lo is not hi:
+        ratio = float(lo["mrays_per_s"]) / float(hi["mrays_per_s"])
+        print(f"- time per ray at {hi['spheres']} spheres / at {lo['spheres']}: {ratio:.2f}x")
+PY
 cat "$md"
 echo "scaling.sh: wrote $csv and $md"

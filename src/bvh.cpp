@@ -1,6 +1,9 @@
-// Binned SAH build of the sphere hierarchy (include/lancer/bvh.hpp): top-down, 16 bins per axis
-// over the centroids, in-place partition of an index array. Single-threaded and deterministic.
+// Binned SAH build of the sphere hierarchy (include/lancer/bvh.hpp): top-down, up to 32 bins per
+// axis over the centroids, in-place partition of the spheres' boxes; large subtrees build as
+// parallel tasks (TBB) into preassigned node slots, so the result is the same for any thread count.
 #include "lancer/bvh.hpp"
+
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <chrono>
@@ -39,171 +42,271 @@ std::size_t Bvh<T>::bytes() const {
          id.size() * sizeof(std::int32_t);
 }
 
+// The 32-byte vectors of double change the calling convention without AVX (-Wpsabi): these are
+// internal to this file, never passed across a library boundary.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
 namespace {
+
+// Four lanes (x, y, z, unused) as one vector (GCC's vector extension): a box grows by two
+// min/max instructions.
+template <class T>
+struct Vector4;
+template <>
+struct Vector4<float> {
+  typedef float type __attribute__((vector_size(16)));
+};
+template <>
+struct Vector4<double> {
+  typedef double type __attribute__((vector_size(32)));
+};
+template <class T>
+using V4 = typename Vector4<T>::type;
+
+template <class V>
+V vmin(const V& a, const V& b) {
+  return a < b ? a : b;
+}
+template <class V>
+V vmax(const V& a, const V& b) {
+  return a > b ? a : b;
+}
 
 template <class T>
 struct Box {
-  T lo[3], hi[3];
+  V4<T> lo, hi;
   static Box empty() {
     constexpr T inf = std::numeric_limits<T>::infinity();
-    return {{inf, inf, inf}, {-inf, -inf, -inf}};
+    return {V4<T>{inf, inf, inf, inf}, V4<T>{-inf, -inf, -inf, -inf}};
   }
-  void grow(const Box& b) {
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], b.lo[a]), hi[a] = std::max(hi[a], b.hi[a]);
-  }
-  // Half the surface area (the SAH needs ratios only).
+  void grow(const Box& b) { lo = vmin(lo, b.lo), hi = vmax(hi, b.hi); }
+  void grow(const V4<T>& p) { lo = vmin(lo, p), hi = vmax(hi, p); }
+  // Half the surface area (the SAH needs ratios only), in T: the split choice only compares.
   double half_area() const {
-    const double x = double(hi[0]) - lo[0], y = double(hi[1]) - lo[1], z = double(hi[2]) - lo[2];
-    return x * y + y * z + z * x;
+    const V4<T> d = hi - lo;
+    return double(d[0] * (d[1] + d[2]) + d[1] * d[2]);
   }
 };
 
-constexpr int kBins = 16;
+// A sphere's padded box; lo + hi (twice its centre, up to rounding) is the point binned.
+template <class T>
+struct Prim {
+  Box<T> box;
+  V4<T> centroid() const { return box.lo + box.hi; }
+};
+
+constexpr int kBins = 32;               // per axis, at most (min(kBins, n)); docs/accel.md
 constexpr int kMaxLeaf = 4;             // always a leaf at or below
 constexpr int kMaxSahLeaf = 8;          // a leaf up to here where the SAH says a split does not pay
 constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
+constexpr int kParallelMin = 4096;      // subtrees at least this large build as parallel tasks
 
+// Top-down binned SAH over prims_/idx_ (partitioned in place, in lockstep). Inner nodes go to
+// preassigned slots: a subtree over n spheres has at most n - 1 inner nodes, so the one over
+// [begin, end) whose node sits at slot s owns slots [s, s + n - 1): its left child's subtree
+// starts at s + 1, its right child's at s + (left count). Subtrees then build in parallel
+// without sharing anything, and the result is a function of the input only; compact() closes
+// the unused slots, keeping the depth-first (pre-)order.
 template <class T>
 class Builder {
  public:
-  Builder(Bvh<T>& bvh, const std::vector<Box<T>>& boxes, const std::vector<float>& centroid,
-          std::vector<std::int32_t>& order)
-      : bvh_(bvh), boxes_(boxes), centroid_(centroid), idx_(order) {}
+  using Node = typename Bvh<T>::Node;
+  Builder(std::vector<Prim<T>>& prims, std::vector<std::int32_t>& idx)
+      : prims_(prims),
+        idx_(idx),
+        nodes_(std::max<std::size_t>(1, prims.size() - 1)),
+        used_(nodes_.size(), 0) {}
 
-  // Builds the subtree over idx_[begin, end) into child slot `slot` of node `parent`.
-  void build(int parent, int slot, int begin, int end, const Box<T>& bounds, int depth) {
-    typename Bvh<T>::Node& p = bvh_.nodes[std::size_t(parent)];
-    set_box(p, slot, bounds);
+  struct Split {
+    int axis = -1, bin = -1, last = 0;  // last: the highest bin
+    double cost = std::numeric_limits<double>::infinity();
+    T cmin = 0, scale = 0;
+    Box<T> left, right;  // the two sides' boxes (from the bins: exact unions)
+  };
+
+  // The inner node at `slot` over [begin, end) (at least 2 spheres), split by `s` (axis < 0:
+  // halved by index), and its two subtrees.
+  void inner(int slot, int begin, int end, Split s, int depth) {
     const int n = end - begin;
-    if (n <= kMaxLeaf) return make_leaf(parent, slot, begin, n);
-    Split s = depth < Bvh<T>::kMaxDepth - 40 ? best_split(begin, end) : Split{};
-    // A small set that no split improves on stays a leaf.
-    if (s.axis >= 0 && n <= kMaxSahLeaf && s.cost >= double(n) * bounds.half_area())
-      return make_leaf(parent, slot, begin, n);
-    // Centroids all equal (or the depth cap): halve by index, deterministic and balanced.
-    if (s.axis < 0) s = median_split(begin, end);
-    const int mid = s.axis >= 0 && s.bin >= 0 ? partition(begin, end, s) : s.mid;
-    const int node = add_node(parent, slot, s.axis < 0 ? 0 : s.axis, depth + 1);
-    build(node, 0, begin, mid, bounds_of(begin, mid), depth + 1);
-    build(node, 1, mid, end, bounds_of(mid, end), depth + 1);
-  }
-
-  int add_node(int parent, int slot, int axis, int depth) {
-    const int node = static_cast<int>(bvh_.nodes.size());
-    bvh_.nodes.push_back({});
-    bvh_.nodes.back().axis = axis;
-    if (parent >= 0) {
-      bvh_.nodes[std::size_t(parent)].child[slot] = node;
-      bvh_.nodes[std::size_t(parent)].count[slot] = -1;
+    int mid;
+    Box<T> lc = Box<T>::empty(), rc = Box<T>::empty();  // the sides' centroid bounds
+    if (s.axis < 0) {
+      mid = begin + n / 2;
+      s.left = bounds(begin, mid, lc), s.right = bounds(mid, end, rc);
+    } else {
+      mid = partition(begin, end, s, lc, rc);
     }
-    bvh_.depth = std::max(bvh_.depth, depth);
-    return node;
+    Node& node = nodes_[std::size_t(slot)];
+    node.axis = std::max(0, s.axis);
+    used_[std::size_t(slot)] = 1;
+    auto left = [&] { child(slot, 0, slot + 1, begin, mid, s.left, lc, depth + 1); };
+    auto right = [&] { child(slot, 1, slot + (mid - begin), mid, end, s.right, rc, depth + 1); };
+    if (mid - begin >= kParallelMin && end - mid >= kParallelMin) {
+      tbb::task_group g;
+      g.run(left);
+      right();
+      g.wait();
+    } else {
+      left();
+      right();
+    }
   }
 
-  Box<T> bounds_of(int begin, int end) const {
+  // Child k of the node at `parent`: a leaf or an inner node at slot `free`.
+  void child(int parent, int k, int free, int begin, int end, const Box<T>& box, const Box<T>& cbox,
+             int depth) {
+    Node& p = nodes_[std::size_t(parent)];
+    set_box(p, k, box);
+    const int n = end - begin;
+    if (n <= kMaxLeaf) return leaf(p, k, begin, n);
+    const Split s = depth < Bvh<T>::kMaxDepth - 40 ? best_split(begin, end, cbox) : Split{};
+    // A small set that no split improves on stays a leaf.
+    if (s.axis >= 0 && n <= kMaxSahLeaf &&
+        s.cost + kTraversalCost * box.half_area() >= double(n) * box.half_area())
+      return leaf(p, k, begin, n);
+    p.child[k] = free, p.count[k] = -1;
+    inner(free, begin, end, s, depth);
+  }
+
+  static void set_box(Node& p, int k, const Box<T>& b) {
+    p.lo_x[k] = b.lo[0], p.lo_y[k] = b.lo[1], p.lo_z[k] = b.lo[2];
+    p.hi_x[k] = b.hi[0], p.hi_y[k] = b.hi[1], p.hi_z[k] = b.hi[2];
+  }
+  static void leaf(Node& p, int k, int begin, int n) { p.child[k] = begin, p.count[k] = n; }
+
+  Box<T> bounds(int begin, int end, Box<T>& cbox) const {
     Box<T> b = Box<T>::empty();
-    for (int k = begin; k < end; ++k) b.grow(boxes_[std::size_t(idx_[std::size_t(k)])]);
+    for (int i = begin; i < end; ++i) {
+      b.grow(prims_[std::size_t(i)].box);
+      cbox.grow(prims_[std::size_t(i)].centroid());
+    }
     return b;
   }
 
-  static void set_box(typename Bvh<T>::Node& p, int slot, const Box<T>& b) {
-    p.lo_x[slot] = b.lo[0], p.lo_y[slot] = b.lo[1], p.lo_z[slot] = b.lo[2];
-    p.hi_x[slot] = b.hi[0], p.hi_y[slot] = b.hi[1], p.hi_z[slot] = b.hi[2];
-  }
-  void make_leaf(int parent, int slot, int begin, int n) {
-    bvh_.nodes[std::size_t(parent)].child[slot] = begin;
-    bvh_.nodes[std::size_t(parent)].count[slot] = n;
+  static int bin_of(const Split& s, T c) {
+    return std::min(s.last, std::max(0, static_cast<int>((c - s.cmin) * s.scale)));
   }
 
-  struct Split {
-    int axis = -1, bin = -1, mid = 0;
-    double cost = std::numeric_limits<double>::infinity();
-    float cmin = 0, scale = 0;
-  };
-
-  Split median_split(int begin, int end) const {
-    Split s;
-    s.mid = begin + (end - begin) / 2;
-    return s;
-  }
-
-  int bin_of(const Split& s, float c) const {
-    return std::min(kBins - 1, std::max(0, static_cast<int>((c - s.cmin) * s.scale)));
-  }
-
-  // The cheapest of the kBins - 1 planes per axis by the surface area heuristic.
-  Split best_split(int begin, int end) const {
-    float cmin[3], cmax[3];
-    for (int a = 0; a < 3; ++a) cmin[a] = INFINITY, cmax[a] = -INFINITY;
-    for (int k = begin; k < end; ++k) {
-      const float* c = &centroid_[3 * std::size_t(idx_[std::size_t(k)])];
-      for (int a = 0; a < 3; ++a)
-        cmin[a] = std::min(cmin[a], c[a]), cmax[a] = std::max(cmax[a], c[a]);
-    }
+  // The cheapest of the bins - 1 planes per axis by the surface area heuristic, in the units
+  // of the leaf cost n * area (without the node's own traversal cost). cbox: the centroids'.
+  // Small sets get as many bins as spheres (most nodes are small: fewer bins to sweep).
+  Split best_split(int begin, int end, const Box<T>& cbox) const {
+    const int bins = std::min(kBins, end - begin);
     Box<T> bin_box[3][kBins];
     int bin_count[3][kBins] = {};
     Split probe[3];
     for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < kBins; ++b) bin_box[a][b] = Box<T>::empty();
-      probe[a].cmin = cmin[a];
-      const float extent = cmax[a] - cmin[a];
-      probe[a].scale = extent > 0 ? float(kBins) / extent * 0.99999f : 0.0f;
+      for (int b = 0; b < bins; ++b) bin_box[a][b] = Box<T>::empty();
+      probe[a].cmin = cbox.lo[a];
+      probe[a].last = bins - 1;
+      const T extent = cbox.hi[a] - cbox.lo[a];
+      probe[a].scale = extent > 0 ? T(bins) / extent * T(0.99999) : T(0);
     }
-    for (int k = begin; k < end; ++k) {
-      const std::int32_t i = idx_[std::size_t(k)];
-      const float* c = &centroid_[3 * std::size_t(i)];
+    const V4<T> cmin = cbox.lo;
+    const V4<T> scale{probe[0].scale, probe[1].scale, probe[2].scale, T(0)};
+    for (int i = begin; i < end; ++i) {
+      const Prim<T>& p = prims_[std::size_t(i)];
+      const V4<T> f = (p.centroid() - cmin) * scale;
       for (int a = 0; a < 3; ++a) {
-        const int b = bin_of(probe[a], c[a]);
+        const int b = std::min(bins - 1, std::max(0, static_cast<int>(f[a])));
         ++bin_count[a][b];
-        bin_box[a][b].grow(boxes_[std::size_t(i)]);
+        bin_box[a][b].grow(p.box);
       }
     }
     Split best;
     for (int a = 0; a < 3; ++a) {
       if (!(probe[a].scale > 0)) continue;
+      Box<T> right[kBins];
       double right_cost[kBins];
       Box<T> acc = Box<T>::empty();
       int count = 0;
-      for (int b = kBins - 1; b > 0; --b) {
+      for (int b = bins - 1; b > 0; --b) {
         acc.grow(bin_box[a][b]);
         count += bin_count[a][b];
+        right[b] = acc;
         right_cost[b] = count ? acc.half_area() * count : 0.0;
       }
       acc = Box<T>::empty();
       count = 0;
-      for (int b = 0; b < kBins - 1; ++b) {
+      for (int b = 0; b < bins - 1; ++b) {
         acc.grow(bin_box[a][b]);
         count += bin_count[a][b];
         if (count == 0 || count == end - begin) continue;
         const double cost = acc.half_area() * count + right_cost[b + 1];
         if (cost < best.cost) {
-          best = probe[a];
+          best.cmin = probe[a].cmin, best.scale = probe[a].scale, best.last = bins - 1;
           best.axis = a, best.bin = b, best.cost = cost;
+          best.left = acc, best.right = right[b + 1];
         }
       }
-    }
-    // In the units of the leaf cost n * area: a node's traversal costs kTraversalCost tests.
-    if (best.axis >= 0) {
-      Box<T> all = Box<T>::empty();
-      for (int b = 0; b < kBins; ++b) all.grow(bin_box[best.axis][b]);
-      best.cost += kTraversalCost * all.half_area();
     }
     return best;
   }
 
-  int partition(int begin, int end, const Split& s) {
-    auto first = idx_.begin() + begin, last = idx_.begin() + end;
-    auto mid = std::partition(first, last, [&](std::int32_t i) {
-      return bin_of(s, centroid_[3 * std::size_t(i) + std::size_t(s.axis)]) <= s.bin;
-    });
-    return static_cast<int>(mid - idx_.begin());
+  // Sphere i goes left iff its centroid's bin is at most s.bin (as best_split binned it).
+  // Branch-free (Lomuto: every element swapped with the first right one; which side an element
+  // goes to is a coin toss the branch predictor cannot learn). lc, rc: the two sides' centroid
+  // bounds, for their own splits.
+  int partition(int begin, int end, const Split& s, Box<T>& lc, Box<T>& rc) {
+    switch (s.axis) {
+      case 0:
+        return partition_on<0>(begin, end, s, lc, rc);
+      case 1:
+        return partition_on<1>(begin, end, s, lc, rc);
+      default:
+        return partition_on<2>(begin, end, s, lc, rc);
+    }
+  }
+  template <int kAxis>
+  int partition_on(int begin, int end, const Split& s, Box<T>& lc, Box<T>& rc) {
+    Prim<T>* p = prims_.data();
+    std::int32_t* idx = idx_.data();
+    int mid = begin;
+    for (int i = begin; i < end; ++i) {
+      const Prim<T> q = p[i];
+      const std::int32_t qi = idx[i];
+      const bool left = bin_of(s, q.centroid()[kAxis]) <= s.bin;
+      p[i] = p[mid], idx[i] = idx[mid];
+      p[mid] = q, idx[mid] = qi;
+      mid += left;
+    }
+    Box<T> l = Box<T>::empty(), r = Box<T>::empty();
+    for (int i = begin; i < mid; ++i) l.grow(p[i].centroid());
+    for (int i = mid; i < end; ++i) r.grow(p[i].centroid());
+    lc = l, rc = r;
+    return mid;
   }
 
+  // The used slots in order (depth first, as a sequential build numbers them), into `out`.
+  int compact(std::vector<Node>& out) const {
+    std::vector<std::int32_t> to(nodes_.size(), -1), depth(nodes_.size(), 0);
+    std::int32_t next = 0;
+    for (std::size_t k = 0; k < nodes_.size(); ++k)
+      if (used_[k]) to[k] = next++;
+    out.clear();
+    out.reserve(std::size_t(next));
+    int deepest = 0;
+    for (std::size_t k = 0; k < nodes_.size(); ++k) {
+      if (!used_[k]) continue;
+      Node n = nodes_[k];
+      deepest = std::max(deepest, depth[k] + 1);
+      for (int c = 0; c < 2; ++c)
+        if (n.count[c] < 0) {
+          depth[std::size_t(n.child[c])] = depth[k] + 1;
+          n.child[c] = to[std::size_t(n.child[c])];
+        }
+      out.push_back(n);
+    }
+    return deepest;
+  }
+
+  Node& node(int slot) { return nodes_[std::size_t(slot)]; }
+
  private:
-  Bvh<T>& bvh_;
-  const std::vector<Box<T>>& boxes_;
-  const std::vector<float>& centroid_;
+  std::vector<Prim<T>>& prims_;
   std::vector<std::int32_t>& idx_;
+  std::vector<Node> nodes_;
+  std::vector<char> used_;
 };
 
 // Padding per unit of magnitude: 2^8 ulps of T, far above the rounding of the sphere test
@@ -229,38 +332,32 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
                       std::fabs(double(cz[std::size_t(i)])) + double(r[std::size_t(i)])});
   const double limit = 4.0 * reach;
   bvh.origin_limit = T(limit);
-  std::vector<Box<T>> boxes(static_cast<std::size_t>(n));
-  std::vector<float> centroid(3 * std::size_t(n));
-  Box<T> all = Box<T>::empty();
+  std::vector<Prim<T>> prims(static_cast<std::size_t>(n));
+  Box<T> all = Box<T>::empty(), call = Box<T>::empty();
   for (int i = 0; i < n; ++i) {
     const std::size_t k = std::size_t(i);
     const double c[3] = {double(cx[k]), double(cy[k]), double(cz[k])};
     const double rad = double(r[k]);
     const double big = std::max({std::fabs(c[0]), std::fabs(c[1]), std::fabs(c[2])});
     const double pad = kPad<T> * (limit + big + rad);
-    for (int a = 0; a < 3; ++a) {
-      boxes[k].lo[a] = T(c[a] - rad - pad);
-      boxes[k].hi[a] = T(c[a] + rad + pad);
-      centroid[3 * k + std::size_t(a)] = float(c[a]);
-    }
-    all.grow(boxes[k]);
+    Box<T>& b = prims[k].box;
+    b.lo = V4<T>{T(c[0] - rad - pad), T(c[1] - rad - pad), T(c[2] - rad - pad), T(0)};
+    b.hi = V4<T>{T(c[0] + rad + pad), T(c[1] + rad + pad), T(c[2] + rad + pad), T(0)};
+    all.grow(b);
+    call.grow(prims[k].centroid());
     order[k] = i;
   }
-  bvh.nodes.reserve(std::size_t(n) / 2 + 2);
-  Builder<T> builder(bvh, boxes, centroid, order);
-  builder.add_node(-1, 0, 0, 1);  // the root holds the two top subtrees' boxes
-  if (n == 1) {
-    builder.build(0, 0, 0, 1, all, 1);
-    builder.build(0, 1, 1, 1, all, 1);  // the empty slot
-  } else {
-    int mid = n / 2;
-    auto s = builder.best_split(0, n);
-    if (s.axis >= 0) {
-      mid = builder.partition(0, n, s);
-      bvh.nodes[0].axis = s.axis;
-    }
-    builder.build(0, 0, 0, mid, builder.bounds_of(0, mid), 1);
-    builder.build(0, 1, mid, n, builder.bounds_of(mid, n), 1);
+  Builder<T> builder(prims, order);
+  if (n == 1) {  // the root's child 0 holds the sphere, child 1 is empty
+    for (int k = 0; k < 2; ++k) Builder<T>::set_box(builder.node(0), k, all);
+    Builder<T>::leaf(builder.node(0), 0, 0, 1);
+    Builder<T>::leaf(builder.node(0), 1, 1, 0);
+    builder.node(0).axis = 0;
+    bvh.nodes.assign(1, builder.node(0));
+    bvh.depth = 1;
+  } else {  // the root holds the two top subtrees' boxes, whatever their size
+    builder.inner(0, 0, n, builder.best_split(0, n, call), 0);
+    bvh.depth = builder.compact(bvh.nodes);
   }
   LANCER_CHECK(bvh.depth < Bvh<T>::kMaxDepth);
   bvh.build_seconds =

@@ -1,3 +1,4 @@
+#include <chrono>
 #include <cmath>
 
 #include "lancer/formulas.hpp"
@@ -31,11 +32,14 @@ namespace {
 // The hierarchy, with the spheres copied in its leaf order (their original ids kept).
 template <class T>
 void add_bvh(PreparedScene<T>& p) {
+  const auto start = std::chrono::steady_clock::now();
   std::vector<std::int32_t> order;
   Bvh<T>& h = p.bvh;
   h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order);
   const bool eye = !p.eye.c.empty();
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->reserve(order.size());
+  if (eye)
+    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) v->reserve(order.size());
   h.id = order;
   for (std::int32_t i : order) {
     const std::size_t k = std::size_t(i);
@@ -50,6 +54,8 @@ void add_bvh(PreparedScene<T>& p) {
       h.eye_c.push_back(p.eye.c[k]);
     }
   }
+  // The build time covers the copy too: the structure is not usable before it.
+  h.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace

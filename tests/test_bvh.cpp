@@ -3,6 +3,7 @@
 // random scenes of up to 64k spheres, with ties (duplicate spheres), rays starting inside the
 // cloud and far plane hits.
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -193,6 +194,50 @@ TEST(Bvh, SixtyFourThousandSpheres) {
   const PrimaryResult tree = render_primary_with_ids(s, po);
   EXPECT_EQ(plain.t, tree.t);
   EXPECT_EQ(plain.id, tree.id);
+}
+
+// Through the hierarchy, camera rays go in square packets (4x4, 4x2, 2x2, 2x1 pixels): each
+// pixel's t and id as the reference's plain loop gives them, at every width, float and double,
+// with tiles cut by the image's edges (37x23) and by the row ranges of two threads.
+TEST(Bvh, SquarePrimaryPacketsMatchThePlainLoop) {
+  CloudOptions o;
+  o.spheres = 2000;
+  o.duplicates = 0.2;
+  o.nx = 37, o.ny = 23;
+  Scene ortho = cloud(21, o);  // orthographic (no shared eye) and 2x2 sub-samples per pixel
+  ortho.camera.type = CameraType::orthographic;
+  ortho.supersample = 2;
+  for (const Scene& s : {cloud(21, o), ortho})
+    for (Precision p : {Precision::exact, Precision::dbl}) {
+      RenderOptions po;
+      po.precision = p, po.threads = 2;
+      po.width = 1, po.accel = Accel::none;
+      const PrimaryResult plain = render_primary_with_ids(s, po);
+      int hits = 0;
+      for (float id : plain.id) hits += id >= 0;
+      EXPECT_GT(hits, 100);
+      for (int w : testing::packet_widths(p)) {
+        po.width = w, po.accel = Accel::bvh;
+        const PrimaryResult tree = render_primary_with_ids(s, po);
+        EXPECT_EQ(plain.t, tree.t) << "width " << w;
+        EXPECT_EQ(plain.id, tree.id) << "width " << w;
+      }
+    }
+}
+
+// The build runs large subtrees as parallel tasks: the same bytes on one thread as on two.
+TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
+  CloudOptions o;
+  o.spheres = 20000;
+  const Scene s = cloud(9, o);
+  PreparedScene<float> one, two;
+  tbb::task_arena(1).execute([&] { one = prepare<float>(s, Accel::bvh); });
+  tbb::task_arena(2).execute([&] { two = prepare<float>(s, Accel::bvh); });
+  ASSERT_EQ(one.bvh.nodes.size(), two.bvh.nodes.size());
+  EXPECT_EQ(0, std::memcmp(one.bvh.nodes.data(), two.bvh.nodes.data(),
+                           one.bvh.nodes.size() * sizeof(one.bvh.nodes[0])));
+  EXPECT_EQ(one.bvh.id, two.bvh.id);
+  EXPECT_EQ(one.bvh.depth, two.bvh.depth);
 }
 
 TEST(Bvh, AccelOptionIsValidated) {

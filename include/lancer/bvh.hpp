@@ -25,9 +25,12 @@ struct Bvh {
   // Child slot k of an inner node: count[k] < 0: child[k] is an inner node; else a leaf of
   // count[k] spheres from leaf-order index child[k] (count 0: the empty slot of a 1-sphere tree).
   // Child 0 lies on the lower side of `axis` (traversal visits it first for rays going up).
-  struct Node {
+  // One 64-byte cache line for float (count in 16 bits: at most 8 spheres per leaf), aligned
+  // so that a node never straddles two lines.
+  struct alignas(64) Node {
     T lo_x[2], hi_x[2], lo_y[2], hi_y[2], lo_z[2], hi_z[2];
-    std::int32_t child[2], count[2];
+    std::int32_t child[2];
+    std::int16_t count[2];
     std::int32_t axis;
   };
   std::vector<Node> nodes;  // nodes[0] is the root; empty: no hierarchy (plain loop)

@@ -40,65 +40,20 @@ class RayTraversal {
   // leaf(first, count) tests leaf-order spheres [first, first + count), lowering best_t.
   template <class Leaf>
   void closest(const T& best_t, Leaf&& leaf) const {
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
-    std::int32_t child = 0, count = -1;
-    for (;;) {
-      if (count < 0) {
-        const Node& n = h_.nodes[std::size_t(child)];
-        const int near = up_[n.axis] ? 0 : 1, far = 1 - near;
-        T tn_near, tn_far;
-        const bool a_near = hit(n, near, best_t, tn_near), a_far = hit(n, far, best_t, tn_far);
-        if (a_near) {
-          if (a_far) stack[sp++] = {n.child[far], n.count[far], tn_far};
-          child = n.child[near], count = n.count[near];
-          continue;
-        }
-        if (a_far) {
-          child = n.child[far], count = n.count[far];
-          continue;
-        }
-      } else {
-        leaf(child, count);
-      }
-      for (;;) {
-        if (sp == 0) return;
-        const Entry& e = stack[--sp];
-        if (e.tnear <= best_t) {
-          child = e.child, count = e.count;
-          break;
-        }
-      }
-    }
+    walk(
+        best_t, [&](const Node& n) { return up_[n.axis] ? 0 : 1; },
+        [&](std::int32_t first, std::int32_t count) {
+          leaf(first, count);
+          return false;
+        },
+        [&](T tnear) { return tnear > best_t; });
   }
 
   // leaf(first, count) -> true to stop. Returns whether a leaf stopped it.
   template <class Leaf>
   bool any(const T& tmax, Leaf&& leaf) const {
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
-    std::int32_t child = 0, count = -1;
-    for (;;) {
-      if (count < 0) {
-        const Node& n = h_.nodes[std::size_t(child)];
-        T tn0, tn1;
-        const bool a0 = hit(n, 0, tmax, tn0), a1 = hit(n, 1, tmax, tn1);
-        if (a0) {
-          if (a1) stack[sp++] = {n.child[1], n.count[1], tn1};
-          child = n.child[0], count = n.count[0];
-          continue;
-        }
-        if (a1) {
-          child = n.child[1], count = n.count[1];
-          continue;
-        }
-      } else if (leaf(child, count)) {
-        return true;
-      }
-      if (sp == 0) return false;
-      const Entry& e = stack[--sp];
-      child = e.child, count = e.count;
-    }
+    return walk(
+        tmax, [](const Node&) { return 0; }, leaf, [](T) { return false; });
   }
 
  private:
@@ -106,6 +61,43 @@ class RayTraversal {
     std::int32_t child, count;
     T tnear;
   };
+
+  // The depth-first walk both queries share: at an inner node, child first(n) then the other,
+  // each tested against tmax (read afresh: leaves lower it); the second pushed when both are
+  // met. leaf(first, count) -> true to stop; a popped subtree is skipped where cull(tnear).
+  template <class First, class Leaf, class Cull>
+  bool walk(const T& tmax, First first, Leaf&& leaf, Cull cull) const {
+    Entry stack[Bvh<T>::kMaxDepth + 2];
+    int sp = 0;
+    std::int32_t child = 0, count = -1;
+    for (;;) {
+      if (count < 0) {
+        const Node& n = h_.nodes[std::size_t(child)];
+        const int a = first(n), b = 1 - a;
+        T tn_a, tn_b;
+        const bool hit_a = hit(n, a, tmax, tn_a), hit_b = hit(n, b, tmax, tn_b);
+        if (hit_a) {
+          if (hit_b) stack[sp++] = {n.child[b], n.count[b], tn_b};
+          child = n.child[a], count = n.count[a];
+          continue;
+        }
+        if (hit_b) {
+          child = n.child[b], count = n.count[b];
+          continue;
+        }
+      } else if (leaf(child, count)) {
+        return true;
+      }
+      for (;;) {  // the next subtree still worth a visit
+        if (sp == 0) return false;
+        const Entry& e = stack[--sp];
+        if (!cull(e.tnear)) {
+          child = e.child, count = e.count;
+          break;
+        }
+      }
+    }
+  }
 
   bool hit(const Node& n, int k, const T& tmax, T& tnear) const {
     const T x0 = n.lo_x[k] * inv_.x - oi_.x, x1 = n.hi_x[k] * inv_.x - oi_.x;

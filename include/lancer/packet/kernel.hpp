@@ -949,6 +949,16 @@ struct Kernel {
 
   static void primary_rows(const Scene& s, float* t_out, float* id_out, int row_begin, int row_end,
                            RayCounts& counts) noexcept {
+    // Through a hierarchy, square packets: their rays diverge less than a row's, so they share
+    // more of the nodes and leaves they visit. The plain loop (the course scenes) keeps rows.
+    if (s.bvh.active())
+      primary_tiles(s, t_out, id_out, row_begin, row_end, counts);
+    else
+      primary_packet_rows(s, t_out, id_out, row_begin, row_end, counts);
+  }
+
+  static void primary_packet_rows(const Scene& s, float* t_out, float* id_out, int row_begin,
+                                  int row_end, RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
     for (int j = row_begin; j < row_end; ++j) {
@@ -962,14 +972,7 @@ struct Kernel {
             V o, d;
             camera_packet(s, i0, j, a, b, o, d);
             counts.camera += lanes;
-            B t(std::numeric_limits<T>::infinity());
-            I id(Id(-1));
-            if (cam.orthographic)
-              closest_hit(s, valid, o, d, t, id, counts);
-            else
-              closest_hit<true>(s, valid, o, d, t, id, counts);
-            sum = sum + t;
-            if (a == 0 && b == 0) first_id = id;
+            primary_hit(s, valid, o, d, sum, first_id, a == 0 && b == 0, counts);
           }
         }
         const std::size_t at = std::size_t(j) * cam.nx + i0;
@@ -983,6 +986,95 @@ struct Kernel {
           store_lanes(sum, t_out + at, lanes);
         }
         if (id_out) store_lanes(id_to_real(first_id), id_out + at, lanes);
+      }
+    }
+  }
+
+  // The closest hit of one camera packet: its t added to `sum`, its ids kept if `first`.
+  [[gnu::always_inline]] static void primary_hit(const Scene& s, const M& valid, const V& o,
+                                                 const V& d, B& sum, I& first_id, bool first,
+                                                 RayCounts& counts) noexcept {
+    B t(std::numeric_limits<T>::infinity());
+    I id(Id(-1));
+    if (s.camera.orthographic)
+      closest_hit(s, valid, o, d, t, id, counts);
+    else
+      closest_hit<true>(s, valid, o, d, t, id, counts);
+    sum = sum + t;
+    if (first) first_id = id;
+  }
+
+  // Packets of kTileW x kTileH pixels (16: 4x4, 8: 4x2, 4: 2x2, 2: 2x1), lane k at column
+  // i0 + k % kTileW, row j0 + k / kTileW; each lane's ray is the one a row packet makes for
+  // that pixel (the same table entries, the same formula), so the values do not change.
+  static constexpr int kTileW = W >= 8 ? 4 : 2;
+  static constexpr int kTileH = W / kTileW;
+
+  // Lanes k = p[k % kTileW] (columns) and p[k / kTileW] (rows), from kTileW (kTileH) readable
+  // values. AVX-512 float: one 128-bit load, broadcast or permuted; else through memory.
+  static B tile_columns(const T* p) noexcept {
+    if constexpr (std::is_same_v<T, float> && W == 16) {
+      return _mm512_broadcast_f32x4(_mm_loadu_ps(p));
+    } else {
+      alignas(64) T v[W];
+      for (int k = 0; k < W; ++k) v[k] = p[k % kTileW];
+      return B::load_aligned(v);
+    }
+  }
+  static B tile_rows(const T* p) noexcept {
+    if constexpr (std::is_same_v<T, float> && W == 16) {
+      const __m512i quarter = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
+      return _mm512_permutexvar_ps(quarter, _mm512_castps128_ps512(_mm_loadu_ps(p)));
+    } else {
+      alignas(64) T v[W];
+      for (int k = 0; k < W; ++k) v[k] = p[k / kTileW];
+      return B::load_aligned(v);
+    }
+  }
+
+  static void primary_tiles(const Scene& s, float* t_out, float* id_out, int row_begin, int row_end,
+                            RayCounts& counts) noexcept {
+    const PreparedCamera<T>& cam = s.camera;
+    alignas(64) T col_of[W], row_of[W];
+    for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
+    const B col = B::load_aligned(col_of), row = B::load_aligned(row_of);
+    alignas(64) T out[W], edge_x[kTileW], edge_y[kTileH];
+    alignas(64) Id ids[W];
+    for (int j0 = row_begin; j0 < row_end; j0 += kTileH) {
+      const int rows = std::min(kTileH, row_end - j0);
+      for (int i0 = 0; i0 < cam.nx; i0 += kTileW) {
+        const int cols = std::min(kTileW, cam.nx - i0);
+        const M valid = (col < B(T(cols))) & (row < B(T(rows)));
+        B sum(0);
+        I first_id(Id(-1));
+        for (int b = 0; b < cam.samples; ++b) {
+          // A tile at the image's edge repeats its last live row or column in its dead lanes.
+          const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + j0];
+          if (rows < kTileH) {
+            for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows - 1)];
+            ys = edge_y;
+          }
+          const B y = tile_rows(ys);
+          for (int a = 0; a < cam.samples; ++a) {
+            const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + i0];
+            if (cols < kTileW) {
+              for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols - 1)];
+              xs = edge_x;
+            }
+            V o, d;
+            camera_ray<Mth>(cam, tile_columns(xs), y, o, d);
+            counts.camera += std::uint64_t(cols * rows);
+            primary_hit(s, valid, o, d, sum, first_id, a == 0 && b == 0, counts);
+          }
+        }
+        sum.store_aligned(out);
+        if (id_out) first_id.store_aligned(ids);
+        for (int r = 0; r < rows; ++r) {
+          const std::size_t at = std::size_t(j0 + r) * cam.nx + i0;
+          for (int c = 0; c < cols; ++c) t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
+          if (id_out)
+            for (int c = 0; c < cols; ++c) id_out[at + c] = static_cast<float>(ids[r * kTileW + c]);
+        }
       }
     }
   }
