@@ -2,11 +2,14 @@
 # Mrays/s against the number of spheres, lancer and Embree on the same rays (issue 12).
 #
 #   scripts/scaling.sh [--million] [--sizes "N ..."] [--repeat R] [--out DIR] [--lancer PATH]
+#                      [--readme]
 #
 # For N in 4 64 1024 16384 65536 (and 1048576 with --million): `lancer generate --spheres N
 # --seed 1` (spheres in a box on a ground plane, the same file on any machine), then
-# `lancer bench SCENE --mode primary --width 16 --threads 1 --peer embree --json --repeat R`.
-# Writes DIR/scaling.csv and DIR/scaling.md (default DIR: out/scaling), and prints the table and
+# `lancer bench SCENE --mode primary --width W --threads 1 --peer embree --json --repeat R`,
+# W the widest width this CPU runs. --readme copies the figure and table into docs/.
+# Writes DIR/scaling.csv, DIR/scaling.md and the log-log figure DIR/scaling.{png,svg} (default
+# DIR: out/scaling), and prints the table and
 # the ratios issue 12 sets targets for (lancer / Embree, build time / Embree's, time per ray of
 # the largest size over the smallest). Needs jq and python3.
 set -euo pipefail
@@ -15,6 +18,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 lancer="$root/build/lancer"
 out="$root/out/scaling"
 repeat=5
+readme=0
 sizes=(4 64 1024 16384 65536)
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -23,7 +27,8 @@ while [ $# -gt 0 ]; do
     --repeat) repeat="$2"; shift ;;
     --out) out="$2"; shift ;;
     --lancer) lancer="$2"; shift ;;
-    -h|--help) sed -n 2,11p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --readme) readme=1 ;;
+    -h|--help) sed -n 2,14p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "scaling.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
   shift
@@ -31,6 +36,10 @@ done
 command -v jq >/dev/null || { echo "scaling.sh: needs jq (apt-get install jq)" >&2; exit 2; }
 [ -x "$lancer" ] || { echo "scaling.sh: no lancer at $lancer (build first)" >&2; exit 2; }
 mkdir -p "$out"
+# The widest packet width this CPU runs (16 with AVX-512, 8 with AVX2, else 4): what render picks.
+width="$("$lancer" render "$root/scenes/lorenzi-diffuse.json" --resolution 8x8 --precision exact \
+  -o "$out/width-probe.png" --json | jq .width)"
+rm -f "$out/width-probe.png"
 
 cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')"
 csv="$out/scaling.csv"
@@ -47,7 +56,7 @@ for n in "${sizes[@]}"; do
   scene="$out/spheres-$n.json"
   "$lancer" generate --spheres "$n" --seed 1 -o "$scene" >/dev/null
   json="$out/bench-$n.json"
-  "$lancer" bench "$scene" --mode primary --width 16 --threads 1 --peer embree --json \
+  "$lancer" bench "$scene" --mode primary --width "$width" --threads 1 --peer embree --json \
     --repeat "$repeat" >"$json"
   # One row per lancer configuration; Embree's best row (and its setup, when the bench names it).
   rows="$(jq -c --arg n "$n" '
@@ -84,5 +93,30 @@ if rows:
         ratio = float(lo["mrays_per_s"]) / float(hi["mrays_per_s"])
         print(f"- time per ray at {hi['spheres']} spheres / at {lo['spheres']}: {ratio:.2f}x")
 PY
+# The figure: Mrays/s against spheres, log-log, lancer and Embree's best as two series.
+long="$out/scaling-long.csv"
+{
+  echo "spheres,engine,mrays_per_s"
+  python3 - "$csv" <<'PY'
+import csv, sys
+for r in csv.DictReader(open(sys.argv[1])):
+    if r["mrays_per_s"]:
+        print(f"{r['spheres']},lancer {r['path']},{r['mrays_per_s']}")
+    if r["embree_mrays_per_s"]:
+        print(f"{r['spheres']},Embree best setup,{r['embree_mrays_per_s']}")
+PY
+} >"$long"
+for ext in png svg; do
+  "$lancer" plot "$long" -o "$out/scaling.$ext" --x spheres --y mrays_per_s --group engine \
+    --log xy --title "Primary rays against scene size, 1 thread ($cpu)" \
+    --x-label "spheres (random cloud on a ground plane, 600x400)" \
+    --y-label "Mrays/s (median of $repeat)" >/dev/null
+done
+if [ "$readme" -eq 1 ]; then
+  mkdir -p "$root/docs/images"
+  cp "$out/scaling.png" "$out/scaling.svg" "$root/docs/images/"
+  cp "$md" "$root/docs/scaling-table.md"
+  echo "scaling.sh: copied the figure to docs/images/scaling.{png,svg} and the table to docs/scaling-table.md"
+fi
 cat "$md"
-echo "scaling.sh: wrote $csv and $md"
+echo "scaling.sh: wrote $csv, $md and $out/scaling.{png,svg}"
