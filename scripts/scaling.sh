@@ -86,9 +86,11 @@ if rows:
         b, eb = r["build_s"], r["embree_build_s"]
         print(f"- {r['spheres']} spheres: lancer / Embree {float(r['mrays_per_s']) / float(e):.2f}x"
               if e else f"- {r['spheres']} spheres: no Embree figure", end="")
-        print(f"; build {float(b) / float(eb):.2f}x Embree's" if b and eb else "")
-    lo = min(rows, key=lambda r: int(r["spheres"]))
-    hi = max(rows, key=lambda r: int(r["spheres"]))
+        print(f"; build {float(b) / float(eb):.2f}x Embree's" if b and eb and float(b) > 0 else "")
+    by_n = {int(r["spheres"]): r for r in rows}
+    # Issue 12's pair when the run has it, else the smallest and largest sizes.
+    lo, hi = (by_n[1024], by_n[65536]) if 1024 in by_n and 65536 in by_n else (
+        by_n[min(by_n)], by_n[max(by_n)])
     if lo is not hi:
         ratio = float(lo["mrays_per_s"]) / float(hi["mrays_per_s"])
         print(f"- time per ray at {hi['spheres']} spheres / at {lo['spheres']}: {ratio:.2f}x")
