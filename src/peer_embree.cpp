@@ -410,6 +410,42 @@ struct EmbreeScene::Impl {
     }
   }
 
+  // rtcIntersect1M streams: the camera rays of a block of 4 rows by 16 columns, ordered as four
+  // 4x4 squares, in one call with the coherent flag; Embree regroups the stream into its own
+  // packets (the "rtcIntersect1M streams").
+  void primary_streams(float* t_out, int r0, int r1, RayCounts& counts) const {
+    const PreparedCamera<float>& cam = s.camera;
+    constexpr int kBlock = 64;
+    alignas(64) RTCRayHit rh[kBlock];
+    int px[kBlock], py[kBlock];
+    float sum[kBlock];
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (int j0 = r0; j0 < r1; j0 += 4)
+      for (int i0 = 0; i0 < cam.nx; i0 += 16) {
+        int n = 0;
+        for (int q = 0; q < 4; ++q)
+          for (int k = 0; k < 16; ++k) {
+            const int i = i0 + 4 * q + k % 4, j = j0 + k / 4;
+            if (i < cam.nx && j < r1) px[n] = i, py[n] = j, sum[n] = 0.0f, ++n;
+          }
+        for (int b = 0; b < cam.samples; ++b)
+          for (int a = 0; a < cam.samples; ++a) {
+            for (int m = 0; m < n; ++m) {
+              Vec3<float> o, d;
+              camera_ray_of(px[m], py[m], a, b, o, d);
+              set_ray<1>(reinterpret_cast<RTCRayN*>(&rh[m].ray), 0, o, d, s.epsilon, kInf);
+              clear_hit<1>(reinterpret_cast<RTCHitN*>(&rh[m].hit), 0);
+            }
+            counts.camera += unsigned(n);
+            rtcIntersect1M(scene, &ctx, rh, unsigned(n), sizeof(RTCRayHit));
+            for (int m = 0; m < n; ++m) sum[m] = sum[m] + rh[m].ray.tfar;
+          }
+        for (int m = 0; m < n; ++m) t_out[std::size_t(py[m]) * cam.nx + px[m]] = sum[m];
+      }
+  }
+
   template <int W>
   void primary_rows(float* t_out, int r0, int r1, RayCounts& counts) const {
     const PreparedCamera<float>& cam = s.camera;
@@ -653,7 +689,9 @@ PrimaryResult EmbreeScene::primary(int width, int threads) const {
         im.primary_rows<8>(res.t.data(), r0, r1, c);
         break;
       default:
-        if (im.config.tiles)
+        if (im.config.streams)
+          im.primary_streams(res.t.data(), r0, r1, c);
+        else if (im.config.tiles)
           im.primary_tiles16(res.t.data(), r0, r1, c);
         else
           im.primary_rows<16>(res.t.data(), r0, r1, c);
@@ -769,9 +807,11 @@ EmbreeConfig embree_config_from_env() {
       c.tiles = true;
     else if (word == "compact")
       c.compact = true;
+    else if (word == "streams")
+      c.streams = true;
     else if (!word.empty())
       throw InputError("LANCER_EMBREE_SETUP: unknown word '" + word +
-                       "' (known: user-spheres, high, tiles, compact)");
+                       "' (known: user-spheres, high, tiles, compact, streams)");
     start = comma + 1;
   }
   return c;
@@ -779,18 +819,22 @@ EmbreeConfig embree_config_from_env() {
 
 std::vector<EmbreeConfig> embree_setups() {
   if (std::getenv("LANCER_EMBREE_SETUP")) return {embree_config_from_env()};
-  std::vector<EmbreeConfig> out(5);
+  std::vector<EmbreeConfig> out(6);
   out[1].high_quality = true;
   out[2].user_spheres = true;
   out[3].user_spheres = out[3].high_quality = true;
   out[4].user_spheres = out[4].tiles = true;
+  out[5].user_spheres = out[5].streams = true;
   return out;
 }
 
 std::string EmbreeConfig::name() const {
   std::string n = user_spheres ? "user spheres" : "sphere points";
   n += high_quality ? ", build high" : ", build medium";
-  if (tiles) n += ", 4x4 packets";
+  if (streams)
+    n += ", 1M streams";
+  else if (tiles)
+    n += ", 4x4 packets";
   if (compact) n += ", compact";
   return n;
 }

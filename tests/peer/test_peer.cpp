@@ -125,14 +125,15 @@ TEST(EmbreePeer, PrimaryMatchesRenderPrimaryPerPixel) {
 
 // Every setup the bench can pick (issue 12: Embree at its best) hits what lancer hits, on the
 // shipped scenes and on a generated one of 3000 spheres: camera_hits (row packets) object by
-// object, and primary() (4x4 packets with tiles) pixel by pixel against lancer's primary.
+// object, and primary() (rows, 4x4 packets or streams) pixel by pixel against lancer's primary.
 TEST(EmbreePeer, EverySetupAgreesWithLancer) {
   if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
-  std::vector<peer::EmbreeConfig> setups(5);
+  std::vector<peer::EmbreeConfig> setups(6);
   setups[1].user_spheres = true;
   setups[2].high_quality = true;
   setups[3].tiles = true;
-  setups[4] = {true, true, true, true};
+  setups[4] = {true, true, true, true, false};
+  setups[5].user_spheres = setups[5].streams = true;
   generate::Options g;
   g.spheres = 3000;
   g.nx = 96, g.ny = 64;
