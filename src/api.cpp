@@ -141,7 +141,7 @@ template <class T>
 struct Chunk {
   alignas(64) T rays[6 * kMaxLanes];
   alignas(64) T t[kMaxLanes];
-  alignas(64) T id[kMaxLanes];
+  alignas(64) std::int32_t id[kMaxLanes];
   bool valid[kMaxLanes];
   bool out[kMaxLanes];
 };
@@ -168,7 +168,7 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     }
     for (int a = 0; a < 3; ++a) ch.rays[a * w + l] = o[a], ch.rays[(3 + a) * w + l] = d[a];
     ch.t[l] = tfar;
-    ch.id[l] = T(-1);
+    ch.id[l] = -1;
   }
   return active;
 }
@@ -192,12 +192,12 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     } else {  // the reference; its nearest hit counts where it lies before tfar
       const reference::Hit<T> hit =
           reference::closest_hit(s, lane_vec(ch, 1, 0, 0), lane_vec(ch, 1, 0, 3));
-      if (hit.id >= 0 && hit.t < ch.t[0]) ch.t[0] = hit.t, ch.id[0] = T(hit.id);
+      if (hit.id >= 0 && hit.t < ch.t[0]) ch.t[0] = hit.t, ch.id[0] = hit.id;
     }
     for (int l = 0; l < w && c + l < N; ++l) {
       if (!ch.valid[l]) continue;
       const int kk = c + l;
-      const int id = static_cast<int>(ch.id[l]);
+      const int id = ch.id[l];
       h.id[kk] = id;
       if (id < 0) {
         h.t[kk] = std::numeric_limits<float>::infinity();
@@ -409,7 +409,7 @@ PrimaryHits Scene::primary_hits() const {
   out.nx = in.nx, out.ny = in.ny;
   const std::size_t pixels = std::size_t(in.nx) * in.ny;
   out.t.assign(pixels, 0.0f);
-  std::vector<float> ids(pixels, -1.0f);
+  std::vector<std::int32_t> ids(pixels, -1);
   impl_->visit([&](const auto& e) {
     lancer::run_tiles(in.ny, in.threads, [&](int r0, int r1, RayCounts& c) {
       if (e.render)
@@ -418,8 +418,7 @@ PrimaryHits Scene::primary_hits() const {
         reference::primary_rows(e.scene, out.t.data(), ids.data(), r0, r1, c);
     });
   });
-  out.id.resize(pixels);
-  for (std::size_t p = 0; p < pixels; ++p) out.id[p] = static_cast<int>(ids[p]);
+  out.id.assign(ids.begin(), ids.end());
   return out;
 }
 

@@ -333,7 +333,7 @@ void render_rows_recorded(const PreparedScene<T>& s, Image& image, int row_begin
 }
 
 template <class T>
-void primary_rows(const PreparedScene<T>& s, float* t_out, float* id_out, int row_begin,
+void primary_rows(const PreparedScene<T>& s, float* t_out, std::int32_t* id_out, int row_begin,
                   int row_end, RayCounts& counts) {
   const PreparedCamera<T>& cam = s.camera;
   for (int j = row_begin; j < row_end; ++j) {
@@ -347,7 +347,7 @@ void primary_rows(const PreparedScene<T>& s, float* t_out, float* id_out, int ro
           ++counts.camera;
           const Hit<T> hit = closest_hit(s, origin, dir);
           sum = sum + hit.t;
-          if (id_out && a == 0 && b == 0) id_out[std::size_t(j) * cam.nx + i] = float(hit.id);
+          if (id_out && a == 0 && b == 0) id_out[std::size_t(j) * cam.nx + i] = hit.id;
         }
       }
       t_out[std::size_t(j) * cam.nx + i] = static_cast<float>(sum);
@@ -361,9 +361,9 @@ template void render_rows_recorded<float>(const PreparedScene<float>&, Image&, i
                                           PathLog&);
 template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
                                            RayCounts&, PathLog&);
-template void primary_rows<float>(const PreparedScene<float>&, float*, float*, int, int,
+template void primary_rows<float>(const PreparedScene<float>&, float*, std::int32_t*, int, int,
                                   RayCounts&);
-template void primary_rows<double>(const PreparedScene<double>&, float*, float*, int, int,
+template void primary_rows<double>(const PreparedScene<double>&, float*, std::int32_t*, int, int,
                                    RayCounts&);
 template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
                                        const Vec3<float>&);

@@ -171,7 +171,8 @@ struct Rows {
     else
       reference::render_rows(s, im, r0, r1, c);
   }
-  void primary(const PreparedScene<T>& s, float* t, float* id, int r0, int r1, RayCounts& c) const {
+  void primary(const PreparedScene<T>& s, float* t, std::int32_t* id, int r0, int r1,
+               RayCounts& c) const {
     if (kernels)
       kernels->primary_rows(s, t, id, r0, r1, c);
     else
@@ -213,8 +214,8 @@ PrimaryResult primary_impl(const Scene& scene, const RenderOptions& opt, bool id
   resolve(scene, opt, res, precision, nullptr);
   const std::size_t pixels = std::size_t(scene.camera.nx) * scene.camera.ny;
   res.t.assign(pixels, 0.0f);
-  if (ids) res.id.assign(pixels, -1.0f);
-  float* id = ids ? res.id.data() : nullptr;
+  if (ids) res.id.assign(pixels, -1);
+  std::int32_t* id = ids ? res.id.data() : nullptr;
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
     res.seconds = timed([&] {

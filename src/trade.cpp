@@ -17,7 +17,7 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
   truth_opt.threads = opt.threads;
   truth_opt.accel = opt.accel;
   const Image truth = render(scene, truth_opt).image;
-  const std::vector<float> truth_ids = render_primary_with_ids(scene, truth_opt).id;
+  const std::vector<std::int32_t> truth_ids = render_primary_with_ids(scene, truth_opt).id;
 
   std::vector<TradeRow> rows;
   std::vector<RenderOptions> configs;
@@ -40,7 +40,7 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
     rows[k].max_abs_diff = raw.max_abs;
     rows[k].psnr_db = shown.psnr_db;
     rows[k].off_pixel_frac = shown.off_fraction;
-    const std::vector<float> ids = render_primary_with_ids(scene, configs[k]).id;
+    const std::vector<std::int32_t> ids = render_primary_with_ids(scene, configs[k]).id;
     std::size_t mismatched = 0;
     for (std::size_t i = 0; i < ids.size(); ++i) mismatched += ids[i] != truth_ids[i];
     rows[k].hit_mismatch_frac = ids.empty() ? 0 : double(mismatched) / double(ids.size());

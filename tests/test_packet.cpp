@@ -200,7 +200,8 @@ TEST(PacketKernel, InactiveLanesUntouched) {
     ASSERT_NE(k, nullptr);
     for (int round = 0; round < 50; ++round) {
       SCOPED_TRACE(::testing::Message() << "width " << width << " round " << round);
-      std::vector<float> rays(6 * width), t(width), id(width);
+      std::vector<float> rays(6 * width), t(width);
+      std::vector<std::int32_t> id(width);
       std::unique_ptr<bool[]> valid(new bool[width]), hit(new bool[width]);
       for (int l = 0; l < width; ++l) {
         Vec3<float> d = normalize(Vec3<float>{u(rng) * 0.5f, u(rng) * 0.4f, -1.0f});
@@ -209,20 +210,20 @@ TEST(PacketKernel, InactiveLanesUntouched) {
         valid[l] = (rng() & 1) != 0;
         t[l] = std::numeric_limits<float>::infinity();
         id[l] = -1;
-        if (!valid[l]) t[l] = 1234.5f + l, id[l] = 99.0f + l;  // sentinels
+        if (!valid[l]) t[l] = 1234.5f + l, id[l] = 99 + l;  // sentinels
       }
       k->closest_hit_packet(p, valid.get(), rays.data(), t.data(), id.data(), hit.get());
       for (int l = 0; l < width; ++l) {
         if (!valid[l]) {
           EXPECT_EQ(t[l], 1234.5f + l) << "lane " << l;
-          EXPECT_EQ(id[l], 99.0f + l) << "lane " << l;
+          EXPECT_EQ(id[l], 99 + l) << "lane " << l;
           EXPECT_FALSE(hit[l]) << "lane " << l;
           continue;
         }
         const Vec3<float> o{rays[l], rays[width + l], rays[2 * width + l]};
         const Vec3<float> d{rays[3 * width + l], rays[4 * width + l], rays[5 * width + l]};
         const auto ref = reference::closest_hit(p, o, d);
-        EXPECT_EQ(static_cast<int>(id[l]), ref.id) << "lane " << l;
+        EXPECT_EQ(id[l], ref.id) << "lane " << l;
         EXPECT_EQ(hit[l], ref.id >= 0) << "lane " << l;
         if (ref.id >= 0) {
           EXPECT_EQ(t[l], ref.t) << "lane " << l;

@@ -2,6 +2,7 @@
 // Every faster path is held to it bit for bit in exact mode.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "lancer/image.hpp"
@@ -49,7 +50,7 @@ void render_rows_recorded(const PreparedScene<T>& scene, Image& image, int row_b
 // distance to the closest hit (infinity on a miss) into t_out[j * nx + i], and, if id_out is not
 // null, the object id first hit by sample (0, 0) (-1 for none).
 template <class T>
-void primary_rows(const PreparedScene<T>& scene, float* t_out, float* id_out, int row_begin,
+void primary_rows(const PreparedScene<T>& scene, float* t_out, std::int32_t* id_out, int row_begin,
                   int row_end, RayCounts& counts);
 
 // The closest hit of one ray: its object id and distance, or id -1.
@@ -68,10 +69,10 @@ extern template void render_rows_recorded<float>(const PreparedScene<float>&, Im
                                                  RayCounts&, PathLog&);
 extern template void render_rows_recorded<double>(const PreparedScene<double>&, Image&, int, int,
                                                   RayCounts&, PathLog&);
-extern template void primary_rows<float>(const PreparedScene<float>&, float*, float*, int, int,
-                                         RayCounts&);
-extern template void primary_rows<double>(const PreparedScene<double>&, float*, float*, int, int,
-                                          RayCounts&);
+extern template void primary_rows<float>(const PreparedScene<float>&, float*, std::int32_t*, int,
+                                         int, RayCounts&);
+extern template void primary_rows<double>(const PreparedScene<double>&, float*, std::int32_t*, int,
+                                          int, RayCounts&);
 extern template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
                                               const Vec3<float>&);
 extern template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,

@@ -2,6 +2,7 @@
 // row tiles over threads, counting rays and timing.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -68,7 +69,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options);
 // hit distances of its samples.
 struct PrimaryResult {
   std::vector<float> t;
-  std::vector<float> id;  // object first hit by each pixel's first sample, -1 for none
+  std::vector<std::int32_t> id;  // object first hit by each pixel's first sample, -1 for none
   RayCounts rays;
   double seconds = 0;
   int width = 1;

@@ -274,7 +274,7 @@ TEST(Api, CameraRaysHitWhatPrimaryModeHits) {
     ASSERT_EQ(ph.t.size(), lancer_hits.t.size());
     for (std::size_t p = 0; p < ph.t.size(); ++p) {
       ASSERT_TRUE(same_bits(ph.t[p], lancer_hits.t[p])) << "pixel " << p;
-      ASSERT_EQ(ph.id[p], int(lancer_hits.id[p])) << "pixel " << p;
+      ASSERT_EQ(ph.id[p], lancer_hits.id[p]) << "pixel " << p;
     }
     ASSERT_EQ(scene.info().supersample, 1);
     Rays rays;

@@ -3,6 +3,7 @@
 // in src/isa/<isa>.cpp, which alone is built with that ISA's flags.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -29,8 +30,8 @@ struct KernelTable {
   // reference::render_rows.
   void (*render_rows)(const PreparedScene<Real>&, Image&, int row_begin, int row_end, RayCounts&);
   // Camera rays and closest hit only, as reference::primary_rows.
-  void (*primary_rows)(const PreparedScene<Real>&, float* t_out, float* id_out, int row_begin,
-                       int row_end, RayCounts&);
+  void (*primary_rows)(const PreparedScene<Real>&, float* t_out, std::int32_t* id_out,
+                       int row_begin, int row_end, RayCounts&);
   // The primary intersection kernel alone (lancer bench --mode kernel): camera_packets makes the
   // camera rays of rows [row_begin, row_end) once, camera_packets_per_row() per row, each 6 x width
   // values (origin then direction, SoA) and its live lanes; intersect_camera_packets runs
@@ -45,7 +46,7 @@ struct KernelTable {
   // lanes (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
   // t and id. hit_out gets the lanes hit.
   void (*closest_hit_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
-                             Real* t, Real* id, bool* hit_out);
+                             Real* t, std::int32_t* id, bool* hit_out);
   // One packet through the any-hit kernel (shadow rays), for the library API (lancer.hpp):
   // rays as closest_hit_packet, blocked_out[k] true where valid[k] and some object lies at
   // epsilon < t < tfar[k]; false elsewhere.

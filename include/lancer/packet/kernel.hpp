@@ -197,20 +197,18 @@ struct Kernel {
     return M(r);
   }
 
-  // Ids as Real and back, lane by lane: only for the id outputs of tests and lancer trade.
-  static B id_to_real(const I& id) noexcept {
+  // Ids to and from 32-bit integer arrays (the API's, trade's and the tests' outputs): every id
+  // is below kMaxObjects = 2^25, so nothing rounds, unlike floats past 2^24. Lane by lane where
+  // the lanes are 64-bit (double).
+  static void store_ids(const I& id, std::int32_t* out, int lanes) noexcept {
     alignas(64) Id in[W];
-    alignas(64) T out[W];
     id.store_aligned(in);
-    for (int k = 0; k < W; ++k) out[k] = static_cast<T>(in[k]);
-    return B::load_aligned(out);
+    for (int k = 0; k < lanes; ++k) out[k] = static_cast<std::int32_t>(in[k]);
   }
-  static I real_to_id(const B& v) noexcept {
-    alignas(64) T in[W];
-    alignas(64) Id out[W];
-    v.store_aligned(in);
-    for (int k = 0; k < W; ++k) out[k] = static_cast<Id>(in[k]);
-    return I::load_aligned(out);
+  static I load_ids(const std::int32_t* in) noexcept {
+    alignas(64) Id v[W];
+    for (int k = 0; k < W; ++k) v[k] = static_cast<Id>(in[k]);
+    return I::load_aligned(v);
   }
 
   // Active lanes of a mask.
@@ -947,8 +945,8 @@ struct Kernel {
     lap(counts, kOutput);
   }
 
-  static void primary_rows(const Scene& s, float* t_out, float* id_out, int row_begin, int row_end,
-                           RayCounts& counts) noexcept {
+  static void primary_rows(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
+                           int row_end, RayCounts& counts) noexcept {
     // Through a hierarchy, square packets: their rays diverge less than a row's, so they share
     // more of the nodes and leaves they visit. The plain loop (the course scenes) keeps rows.
     if (s.bvh.active())
@@ -957,7 +955,7 @@ struct Kernel {
       primary_packet_rows(s, t_out, id_out, row_begin, row_end, counts);
   }
 
-  static void primary_packet_rows(const Scene& s, float* t_out, float* id_out, int row_begin,
+  static void primary_packet_rows(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
                                   int row_end, RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
@@ -985,7 +983,7 @@ struct Kernel {
         } else {
           store_lanes(sum, t_out + at, lanes);
         }
-        if (id_out) store_lanes(id_to_real(first_id), id_out + at, lanes);
+        if (id_out) store_ids(first_id, id_out + at, lanes);
       }
     }
   }
@@ -1032,8 +1030,8 @@ struct Kernel {
     }
   }
 
-  static void primary_tiles(const Scene& s, float* t_out, float* id_out, int row_begin, int row_end,
-                            RayCounts& counts) noexcept {
+  static void primary_tiles(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
+                            int row_end, RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     alignas(64) T col_of[W], row_of[W];
     for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
@@ -1073,7 +1071,8 @@ struct Kernel {
           const std::size_t at = std::size_t(j0 + r) * cam.nx + i0;
           for (int c = 0; c < cols; ++c) t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
           if (id_out)
-            for (int c = 0; c < cols; ++c) id_out[at + c] = static_cast<float>(ids[r * kTileW + c]);
+            for (int c = 0; c < cols; ++c)
+              id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
         }
       }
     }
@@ -1125,19 +1124,19 @@ struct Kernel {
     }
   }
 
-  static void closest_hit_packet(const Scene& s, const bool* valid, const T* rays, T* t, T* id,
-                                 bool* hit_out) noexcept {
+  static void closest_hit_packet(const Scene& s, const bool* valid, const T* rays, T* t,
+                                 std::int32_t* id, bool* hit_out) noexcept {
     const M v = M::load_unaligned(valid);
     const V o{B::load_unaligned(rays), B::load_unaligned(rays + W),
               B::load_unaligned(rays + 2 * W)};
     const V d{B::load_unaligned(rays + 3 * W), B::load_unaligned(rays + 4 * W),
               B::load_unaligned(rays + 5 * W)};
     B bt = B::load_unaligned(t);
-    I bid = real_to_id(B::load_unaligned(id));
+    I bid = load_ids(id);
     RayCounts unused;
     const M hit = closest_hit(s, v, o, d, bt, bid, unused);
     bt.store_unaligned(t);
-    id_to_real(bid).store_unaligned(id);
+    store_ids(bid, id, W);
     const unsigned hb = bits(hit);
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
