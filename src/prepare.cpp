@@ -177,27 +177,13 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
       p.features.coloured_lights = true;
   }
   // Packets look per-object fields up a whole register at a time: pad with zeros.
-  for (auto* field : {&p.sphere_cx,
-                      &p.sphere_cy,
-                      &p.sphere_cz,
-                      &p.sphere_r,
-                      &p.sphere_r2,
-                      &p.sphere_inv_r,
-                      &p.plane_nx,
-                      &p.plane_ny,
-                      &p.plane_nz,
-                      &p.mat_r,
-                      &p.mat_g,
-                      &p.mat_b,
-                      &p.mat_ka,
-                      &p.mat_kd,
-                      &p.mat_ks,
-                      &p.mat_shininess,
-                      &p.mat_reflect,
-                      &p.mat_shininess_int,
-                      &p.mat_transmit,
-                      &p.mat_ior,
-                      &p.mat_inv_ior})
+  for (auto* field : {&p.sphere_cx,     &p.sphere_cy,   &p.sphere_cz,
+                      &p.sphere_r,      &p.sphere_r2,   &p.sphere_inv_r,
+                      &p.plane_nx,      &p.plane_ny,    &p.plane_nz,
+                      &p.mat_r,         &p.mat_g,       &p.mat_b,
+                      &p.mat_ka,        &p.mat_kd,      &p.mat_ks,
+                      &p.mat_shininess, &p.mat_reflect, &p.mat_shininess_int,
+                      &p.mat_transmit,  &p.mat_ior,     &p.mat_inv_ior})
     if (field->size() < std::size_t(kMaxLanes)) field->resize(kMaxLanes, T(0));
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;
