@@ -64,54 +64,45 @@ bool isa_of(int lanes, bool dbl, Isa& isa) {
 // comes after this check: building a table runs that ISA's instructions.
 bool runnable(int lanes, bool dbl, Isa& isa) { return isa_of(lanes, dbl, isa) && allowed(isa); }
 
+// The table of one Real and Mode on the ISA `lanes` maps to, after the CPU check.
+template <class Real, class Mode>
+const KernelTable<Real>* table_for(int lanes) {
+  Isa isa;
+  if (!runnable(lanes, sizeof(Real) == 8, isa)) return nullptr;
+  switch (isa) {
+    case Isa::sse4_2:
+      return table<xsimd::sse4_2, Real, Mode>();
+    case Isa::avx2:
+      return table<xsimd::avx2, Real, Mode>();
+    case Isa::avx512f:
+      return table<xsimd::avx512f, Real, Mode>();
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 const KernelTable<float>* float_kernels(int width, Precision precision) {
+  if (precision == Precision::exact) return table_for<float, ExactMode>(width);
+  if (precision != Precision::fast) return nullptr;
   Isa isa;
   if (!runnable(width, false, isa)) return nullptr;
-  const bool fast = precision == Precision::fast;
-  if (!fast && precision != Precision::exact) return nullptr;
-  switch (isa) {
+  switch (isa) {  // fast AVX2 is fma3<avx2>: its fused operations need FMA
     case Isa::sse4_2:
-      return fast ? table<xsimd::sse4_2, float, FastMode>()
-                  : table<xsimd::sse4_2, float, ExactMode>();
+      return table<xsimd::sse4_2, float, FastMode>();
     case Isa::avx2:
-      return fast ? table<xsimd::fma3<xsimd::avx2>, float, FastMode>()
-                  : table<xsimd::avx2, float, ExactMode>();
+      return table<xsimd::fma3<xsimd::avx2>, float, FastMode>();
     case Isa::avx512f:
-      return fast ? table<xsimd::avx512f, float, FastMode>()
-                  : table<xsimd::avx512f, float, ExactMode>();
+      return table<xsimd::avx512f, float, FastMode>();
   }
   return nullptr;
 }
 
 const KernelTable<float>* profiled_kernels(int width) {
-  Isa isa;
-  if (!runnable(width, false, isa)) return nullptr;
-  switch (isa) {
-    case Isa::sse4_2:
-      return table<xsimd::sse4_2, float, ProfiledMode>();
-    case Isa::avx2:
-      return table<xsimd::avx2, float, ProfiledMode>();
-    case Isa::avx512f:
-      return table<xsimd::avx512f, float, ProfiledMode>();
-  }
-  return nullptr;
+  return table_for<float, ProfiledMode>(width);
 }
 
-const KernelTable<double>* double_kernels(int width) {
-  Isa isa;
-  if (!runnable(width, true, isa)) return nullptr;
-  switch (isa) {
-    case Isa::sse4_2:
-      return table<xsimd::sse4_2, double, ExactMode>();
-    case Isa::avx2:
-      return table<xsimd::avx2, double, ExactMode>();
-    case Isa::avx512f:
-      return table<xsimd::avx512f, double, ExactMode>();
-  }
-  return nullptr;
-}
+const KernelTable<double>* double_kernels(int width) { return table_for<double, ExactMode>(width); }
 
 std::vector<int> supported_widths(Precision precision) {
   std::vector<int> w;
