@@ -169,9 +169,9 @@ def grazing(n=96):
 
 def scenes():
     out = []
-    for ratio in (1e-3, 1e-4, 1e-5, 1e-6):
+    for ratio in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
         out.append((f"tiny-axis {ratio:g}", tiny_far(ratio)))
-    for ratio in (1e-3, 1e-4, 1e-5, 1e-6):
+    for ratio in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
         for seed in (1, 2, 3):
             out.append((f"tiny-general {ratio:g} s{seed}",
                         tiny_far(ratio, random.Random(seed * 1000 + round(-math.log10(ratio))))))

@@ -152,7 +152,7 @@ template <class T, int N>
 int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
          Chunk<T>& ch) {
   int active = 0;
-  const Vec3<double>& w0 = s.world_origin;
+  const Frame& frame = s.frame;
   for (int l = 0; l < w; ++l) {
     const int k = c + l;
     const bool on = k < N && (valid == nullptr || valid[k] != 0);
@@ -160,10 +160,10 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     T o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, tfar = std::numeric_limits<T>::infinity();
     if (on) {
       ++active;
-      o[0] = T(double(r.org_x[k]) - w0.x);
-      o[1] = T(double(r.org_y[k]) - w0.y);
-      o[2] = T(double(r.org_z[k]) - w0.z);
-      d[0] = T(r.dir_x[k]), d[1] = T(r.dir_y[k]), d[2] = T(r.dir_z[k]);
+      const Vec3<double> po = frame.point({r.org_x[k], r.org_y[k], r.org_z[k]});
+      const Vec3<double> pd = frame.direction({r.dir_x[k], r.dir_y[k], r.dir_z[k]});
+      o[0] = T(po.x), o[1] = T(po.y), o[2] = T(po.z);
+      d[0] = T(pd.x), d[1] = T(pd.y), d[2] = T(pd.z);
       tfar = T(r.tfar[k]);
     }
     for (int a = 0; a < 3; ++a) ch.rays[a * w + l] = o[a], ch.rays[(3 + a) * w + l] = d[a];
@@ -218,7 +218,8 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
         const int q = id - s.num_spheres;
         n = {s.plane_nx[q], s.plane_ny[q], s.plane_nz[q]};
       }
-      h.ng_x[kk] = float(n.x), h.ng_y[kk] = float(n.y), h.ng_z[kk] = float(n.z);
+      const Vec3<double> ng = s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
+      h.ng_x[kk] = float(ng.x), h.ng_y[kk] = float(ng.y), h.ng_z[kk] = float(ng.z);
     }
   }
 }
@@ -363,10 +364,11 @@ void Scene::camera_ray(int i, int j, int a, int b, float org[3], float dir[3]) c
     // As reference::primary_rows makes it; the packets' screen tables hold the same values.
     lancer::camera_ray(cam, screen_x(cam, T(i), cam.sub_offset[a]),
                        screen_y(cam, T(j), cam.sub_offset[b]), o, d);
-    const Vec3<double>& w0 = e.scene.world_origin;
-    org[0] = float(double(o.x) + w0.x), org[1] = float(double(o.y) + w0.y);
-    org[2] = float(double(o.z) + w0.z);
-    dir[0] = float(d.x), dir[1] = float(d.y), dir[2] = float(d.z);
+    const Frame& frame = e.scene.frame;
+    const Vec3<double> wo = frame.world_point({double(o.x), double(o.y), double(o.z)});
+    const Vec3<double> wd = frame.world_direction({double(d.x), double(d.y), double(d.z)});
+    org[0] = float(wo.x), org[1] = float(wo.y), org[2] = float(wo.z);
+    dir[0] = float(wd.x), dir[1] = float(wd.y), dir[2] = float(wd.z);
   });
 }
 

@@ -63,11 +63,12 @@ RayPlane ray_plane(const Scene& scene, const ObjectNames& names) {
   // The camera's basis and row exactly as the renderer computes them.
   const PreparedScene<double> p = prepare<double>(scene);
   const PreparedCamera<double>& cam = p.camera;
+  const Frame& frame = p.frame;
   RayPlane plane;
-  plane.along = cam.u;
-  plane.forward = -cam.w;
-  plane.normal = cam.v;
-  plane.origin = c.position + cam.v * cam.screen_y[0];
+  plane.along = frame.u;
+  plane.forward = -frame.w;
+  plane.normal = frame.v;
+  plane.origin = c.position + frame.v * cam.screen_y[0];
 
   double size = std::max(std::abs(c.xmin), std::abs(c.xmax));
   for (const Sphere& s : scene.spheres)

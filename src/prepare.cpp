@@ -8,7 +8,7 @@ namespace lancer {
 
 namespace {
 
-// The camera basis of the contract, in double, then rounded once to T.
+// The camera basis of the contract, in double: the axes of the frame a scene is prepared in.
 void camera_basis(const CameraSpec& c, Vec3<double>& u, Vec3<double>& v, Vec3<double>& w) {
   w = normalize(-c.direction);
   Vec3<double> h{-w.z, 0.0, w.x};
@@ -43,6 +43,7 @@ void add_bvh(PreparedScene<T>& p) {
   h.id = order;
   for (std::int32_t i : order) {
     const std::size_t k = std::size_t(i);
+    if (!p.sphere_recover.empty()) h.recover.push_back(p.sphere_recover[k]);
     h.cx.push_back(p.sphere_cx[k]);
     h.cy.push_back(p.sphere_cy[k]);
     h.cz.push_back(p.sphere_cz[k]);
@@ -68,12 +69,14 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   Vec3<double> u, v, w;
   camera_basis(c, u, v, w);
   pc.orthographic = c.type == CameraType::orthographic;
-  p.world_origin = c.position;
-  const Vec3<double> shift = c.position;
+  Frame& frame = p.frame;
+  frame.origin = c.position;
+  frame.u = u, frame.v = v, frame.w = w;
+  // In its own frame the camera sits at the origin with the axes as its basis.
   pc.position = Vec3<T>{T(0), T(0), T(0)};
-  pc.u = Vec3<T>::from(u);
-  pc.v = Vec3<T>::from(v);
-  pc.w = Vec3<T>::from(w);
+  pc.u = Vec3<T>{T(1), T(0), T(0)};
+  pc.v = Vec3<T>{T(0), T(1), T(0)};
+  pc.w = Vec3<T>{T(0), T(0), T(1)};
   pc.distance = T(c.distance);
   pc.nx = c.nx;
   pc.ny = c.ny;
@@ -127,7 +130,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   p.num_spheres = static_cast<int>(scene.spheres.size());
   p.naive_spheres_hold = true;
   for (const Sphere& s : scene.spheres) {
-    const Vec3<double> center = s.center - shift;
+    const Vec3<double> center = frame.point(s.center);
     p.sphere_cx.push_back(T(center.x));
     p.sphere_cy.push_back(T(center.y));
     p.sphere_cz.push_back(T(center.z));
@@ -137,20 +140,27 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     const double distance = length(center);
     if (s.radius < kNaiveSphereRatio * distance || s.radius > 0.5 * distance)
       p.naive_spheres_hold = false;
+    const bool recover = s.radius > 0.5 * distance;
+    if (recover && p.sphere_recover.empty())
+      p.sphere_recover.resize(scene.spheres.size(), std::uint8_t(0));
+    if (recover) p.sphere_recover[p.sphere_cx.size() - 1] = 1;
     if (!pc.orthographic) {
-      const Vec3<T> f =
-          pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
+      const Vec3<T> c{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
+      const Vec3<T> f = pc.position - c;
+      const T r2 = p.sphere_r2.back();
       p.eye.fx.push_back(f.x);
       p.eye.fy.push_back(f.y);
       p.eye.fz.push_back(f.z);
-      p.eye.c.push_back(sphere_c(f, p.sphere_r2.back()));
+      // What every camera ray's test computes (eye at 0: f exact, so recovered is accurate c).
+      p.eye.c.push_back(recover ? recovered_sphere_c<T>(pc.position, c, f, r2) : sphere_c(f, r2));
     }
     add_material(scene.materials[s.material]);
   }
   p.num_planes = static_cast<int>(scene.planes.size());
   for (const Plane& pl : scene.planes) {
-    const Vec3<double> n = normalize(pl.normal);
-    const Vec3<double> point = pl.point - shift;
+    // Rotated after its normalisation: a rotation keeps it unit to double's rounding.
+    const Vec3<double> n = frame.direction(normalize(pl.normal));
+    const Vec3<double> point = frame.point(pl.point);
     p.plane_px.push_back(T(point.x));
     p.plane_py.push_back(T(point.y));
     p.plane_pz.push_back(T(point.z));
@@ -161,7 +171,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   }
   p.num_lights = static_cast<int>(scene.lights.size());
   for (const Light& l : scene.lights) {
-    const Vec3<double> position = l.position - shift;
+    const Vec3<double> position = frame.point(l.position);
     p.light_x.push_back(T(position.x));
     p.light_y.push_back(T(position.y));
     p.light_z.push_back(T(position.z));

@@ -69,7 +69,7 @@ int resolve_width(int requested, Precision precision, const std::string& option)
 
 // The float envelope, measured by the stability tests (tests/test_extremes.cpp, docs/precision.md):
 // in camera-relative coordinates, float renders within a fraction of a percent of double while
-// the smallest sphere is at least 4e-5 of the scene's extent seen from the camera, and its
+// the smallest sphere is at least 5e-6 of the scene's extent seen from the camera, and its
 // shading stays finite while every intensity lies within [1e-30, 1e30].
 PrecisionChoice choose_precision(const Scene& scene) {
   // Extent from the camera: prepare() computes relative to it.
@@ -95,16 +95,18 @@ PrecisionChoice choose_precision(const Scene& scene) {
         return {Precision::dbl, "a light's intensity lies outside float's range [1e-30, 1e30]"};
   }
   // Float's envelope (docs/precision.md, issue 17): with sphere hit points computed relative to
-  // small spheres, what is left is float's own rays and centres, off by 2^-24 of the distance
-  // across the view, which flips silhouettes: in general position exact float puts 0.27% of
-  // pixels more than 2/255 off double at 2e-5 of the distance, 0.94% at 1e-5 (along an axis it
-  // holds to 1e-6). The extent is the largest coordinate, down to distance / sqrt(3): at 4e-5 of
-  // it a sphere is at least 2.3e-5 of its distance: 0.37% at worst over 8 seeds there (3e-5 let
-  // through 1.9e-5: 0.51%; FloatEnvelope.HoldsAtTheEnvelopesEdge).
+  // small spheres and the scene prepared in the camera's frame (float's spacing across the view
+  // scales with the view, not the distance), what is left is the spacing along the view, 2^-24
+  // of the distance, which moves spheres against their neighbours and shadows. The extent is
+  // the largest coordinate, down to distance / sqrt(3): at 5e-6 of it a sphere is at least 3e-6
+  // of its distance; two such spheres shadowing each other put 0.39% of pixels more than 2/255
+  // off double at worst over 6 seeds (0.81% at 1e-6 of the extent;
+  // FloatEnvelope.HoldsAtTheEnvelopesEdge). A lone tiny sphere holds further, to 1e-6 of its
+  // distance (0.30%).
   // Epsilon is no longer part of it: offsets, not epsilon, keep secondary rays off their
   // surface, and an epsilon below float's spacing changed no pixel of the shipped scenes
   // (FloatEnvelope.TinyEpsilonChangesNothing).
-  constexpr double kMinFeature = 4e-5;
+  constexpr double kMinFeature = 5e-6;
   char why[200];
   // The camera's scale: a pixel's step across the window (a sub-sample's, with supersampling) is
   // what separates neighbouring camera rays. Below 1e-18 its square is no normal float and float
@@ -123,7 +125,7 @@ PrecisionChoice choose_precision(const Scene& scene) {
   }
   if (std::isfinite(smallest) && extent > 0 && smallest < kMinFeature * extent) {
     std::snprintf(why, sizeof why,
-                  "the smallest sphere (radius %g) is below 4e-5 of the scene's extent (%g)",
+                  "the smallest sphere (radius %g) is below 5e-6 of the scene's extent (%g)",
                   smallest, extent);
     return {Precision::dbl, why};
   }

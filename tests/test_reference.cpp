@@ -46,9 +46,9 @@ TEST(CameraBasis, LookingDownMinusZ) {
   const auto p = prepare<double>(parse_scene(
       json{{"camera", one_pixel_camera({0, 0, 5}, {0, 0, -1})}, {"objects", json::array()}}.dump(),
       "t"));
-  EXPECT_EQ(p.camera.u.x, 1);
-  EXPECT_EQ(p.camera.v.y, 1);
-  EXPECT_EQ(p.camera.w.z, 1);
+  EXPECT_EQ(p.frame.u.x, 1);
+  EXPECT_EQ(p.frame.v.y, 1);
+  EXPECT_EQ(p.frame.w.z, 1);
 }
 
 TEST(CameraBasis, LookingStraightDownUsesUnitX) {
@@ -56,13 +56,13 @@ TEST(CameraBasis, LookingStraightDownUsesUnitX) {
   const auto p = prepare<double>(parse_scene(
       json{{"camera", one_pixel_camera({0, 5, 0}, {0, -3, 0})}, {"objects", json::array()}}.dump(),
       "t"));
-  EXPECT_EQ(p.camera.w.y, 1);
-  EXPECT_EQ(p.camera.u.x, 1);
-  EXPECT_EQ(p.camera.u.y, 0);
-  EXPECT_EQ(p.camera.u.z, 0);
-  EXPECT_EQ(p.camera.v.x, 0);
-  EXPECT_EQ(p.camera.v.y, 0);
-  EXPECT_EQ(p.camera.v.z, -1);
+  EXPECT_EQ(p.frame.w.y, 1);
+  EXPECT_EQ(p.frame.u.x, 1);
+  EXPECT_EQ(p.frame.u.y, 0);
+  EXPECT_EQ(p.frame.u.z, 0);
+  EXPECT_EQ(p.frame.v.x, 0);
+  EXPECT_EQ(p.frame.v.y, 0);
+  EXPECT_EQ(p.frame.v.z, -1);
 }
 
 TEST(CameraBasis, FlipsSoThatVPointsUp) {
@@ -70,9 +70,9 @@ TEST(CameraBasis, FlipsSoThatVPointsUp) {
   const auto p = prepare<double>(parse_scene(
       json{{"camera", one_pixel_camera({0, 0, 0}, {0, 0, 2})}, {"objects", json::array()}}.dump(),
       "t"));
-  EXPECT_EQ(p.camera.u.x, -1);
-  EXPECT_EQ(p.camera.v.y, 1);
-  EXPECT_EQ(p.camera.w.z, -1);
+  EXPECT_EQ(p.frame.u.x, -1);
+  EXPECT_EQ(p.frame.v.y, 1);
+  EXPECT_EQ(p.frame.w.z, -1);
 }
 
 TEST(CameraRays, PixelCentresFollowTheContract) {

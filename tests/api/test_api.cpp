@@ -225,12 +225,12 @@ TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
       // The ray as the API was given it, into the prepared frame by the documented rule.
       const Vec3<double> ow{rays.org[3 * i], rays.org[3 * i + 1], rays.org[3 * i + 2]};
       const Vec3<double> dw{rays.dir[3 * i], rays.dir[3 * i + 1], rays.dir[3 * i + 2]};
-      const Vec3<double> rel = ow - pd.world_origin;
-      const auto ref_d = reference::closest_hit(pd, rel, dw);
+      const Vec3<double> rel = pd.frame.point(ow), dir = pd.frame.direction(dw);
+      const auto ref_d = reference::closest_hit(pd, rel, dir);
       same_as_double += r.id[i] == ref_d.id;
       hits += r.id[i] >= 0;
       if (p == Precision::exact) {
-        const auto ref = reference::closest_hit(pf, Vec3<float>::from(rel), Vec3<float>::from(dw));
+        const auto ref = reference::closest_hit(pf, Vec3<float>::from(rel), Vec3<float>::from(dir));
         ASSERT_EQ(r.id[i], ref.id) << "ray " << i;
         if (ref.id >= 0) {
           ASSERT_TRUE(same_bits(r.t[i], ref.t)) << "ray " << i;

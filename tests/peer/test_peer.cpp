@@ -85,7 +85,10 @@ TEST(EmbreePeer, CameraRaysHitAndMissAsLancerOnEveryScene) {
         ASSERT_GT(a.rays, 0u);
         EXPECT_LT(double(a.hit_miss) / a.rays, 1e-3) << a.hit_miss << " of " << a.rays;
         EXPECT_LT(double(a.other_object) / a.rays, 1e-3) << a.other_object << " of " << a.rays;
-        EXPECT_LT(a.max_rel_t, 1e-3);
+        // Quads stand for planes with float corners kPlaneExtent scene sizes away: where the
+        // camera's frame tilts a plane against the axes (glass-tir.json), the corners round off
+        // it by an ulp of that distance, and t moves by up to 2e-3 of itself (measured 1.8e-3).
+        EXPECT_LT(a.max_rel_t, mode == peer::PlaneMode::quad ? 4e-3 : 1e-3);
         std::printf(
             "  %-40s w=%-2d %s: %zu rays, hit/miss differ %zu, object differs %zu, "
             "max |dt|/t %.2g\n",

@@ -268,13 +268,22 @@ struct Kernel {
   // The nearest root beyond epsilon. Exact: c/q and q (RTG ch. 7), as the reference. Fast, with
   // the textbook discriminant: -b -+ sqrt(disc), no division; its near root loses ulps of |b|
   // where the ray starts near the sphere, which the offset origins and epsilon absorb.
-  static B first_root(const Scene& s, const SphereDisc<B>& sd, const V& f, const B& r2,
-                      bool from_eye, T eye_c, const B& eps) noexcept {
+  // Sphere j of `sp`, f = o - centre; c recovered for the spheres the scene flags (as the
+  // reference: PreparedScene::sphere_recover).
+  template <class SphereTable>
+  static B first_root(const Scene& s, const SphereTable& sp, int j, const SphereDisc<B>& sd,
+                      const V& o, const V& f, const B& r2, bool from_eye, const B& eps) noexcept {
     if (textbook(s)) {
       const B root = xsimd::sqrt(sd.disc);
       return sphere_first_root(SphereRoots<B>{-(sd.b + root), root - sd.b}, eps);
     }
-    const B c = from_eye ? B(eye_c) : sphere_c<Mth>(f, r2);
+    B c;
+    if (from_eye)
+      c = B(sp.ec[j]);
+    else if (sp.recover && sp.recover[j])
+      c = recovered_sphere_c<T>(o, V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])}, f, r2);
+    else
+      c = sphere_c<Mth>(f, r2);
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
   }
 
@@ -293,18 +302,29 @@ struct Kernel {
   // with their object ids.
   struct Spheres {
     const T *cx, *cy, *cz, *r2, *efx, *efy, *efz, *ec;
-    const std::int32_t* id;  // null: the position is the id
+    const std::int32_t* id;       // null: the position is the id
+    const std::uint8_t* recover;  // null: no sphere is flagged
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
   };
   static Spheres all_spheres(const Scene& s) noexcept {
-    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(),
-            s.sphere_r2.data(), s.eye.fx.data(),    s.eye.fy.data(),
-            s.eye.fz.data(),    s.eye.c.data(),     nullptr};
+    return {s.sphere_cx.data(),
+            s.sphere_cy.data(),
+            s.sphere_cz.data(),
+            s.sphere_r2.data(),
+            s.eye.fx.data(),
+            s.eye.fy.data(),
+            s.eye.fz.data(),
+            s.eye.c.data(),
+            nullptr,
+            s.sphere_recover.empty() ? nullptr : s.sphere_recover.data()};
   }
   static Spheres leaf_spheres(const Scene& s) noexcept {
     const Bvh<T>& h = s.bvh;
-    return {h.cx.data(),     h.cy.data(),     h.cz.data(),    h.r2.data(), h.eye_fx.data(),
-            h.eye_fy.data(), h.eye_fz.data(), h.eye_c.data(), h.id.data()};
+    return {h.cx.data(),     h.cy.data(),
+            h.cz.data(),     h.r2.data(),
+            h.eye_fx.data(), h.eye_fy.data(),
+            h.eye_fz.data(), h.eye_c.data(),
+            h.id.data(),     h.recover.empty() ? nullptr : h.recover.data()};
   }
 
   // Closest hit over spheres [begin, end) of `sp` for the lanes of `valid`; updates t and id
@@ -321,7 +341,7 @@ struct Kernel {
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
     // where it wins.
     auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
-      const B t = first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
+      const B t = first_root(s, sp, j, sd, o, f, r2, kFromEye, eps);
       const Id id = sp.object(j);
       if constexpr (kIdOrder)
         m = m & (t > eps) & (t < best_t);
@@ -432,7 +452,7 @@ struct Kernel {
         const SphereDisc<B> sd = disc_of(s, f, l, r2, false, T(0));
         M m = skip(live & (sd.disc >= B(0)), leaving, sp.object(j));
         if (!xsimd::any(m)) continue;
-        const B t = first_root(s, sd, f, r2, false, T(0), eps);
+        const B t = first_root(s, sp, j, sd, p, f, r2, false, eps);
         m = m & (t > eps) & (t < dist);
         if (!xsimd::any(m)) continue;
         pending = step(sp.object(j), m, pending);
