@@ -319,13 +319,14 @@ constexpr double kPad = std::numeric_limits<T>::epsilon() * 256.0;
 
 template <class T>
 Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::vector<T>& cz,
-                 const std::vector<T>& r, int n, std::vector<std::int32_t>& order) {
+                 const std::vector<T>& r, int n, std::vector<std::int32_t>& order,
+                 double eye_reach) {
   const auto start = std::chrono::steady_clock::now();
   Bvh<T> bvh;
   order.resize(std::size_t(n));
   if (n == 0) return bvh;
-  // The camera sits at the origin: rays start at it, on spheres, or on planes (anywhere).
-  double reach = 0;
+  // Rays start at the camera (eye_reach from the origin), on spheres, or on planes (anywhere).
+  double reach = eye_reach;
   for (int i = 0; i < n; ++i)
     reach = std::max({reach, std::fabs(double(cx[std::size_t(i)])) + double(r[std::size_t(i)]),
                       std::fabs(double(cy[std::size_t(i)])) + double(r[std::size_t(i)]),
@@ -369,9 +370,9 @@ template struct Bvh<float>;
 template struct Bvh<double>;
 template Bvh<float> build_bvh<float>(const std::vector<float>&, const std::vector<float>&,
                                      const std::vector<float>&, const std::vector<float>&, int,
-                                     std::vector<std::int32_t>&);
+                                     std::vector<std::int32_t>&, double);
 template Bvh<double> build_bvh<double>(const std::vector<double>&, const std::vector<double>&,
                                        const std::vector<double>&, const std::vector<double>&, int,
-                                       std::vector<std::int32_t>&);
+                                       std::vector<std::int32_t>&, double);
 
 }  // namespace lancer

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -20,6 +21,25 @@ void camera_basis(const CameraSpec& c, Vec3<double>& u, Vec3<double>& v, Vec3<do
   }
 }
 
+// Frame::depth: the nearest sphere surface's distance along the view, as a T, where every
+// sphere lies beyond it and the spheres spread over less than 1/64 of it; else 0.
+template <class T>
+double view_depth(const Scene& scene, const Frame& frame) {
+  if (scene.spheres.empty()) return 0;
+  double nearest = INFINITY;
+  for (const Sphere& s : scene.spheres)
+    nearest = std::min(nearest, -frame.point(s.center).z - s.radius);
+  if (!(nearest > 0)) return 0;
+  const double depth = double(T(nearest));
+  double spread = 0;
+  for (const Sphere& s : scene.spheres) {
+    const Vec3<double> c = frame.point(s.center);
+    spread = std::max<double>({spread, std::fabs(c.x) + s.radius, std::fabs(c.y) + s.radius,
+                               std::fabs(c.z + depth) + s.radius});
+  }
+  return spread * 64 < depth ? depth : 0;
+}
+
 }  // namespace
 
 Accel resolve_accel(const Scene& scene, Accel accel) {
@@ -35,7 +55,8 @@ void add_bvh(PreparedScene<T>& p) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<std::int32_t> order;
   Bvh<T>& h = p.bvh;
-  h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order);
+  h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order,
+                p.frame.depth);
   const bool eye = !p.eye.c.empty();
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->reserve(order.size());
   if (eye)
@@ -72,8 +93,10 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   Frame& frame = p.frame;
   frame.origin = c.position;
   frame.u = u, frame.v = v, frame.w = w;
-  // In its own frame the camera sits at the origin with the axes as its basis.
-  pc.position = Vec3<T>{T(0), T(0), T(0)};
+  frame.depth = view_depth<T>(scene, frame);
+  // In its own frame the camera sits on the w axis (at the origin unless depth) with the axes
+  // as its basis.
+  pc.position = Vec3<T>{T(0), T(0), T(frame.depth)};
   pc.u = Vec3<T>{T(1), T(0), T(0)};
   pc.v = Vec3<T>{T(0), T(1), T(0)};
   pc.w = Vec3<T>{T(0), T(0), T(1)};
@@ -137,7 +160,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     p.sphere_r.push_back(T(s.radius));
     p.sphere_r2.push_back(T(s.radius) * T(s.radius));
     p.sphere_inv_r.push_back(T(1.0 / s.radius));
-    const double distance = length(center);
+    const double distance = length(center - Vec3<double>{0, 0, frame.depth});
     if (s.radius < kNaiveSphereRatio * distance || s.radius > 0.5 * distance)
       p.naive_spheres_hold = false;
     const bool recover = s.radius > 0.5 * distance;
@@ -160,7 +183,10 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   for (const Plane& pl : scene.planes) {
     // Rotated after its normalisation: a rotation keeps it unit to double's rounding.
     const Vec3<double> n = frame.direction(normalize(pl.normal));
-    const Vec3<double> point = frame.point(pl.point);
+    // With depth, the plane's point nearest the frame's origin (any point of it will do): a
+    // point the file gives near the eye would be depth away and lose its digits.
+    Vec3<double> point = frame.point(pl.point);
+    if (frame.depth > 0) point = point - n * dot(n, point);
     p.plane_px.push_back(T(point.x));
     p.plane_py.push_back(T(point.y));
     p.plane_pz.push_back(T(point.z));

@@ -53,19 +53,21 @@ struct Bvh {
   std::size_t bytes() const;
 };
 
-// The hierarchy of spheres (centre, radius) in camera-relative coordinates: nodes, origin_limit
-// and `order` (leaf-order position -> sphere index). Deterministic: a function of the input only.
+// The hierarchy of spheres (centre, radius) in the camera's frame: nodes, origin_limit and
+// `order` (leaf-order position -> sphere index). eye_reach: the camera's max-norm distance from
+// the frame's origin (Frame::depth). Deterministic: a function of the input only.
 template <class T>
 Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::vector<T>& cz,
-                 const std::vector<T>& r, int n, std::vector<std::int32_t>& order);
+                 const std::vector<T>& r, int n, std::vector<std::int32_t>& order,
+                 double eye_reach = 0);
 
 extern template Bvh<float> build_bvh<float>(const std::vector<float>&, const std::vector<float>&,
                                             const std::vector<float>&, const std::vector<float>&,
-                                            int, std::vector<std::int32_t>&);
+                                            int, std::vector<std::int32_t>&, double);
 extern template Bvh<double> build_bvh<double>(const std::vector<double>&,
                                               const std::vector<double>&,
                                               const std::vector<double>&,
                                               const std::vector<double>&, int,
-                                              std::vector<std::int32_t>&);
+                                              std::vector<std::int32_t>&, double);
 
 }  // namespace lancer

@@ -57,15 +57,26 @@ struct EyeSphere {
 // and across the view float's spacing scales with what the view spans, not with the distance:
 // a camera ray is (x, y, -distance) before its normalisation, exactly, and a small sphere in the
 // middle of the view has small x and y, whatever its direction in the world.
+// `depth`: where every sphere lies far beyond the eye, against its own spread (a tiny sphere 1e6
+// radii away and its neighbours), the frame's origin moves along the view to the nearest
+// sphere's surface: the eye sits at (0, 0, depth) and the spheres near 0, so that float's
+// spacing between neighbours is that of their spread, not of their distance. The eye's own
+// rounding (none: depth is a float) would move every camera ray alike.
 struct Frame {
-  Vec3<double> origin{0, 0, 0};
+  Vec3<double> origin{0, 0, 0};  // the eye
   Vec3<double> u{1, 0, 0}, v{0, 1, 0}, w{0, 0, 1};
+  double depth = 0;
 
-  Vec3<double> point(const Vec3<double>& world) const { return direction(world - origin); }
+  Vec3<double> point(const Vec3<double>& world) const {
+    const Vec3<double> d = direction(world - origin);
+    return {d.x, d.y, d.z + depth};
+  }
   Vec3<double> direction(const Vec3<double>& world) const {
     return {dot(world, u), dot(world, v), dot(world, w)};
   }
-  Vec3<double> world_point(const Vec3<double>& p) const { return origin + world_direction(p); }
+  Vec3<double> world_point(const Vec3<double>& p) const {
+    return origin + world_direction({p.x, p.y, p.z - depth});
+  }
   Vec3<double> world_direction(const Vec3<double>& d) const { return u * d.x + v * d.y + w * d.z; }
 };
 
