@@ -22,10 +22,14 @@ void camera_basis(const CameraSpec& c, Vec3<double>& u, Vec3<double>& v, Vec3<do
 }
 
 // Frame::depth: the nearest sphere surface's distance along the view, as a T, where every
-// sphere lies beyond it and the spheres spread over less than 1/64 of it; else 0.
+// sphere lies beyond it, the spheres spread over less than 1/64 of it and there is no plane;
+// else 0.
 template <class T>
 double view_depth(const Scene& scene, const Frame& frame) {
-  if (scene.spheres.empty()) return 0;
+  // Planes keep their hit points at o + t d and leave them by 64 ulps of |o| + t: an eye moved
+  // away from the origin doubles both (measured: a cloud on a ground plane seen from afar,
+  // FloatEnvelope.TelescopeViewsOfACloud, lost more pixels than it won).
+  if (scene.spheres.empty() || !scene.planes.empty()) return 0;
   double nearest = INFINITY;
   for (const Sphere& s : scene.spheres)
     nearest = std::min(nearest, -frame.point(s.center).z - s.radius);
@@ -183,10 +187,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   for (const Plane& pl : scene.planes) {
     // Rotated after its normalisation: a rotation keeps it unit to double's rounding.
     const Vec3<double> n = frame.direction(normalize(pl.normal));
-    // With depth, the plane's point nearest the frame's origin (any point of it will do): a
-    // point the file gives near the eye would be depth away and lose its digits.
-    Vec3<double> point = frame.point(pl.point);
-    if (frame.depth > 0) point = point - n * dot(n, point);
+    const Vec3<double> point = frame.point(pl.point);
     p.plane_px.push_back(T(point.x));
     p.plane_py.push_back(T(point.y));
     p.plane_pz.push_back(T(point.z));

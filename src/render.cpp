@@ -102,10 +102,10 @@ PrecisionChoice choose_precision(const Scene& scene) {
   // - Without planes: a sphere at 5e-6 of the extent (the largest coordinate: down to distance /
   //   sqrt(3)) puts no pixel more than 2/255 off double (FloatEnvelope.HoldsAtTheEnvelopesEdge,
   //   6 seeds; 0.39% before the depth), nor do tiny spheres down to 1e-7 of their distance.
-  // - With planes: their hits are o + t d, off by ulps of the distance from the eye, and leave
-  //   by 64 of them; a cloud of spheres on a ground plane seen from afar
-  //   (FloatEnvelope.TelescopeViewsOfACloud) puts 0.85% of pixels off at 5.5e-6 of the extent,
-  //   0.13% at 4e-5: the bound stays 4e-5 there.
+  // - With planes (and no depth then): their hits are o + t d, off by ulps of the distance
+  //   from the eye, and leave by 64 of them; a cloud of spheres on a ground plane seen from
+  //   afar (FloatEnvelope.TelescopeViewsOfACloud) puts 0.94% of pixels off at 5.5e-6 of the
+  //   extent, 0.19% at 4e-5: the bound stays 4e-5 there.
   // Epsilon is no longer part of it: offsets, not epsilon, keep secondary rays off their
   // surface, and an epsilon below float's spacing changed no pixel of the shipped scenes
   // (FloatEnvelope.TinyEpsilonChangesNothing).

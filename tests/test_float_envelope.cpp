@@ -274,11 +274,11 @@ TEST(FloatEnvelope, HoldsAtTheEnvelopesEdge) {
 }
 
 // A generated cloud of spheres seen from K times further back through a K times narrower window
-// (a telescope), with and without its ground plane: the spheres lie far beyond the eye against
-// their spread, where the frame's origin moves to them (Frame::depth). Planes keep their hit
-// points at o + t d, off by ulps of the distance: with the plane, auto keeps double from 4e-5 of
-// the extent on (measured: exact 0.85% off at 5.5e-6, 0.13% at 4e-5); without it, exact holds
-// far beyond (0.02% at 5.5e-6, where it was 0.4% before the depth).
+// (a telescope), with and without its ground plane. Without it the spheres lie far beyond the
+// eye against their spread and the frame's origin moves to them (Frame::depth): exact holds
+// far beyond auto's bound (measured 0.02% at K = 4000, 5.5e-6 of the extent, 0.4% before the
+// depth). With it, no depth: plane hits are o + t d, off by ulps of the distance, and auto keeps
+// double from 4e-5 of the extent on (measured: exact 0.94% off at K = 4000, 0.11% at 500).
 TEST(FloatEnvelope, TelescopeViewsOfACloud) {
   generate::Options g;
   g.spheres = 300;

@@ -4,10 +4,12 @@
 // 2/255 for double precision, at most 0.5% for exact float, both as an 8-bit image shows them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
 #include "lancer/compare.hpp"
 #include "lancer/prepared.hpp"
+#include "lancer/vec3.hpp"
 #include "support/random_scene.hpp"
 #include "support/test_util.hpp"
 
@@ -145,6 +147,60 @@ TEST(Oracle, ExtremeScenes) {
               100.0 * off_auto / pixels, 100.0 * off_exact / pixels);
   EXPECT_LE(double(off_auto) / pixels, 0.005);
   EXPECT_LE(double(off_exact) / pixels, 0.01);
+}
+
+// Random scenes without planes seen from far away through a narrower window (pinhole cameras
+// pulled back K times along their view, distance K times longer): their spheres lie far
+// beyond the eye against their spread, where prepare() moves the frame's origin to them
+// (Frame::depth). The mapping into that frame is checked against the oracle's world space.
+TEST(Oracle, FarCloudsInTheMovedFrame) {
+  testing::TempDir dir;
+  std::uint64_t pixels = 0, off_double = 0, off_auto = 0;
+  int moved = 0, scenes = 0;
+  for (int seed = 7000; seed < 7060 && scenes < 16; ++seed) {
+    nlohmann::json j = testing::random_scene(static_cast<std::uint64_t>(seed));
+    nlohmann::json& cam = j["camera"];
+    if (cam["type"] != "pinhole") continue;
+    nlohmann::json objects = nlohmann::json::array();
+    for (const auto& o : j["objects"])
+      if (o.contains("radius")) objects.push_back(o);
+    if (objects.empty()) continue;
+    j["objects"] = objects;
+    ++scenes;
+    SCOPED_TRACE(::testing::Message() << "random_scene seed " << seed);
+    const Vec3<double> eye{cam["position"][0], cam["position"][1], cam["position"][2]};
+    const Vec3<double> d =
+        normalize(Vec3<double>{cam["direction"][0], cam["direction"][1], cam["direction"][2]});
+    constexpr double kBack = 200;
+    double reach = 1;
+    for (const auto& o : objects)
+      reach = std::max(reach,
+                       length(Vec3<double>{o["center"][0], o["center"][1], o["center"][2]} - eye) +
+                           o["radius"].get<double>());
+    const Vec3<double> far = eye - d * (kBack * reach);
+    cam["position"] = {far.x, far.y, far.z};
+    cam["distance"] = cam["distance"].get<double>() * (kBack + 1);
+    const std::string path = dir.file("far.json");
+    std::ofstream(path) << j.dump();
+    const Scene s = load_scene(path);
+    moved += prepare<double>(s).frame.depth > 0;
+    const Image truth = oracle_render(path, dir);
+    const double tol = 2.0 / 255.0;
+    const ErrorStats e = error_stats(testing::render_with(s, 1, Precision::dbl, 2), truth, tol);
+    const ErrorStats a =
+        error_stats(testing::render_with(s, 0, Precision::automatic, 2), truth, tol);
+    EXPECT_LE(e.off_pixels, 2u);
+    pixels += std::uint64_t(s.camera.nx) * s.camera.ny;
+    off_double += e.off_pixels;
+    off_auto += a.off_pixels;
+  }
+  std::printf(
+      "%d far clouds (%d in a moved frame): pixels off by > 2/255: double %.4f%%, "
+      "auto %.4f%%\n",
+      scenes, moved, 100.0 * off_double / pixels, 100.0 * off_auto / pixels);
+  EXPECT_GE(moved, scenes / 2);
+  EXPECT_LE(double(off_double) / pixels, 0.001);
+  EXPECT_LE(double(off_auto) / pixels, 0.005);
 }
 
 }  // namespace

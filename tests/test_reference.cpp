@@ -75,6 +75,68 @@ TEST(CameraBasis, FlipsSoThatVPointsUp) {
   EXPECT_EQ(p.frame.w.z, -1);
 }
 
+// Scenes are prepared in the camera's frame: the camera's basis becomes the axes exactly, world
+// points map there and back (in double, to its rounding), and where the spheres lie far beyond
+// the eye against their spread the origin moves along the view to them (Frame::depth).
+TEST(CameraFrame, PointsMapThereAndBack) {
+  json j{{"camera", one_pixel_camera({3, -2, 7}, {0.3, -0.4, -1})},
+         {"lights", {{{"position", {1, 9, -4}}, {"intensity", 1}}}},
+         {"objects",
+          {{{"type", "sphere"}, {"center", {1, -1, -3}}, {"radius", 1}},
+           {{"type", "plane"}, {"point", {0, -2, 0}}, {"normal", {0, 1, 0}}}}}};
+  j["camera"]["type"] = "pinhole";
+  j["camera"]["distance"] = 1;
+  const Scene scene = parse_scene(j.dump(), "t");
+  const auto p = prepare<double>(scene);
+  EXPECT_EQ(p.frame.depth, 0);  // the sphere is near: no depth
+  EXPECT_EQ(p.camera.u.x, 1);
+  EXPECT_EQ(p.camera.v.y, 1);
+  EXPECT_EQ(p.camera.w.z, 1);
+  EXPECT_EQ(p.camera.u.y, 0);
+  EXPECT_EQ(p.camera.w.x, 0);
+  const Vec3<double> c = p.frame.world_point({p.sphere_cx[0], p.sphere_cy[0], p.sphere_cz[0]});
+  EXPECT_NEAR(c.x, 1, 1e-14);
+  EXPECT_NEAR(c.y, -1, 1e-14);
+  EXPECT_NEAR(c.z, -3, 1e-14);
+  // The camera's forward direction is -w: in the frame, -z.
+  const Vec3<double> ahead = p.frame.direction(normalize(Vec3<double>{0.3, -0.4, -1}));
+  EXPECT_NEAR(ahead.x, 0, 1e-15);
+  EXPECT_NEAR(ahead.y, 0, 1e-15);
+  EXPECT_NEAR(ahead.z, -1, 1e-15);
+  // Lengths and angles are kept: the plane's normal stays unit, the light where it was.
+  EXPECT_NEAR(
+      p.plane_nx[0] * p.plane_nx[0] + p.plane_ny[0] * p.plane_ny[0] + p.plane_nz[0] * p.plane_nz[0],
+      1, 1e-15);
+  const Vec3<double> l = p.frame.world_point({p.light_x[0], p.light_y[0], p.light_z[0]});
+  EXPECT_NEAR(length(l - Vec3<double>{1, 9, -4}), 0, 1e-13);
+}
+
+TEST(CameraFrame, DepthMovesTheOriginToFarSpheres) {
+  // Two spheres of radius 1e-3 about 1e4 ahead: the origin moves to the nearer one's surface.
+  json j{{"camera", one_pixel_camera({0, 0, 0}, {1, 1, -1})},
+         {"objects",
+          {{{"type", "sphere"}, {"center", {5773.5, 5773.5, -5773.5}}, {"radius", 1e-3}},
+           {{"type", "sphere"}, {"center", {5773.501, 5773.5, -5773.5}}, {"radius", 1e-3}}}}};
+  j["camera"]["type"] = "pinhole";
+  j["camera"]["distance"] = 1;
+  const auto p = prepare<float>(parse_scene(j.dump(), "t"));
+  EXPECT_GT(p.frame.depth, 9999);
+  EXPECT_LT(p.frame.depth, 10000.1);
+  EXPECT_EQ(double(float(p.frame.depth)), p.frame.depth);  // the eye sits on a float
+  EXPECT_EQ(p.camera.position.z, float(p.frame.depth));
+  EXPECT_EQ(p.camera.position.x, 0);
+  // The spheres sit near the origin, where float keeps their 1e-3 apart to its own spacing.
+  EXPECT_LT(std::fabs(p.sphere_cz[0]), 0.01f);
+  EXPECT_NEAR(double(p.sphere_cx[1]) - double(p.sphere_cx[0]) +
+                  (double(p.sphere_cy[1]) - double(p.sphere_cy[0])),
+              0, 2e-3);
+  const Vec3<double> c1 = p.frame.world_point({p.sphere_cx[1], p.sphere_cy[1], p.sphere_cz[1]});
+  EXPECT_NEAR(c1.x - 5773.501, 0, 1e-6);
+  // Not with a plane (its hits would carry ulps of the eye's distance twice over).
+  j["objects"].push_back({{"type", "plane"}, {"point", {0, -2, 0}}, {"normal", {0, 1, 0}}});
+  EXPECT_EQ(prepare<float>(parse_scene(j.dump(), "t")).frame.depth, 0);
+}
+
 TEST(CameraRays, PixelCentresFollowTheContract) {
   // 4 x 2 pixels over [-2, 2] x [-1, 1]: pixel (i, j) centre x = -2 + (i + 0.5), y = 1 - (j + .5).
   const auto p = prepare<double>(parse_scene(json{{"camera",
