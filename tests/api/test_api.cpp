@@ -186,7 +186,7 @@ TEST(Api, OcclusionAgreesWithClosestHit) {
 }
 
 // A scene 1e5 away from the world's origin, queried with world-space rays from near its
-// camera. The API moves origins into the prepared frame in double: hits are the reference's,
+// camera. The API moves origins (and turns directions) into the prepared frame in double: hits are the reference's,
 // bit for bit, on the same prepared values, and the double reference's objects. Passing the
 // world-space rays to the kernels unconverted (the old closest_hit_packet trap) misses.
 TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
@@ -194,6 +194,8 @@ TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
   Scene d;
   d.name = "far.json";
   d.camera.position = far;
+  // A camera that looks along no axis: the prepared frame is rotated as well as moved.
+  d.camera.direction = {0.3, -0.2, -1};
   d.camera.nx = d.camera.ny = 8;
   d.materials.push_back(Material{});
   std::mt19937 rng(3);
@@ -244,6 +246,17 @@ TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
     }
     EXPECT_GT(hits, rays.size() * 8 / 10);
     EXPECT_EQ(same_as_double, rays.size());
+    // Normals come back in world space: the sphere's, at the world-space hit point.
+    double worst = 0;
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      if (r.id[i] < 0 || r.id[i] >= int(d.spheres.size())) continue;
+      const Vec3<double> o{rays.org[3 * i], rays.org[3 * i + 1], rays.org[3 * i + 2]};
+      const Vec3<double> dir{rays.dir[3 * i], rays.dir[3 * i + 1], rays.dir[3 * i + 2]};
+      const Vec3<double> n = normalize(o + dir * double(r.t[i]) - d.spheres[r.id[i]].center);
+      const Vec3<double> ng{r.ng[3 * i], r.ng[3 * i + 1], r.ng[3 * i + 2]};
+      worst = std::max(worst, length(ng - n));
+    }
+    EXPECT_LT(worst, 1e-3);
   }
   // The trap the API closes: world-space origins handed to the prepared frame as they are.
   const auto pf = prepare<float>(d);
@@ -251,8 +264,8 @@ TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
   for (int i = 0; i < 100; ++i) {
     const Vec3<double> o = far + Vec3<double>{u(rng), u(rng), u(rng)};
     const Vec3<double> dir = normalize(d.spheres[i % 20].center - o);
-    const auto right =
-        reference::closest_hit(pf, Vec3<float>::from(o - far), Vec3<float>::from(dir));
+    const auto right = reference::closest_hit(pf, Vec3<float>::from(pf.frame.point(o)),
+                                              Vec3<float>::from(pf.frame.direction(dir)));
     const auto naive = reference::closest_hit(pf, Vec3<float>::from(o), Vec3<float>::from(dir));
     wrong += naive.id != right.id;
   }
