@@ -115,8 +115,9 @@ class Scene {
   const SceneDescription& description() const;
 
   // Closest hit of each active lane (valid[k] != 0; null: every lane). Inactive lanes of `hits`
-  // are left as they were. World-space origins are moved into the prepared frame (relative to
-  // the camera's position) by a subtraction in double, rounded once to the scene's precision;
+  // are left as they were. World-space rays are moved into the prepared frame (the camera's:
+  // its position, its basis) in double, rounded once to the scene's precision; normals come back
+  // in world space;
   // see docs/api.md for what float origins imply far from the world's origin. The kernel is the
   // widest this machine runs up to min(N, Info::width) lanes (N = 1: the reference), applied to
   // as many chunks as it takes: in exact and double precision every N gives the same bits.
@@ -131,8 +132,9 @@ class Scene {
 
   // The camera ray of pixel (i, j) at sub-sample (a, b) (0 <= a, b < supersample) in world
   // space: the ray `lancer render` traces there, moved out of the prepared frame and rounded to
-  // float. Traced through intersect, it hits what the render hits wherever the rounding is
-  // exact: pinhole cameras at float-representable positions in exact precision.
+  // float. Traced through intersect, it hits what the render hits wherever the round trip is
+  // exact: pinhole cameras at float-representable positions looking along an axis, in exact
+  // precision (docs/api.md).
   void camera_ray(int i, int j, int a, int b, float org[3], float dir[3]) const;
 
   // Renders rows [row_begin, row_end) of the image (0 at the top) into rgb: row j at

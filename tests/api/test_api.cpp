@@ -186,9 +186,9 @@ TEST(Api, OcclusionAgreesWithClosestHit) {
 }
 
 // A scene 1e5 away from the world's origin, queried with world-space rays from near its
-// camera. The API moves origins (and turns directions) into the prepared frame in double: hits are the reference's,
-// bit for bit, on the same prepared values, and the double reference's objects. Passing the
-// world-space rays to the kernels unconverted (the old closest_hit_packet trap) misses.
+// camera. The API moves origins (and turns directions) into the prepared frame in double: hits are
+// the reference's, bit for bit, on the same prepared values, and the double reference's objects.
+// Passing the world-space rays to the kernels unconverted (the old closest_hit_packet trap) misses.
 TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
   const Vec3<double> far{1e5 + 0.3, -2e5 + 0.7, 3e5 + 0.1};
   Scene d;
@@ -273,9 +273,11 @@ TEST(Api, WorldSpaceRaysFarFromTheOriginHitWhatTheReferenceHits) {
 }
 
 // Camera rays from camera_ray() through intersect hit what primary_hits() reports, which is
-// what lancer's primary mode computes (render_primary_with_ids), bit for bit.
+// what lancer's primary mode computes (render_primary_with_ids): bit for bit where the camera
+// looks along an axis.
 TEST(Api, CameraRaysHitWhatPrimaryModeHits) {
-  for (const char* file : {"scenes/lorenzi-reflections.json", "scenes/many-spheres.json"}) {
+  for (const char* file :
+       {"scenes/lorenzi-reflections.json", "scenes/many-spheres.json", "scenes/glass-tir.json"}) {
     SCOPED_TRACE(file);
     const Scene desc = load_scene(testing::source_path(file));
     const api::Scene scene = api::Scene::from_description(desc, with(Precision::exact));
@@ -301,10 +303,27 @@ TEST(Api, CameraRaysHitWhatPrimaryModeHits) {
         rays.valid.push_back(-1);
       }
     const Results r = trace(scene, rays, 16);
-    std::size_t differ = 0;
-    for (std::size_t p = 0; p < rays.size(); ++p)
+    std::size_t differ = 0, other_object = 0;
+    double worst_t = 0;
+    for (std::size_t p = 0; p < rays.size(); ++p) {
       differ += r.id[p] != ph.id[p] || !same_bits(r.t[p], ph.t[p]);
-    EXPECT_EQ(differ, 0u);
+      other_object += r.id[p] != ph.id[p];
+      if (r.id[p] >= 0 && r.id[p] == ph.id[p])
+        worst_t = std::max(worst_t, double(std::fabs(r.t[p] - ph.t[p]) / ph.t[p]));
+    }
+    const Vec3<double> dir = desc.camera.direction;
+    const bool along_an_axis = (dir.x == 0) + (dir.y == 0) + (dir.z == 0) == 2;
+    if (along_an_axis) {
+      // The frame is the axes, permuted: the round trip through world space is exact.
+      EXPECT_EQ(differ, 0u);
+    } else {
+      // A turned camera: the world-space float ray is the frame's, turned and rounded, and
+      // turned back: the same objects but where that moves a ray across an edge.
+      EXPECT_LE(other_object, rays.size() / 1000) << other_object << " of " << rays.size();
+      EXPECT_LT(worst_t, 1e-5);
+      std::printf("%s: %zu of %zu camera rays hit another object, t within %.2g\n", file,
+                  other_object, rays.size(), worst_t);
+    }
   }
 }
 
