@@ -46,6 +46,17 @@ double view_depth(const Scene& scene, const Frame& frame) {
 
 }  // namespace
 
+template <class T>
+Frame camera_frame(const Scene& scene) {
+  Frame frame;
+  frame.origin = scene.camera.position;
+  camera_basis(scene.camera, frame.u, frame.v, frame.w);
+  frame.depth = view_depth<T>(scene, frame);
+  return frame;
+}
+template Frame camera_frame<float>(const Scene&);
+template Frame camera_frame<double>(const Scene&);
+
 Accel resolve_accel(const Scene& scene, Accel accel) {
   if (accel != Accel::automatic) return accel;
   return scene.spheres.size() >= std::size_t(kBvhMinSpheres) ? Accel::bvh : Accel::none;
@@ -91,13 +102,8 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   PreparedScene<T> p;
   auto& pc = p.camera;
   const CameraSpec& c = scene.camera;
-  Vec3<double> u, v, w;
-  camera_basis(c, u, v, w);
   pc.orthographic = c.type == CameraType::orthographic;
-  Frame& frame = p.frame;
-  frame.origin = c.position;
-  frame.u = u, frame.v = v, frame.w = w;
-  frame.depth = view_depth<T>(scene, frame);
+  const Frame& frame = p.frame = camera_frame<T>(scene);
   // In its own frame the camera sits on the w axis (at the origin unless depth) with the axes
   // as its basis.
   pc.position = Vec3<T>{T(0), T(0), T(frame.depth)};

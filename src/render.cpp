@@ -110,6 +110,20 @@ PrecisionChoice choose_precision(const Scene& scene) {
   // surface, and an epsilon below float's spacing changed no pixel of the shipped scenes
   // (FloatEnvelope.TinyEpsilonChangesNothing).
   const double min_feature = scene.planes.empty() ? 5e-6 : 4e-5;
+  // - With the frame moved to far spheres (Frame::depth), their coordinates span their spread,
+  //   not their distance: the bound applies to that (a pair shadowing each other at 1e-8 of the
+  //   extent, 6e-9 of their distance, put no pixel 2/255 off double; tiny spheres to 1e-7: none).
+  const Frame frame = camera_frame<float>(scene);
+  const char* against = "the scene's extent";
+  if (frame.depth > 0) {
+    extent = 0;
+    for (const Sphere& s : scene.spheres) {
+      const Vec3<double> c = frame.point(s.center);
+      extent = std::max<double>({extent, std::fabs(c.x) + s.radius, std::fabs(c.y) + s.radius,
+                                 std::fabs(c.z) + s.radius});
+    }
+    against = "the spheres' spread (the frame moved to them)";
+  }
   char why[200];
   // The camera's scale: a pixel's step across the window (a sub-sample's, with supersampling) is
   // what separates neighbouring camera rays. Below 1e-18 its square is no normal float and float
@@ -127,14 +141,14 @@ PrecisionChoice choose_precision(const Scene& scene) {
     return {Precision::dbl, why};
   }
   if (std::isfinite(smallest) && extent > 0 && smallest < min_feature * extent) {
-    std::snprintf(why, sizeof why,
-                  "the smallest sphere (radius %g) is below %g of the scene's extent (%g)%s",
-                  smallest, min_feature, extent, scene.planes.empty() ? "" : " with planes");
+    std::snprintf(why, sizeof why, "the smallest sphere (radius %g) is below %g of %s (%g)%s",
+                  smallest, min_feature, against, extent,
+                  scene.planes.empty() ? "" : " with planes");
     return {Precision::dbl, why};
   }
-  std::snprintf(why, sizeof why,
-                "the scene lies inside float's envelope (extent %g, smallest sphere %g)", extent,
-                std::isfinite(smallest) ? smallest : 0.0);
+  std::snprintf(
+      why, sizeof why, "the scene lies inside float's envelope (%s %g, smallest sphere %g)",
+      frame.depth > 0 ? "spread" : "extent", extent, std::isfinite(smallest) ? smallest : 0.0);
   return {Precision::exact, why};
 }
 

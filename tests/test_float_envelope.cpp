@@ -16,6 +16,7 @@
 #include "lancer/formulas.hpp"
 #include "lancer/generate.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/prepared.hpp"
 #include "support/test_util.hpp"
 
 namespace lancer {
@@ -227,25 +228,33 @@ TEST(FloatEnvelope, RegressionTinyFarSphereWithANeighbour) {
 
 // Auto picks float on the extreme scenes it now holds on, where it picked double before (the
 // smallest sphere was below 4e-5 of the extent before the camera's frame, 1e-4 before that).
+// Far spheres alone move the frame's origin to them (Frame::depth): then the bound is against
+// their spread, and tiny spheres however far hold.
 TEST(FloatEnvelope, AutoPicksFloatWhereItNowHolds) {
-  EXPECT_EQ(choose_precision(from(tiny_far(1e-3))).precision, Precision::exact);
-  EXPECT_EQ(choose_precision(from(tiny_far(1e-4))).precision, Precision::exact);
-  // Its smaller sphere is 0.4 of the ratio: 1.2e-5, below 4e-5 before the camera's frame.
-  EXPECT_EQ(choose_precision(from(tiny_far(3e-5))).precision, Precision::exact);
   std::mt19937_64 rng(3);
-  EXPECT_EQ(choose_precision(from(tiny_far(1e-4, &rng))).precision, Precision::exact);
-  EXPECT_EQ(choose_precision(from(tiny_far(3e-5, &rng))).precision, Precision::exact);
-  // Below the envelope: double.
-  EXPECT_EQ(choose_precision(from(tiny_far(1e-5))).precision, Precision::dbl);
-  EXPECT_EQ(choose_precision(from(tiny_far(1e-6, &rng))).precision, Precision::dbl);
+  for (double ratio : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7}) {
+    EXPECT_EQ(choose_precision(from(tiny_far(ratio))).precision, Precision::exact) << ratio;
+    EXPECT_EQ(choose_precision(from(tiny_far(ratio, &rng))).precision, Precision::exact) << ratio;
+  }
+  // No depth: a sphere near the eye (the spheres' spread is their distance), or a plane.
+  json near = tiny_far(1e-5);
+  near["objects"].push_back({{"type", "sphere"}, {"center", {0, -2, -5}}, {"radius", 1}});
+  EXPECT_EQ(choose_precision(from(near)).precision, Precision::dbl);
+  near["objects"].back()["center"] = {0, -2, -5e3};  // 2e-6 of the extent: still double
+  EXPECT_EQ(choose_precision(from(near)).precision, Precision::dbl);
+  json ground = tiny_far(3e-5);
+  ground["objects"].push_back({{"type", "plane"}, {"point", {0, -1, 0}}, {"normal", {0, 1, 0}}});
+  EXPECT_EQ(choose_precision(from(ground)).precision, Precision::dbl);
+  EXPECT_EQ(choose_precision(from(tiny_far(3e-5))).precision, Precision::exact);
 }
 
 // At the envelope's edge, in the orientation where it is widest against the sphere's distance
 // (the extent is the largest coordinate: a view along (1, 1, -1) has it at distance / sqrt(3)):
-// two spheres of radius 1.05 times the envelope's bound, one shadowing the other, auto picks
-// float and float holds: the sphere is 3e-6 of its distance there (measured, 6 seeds: 0.39% at
-// worst; at 3e-6 of the extent 0.50%, at 1e-6 0.81%, at 1e-5 0.20%, at 4e-5 0.03%, which was
-// 0.37% in the world's frame).
+// two spheres of radius 1.05 times the envelope's bound, one shadowing the other, and a third
+// behind the eye, so that the frame stays at the eye (no depth), auto picks float and float
+// holds: the sphere is 3e-6 of its distance there (measured, 6 seeds: 0.39% at worst; at 3e-6
+// of the extent 0.50%, at 1e-6 0.81%, at 1e-5 0.20%, at 4e-5 0.03%, which was 0.37% in the
+// world's frame). With depth (no third sphere) no pixel is off even at 1e-8 of the extent.
 TEST(FloatEnvelope, HoldsAtTheEnvelopesEdge) {
   for (int seed = 0; seed < 6; ++seed) {
     std::mt19937_64 rng(std::uint64_t(seed) + 900);
@@ -265,7 +274,11 @@ TEST(FloatEnvelope, HoldsAtTheEnvelopesEdge) {
     j["lights"][0]["position"] = add(add(centre, e2, 30 * r), d, -20 * r);
     j["lights"][1]["position"] = add(V3{0, 0, 0}, e1, 10 * r);
     j["epsilon"] = 1e-4 * r;
+    j["objects"].push_back({{"type", "sphere"},
+                            {"center", add(V3{0, 0, 0}, d, -0.1 * dist)},
+                            {"radius", 0.01 * dist}});
     const Scene s = from(j);
+    ASSERT_EQ(camera_frame<float>(s).depth, 0);
     const std::string name = "envelope edge seed " + std::to_string(seed);
     const Row row = measure(name, s);
     EXPECT_EQ(row.picked, Precision::exact) << name << ": " << choose_precision(s).reason;

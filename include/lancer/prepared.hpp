@@ -147,6 +147,12 @@ inline constexpr double kMaxIntegerShininess = 1 << 20;
 // kBvhMinSpheres spheres on.
 Accel resolve_accel(const Scene& scene, Accel accel);
 
+// The frame prepare<T>() puts a scene in (depth rounded to T).
+template <class T>
+Frame camera_frame(const Scene& scene);
+extern template Frame camera_frame<float>(const Scene&);
+extern template Frame camera_frame<double>(const Scene&);
+
 template <class T>
 PreparedScene<T> prepare(const Scene& scene, Accel accel = Accel::automatic);
 
