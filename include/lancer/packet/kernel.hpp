@@ -268,23 +268,24 @@ struct Kernel {
   // The nearest root beyond epsilon. Exact: c/q and q (RTG ch. 7), as the reference. Fast, with
   // the textbook discriminant: -b -+ sqrt(disc), no division; its near root loses ulps of |b|
   // where the ray starts near the sphere, which the offset origins and epsilon absorb.
-  // Sphere j of `sp`, f = o - centre; c recovered for the spheres the scene flags (as the
-  // reference: PreparedScene::sphere_recover).
-  template <class SphereTable>
-  static B first_root(const Scene& s, const SphereTable& sp, int j, const SphereDisc<B>& sd,
-                      const V& o, const V& f, const B& r2, bool from_eye, const B& eps) noexcept {
+  static B first_root(const Scene& s, const SphereDisc<B>& sd, const V& f, const B& r2,
+                      bool from_eye, T eye_c, const B& eps) noexcept {
     if (textbook(s)) {
       const B root = xsimd::sqrt(sd.disc);
       return sphere_first_root(SphereRoots<B>{-(sd.b + root), root - sd.b}, eps);
     }
-    B c;
-    if (from_eye)
-      c = B(sp.ec[j]);
-    else if (sp.recover && sp.recover[j])
-      c = recovered_sphere_c<T>(o, V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])}, f, r2);
-    else
-      c = sphere_c<Mth>(f, r2);
+    const B c = from_eye ? B(eye_c) : sphere_c<Mth>(f, r2);
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
+  }
+  // The same for a sphere the scene flags (PreparedScene::sphere_recover; never a camera ray's
+  // test: the eye's table holds its c), with c recovered, as the reference. Out of line and
+  // asked for apart from first_root: flagged spheres are rare (ground spheres), and the one
+  // function with both branches changed the code GCC made for every other sphere's test.
+  [[gnu::noinline]] static B recovered_first_root(const Scene& s, const SphereDisc<B>& sd,
+                                                  const V& o, const V& centre, const V& f,
+                                                  const B& r2, const B& eps) noexcept {
+    if (textbook(s)) return first_root(s, sd, f, r2, false, T(0), eps);
+    return sphere_first_root(sphere_roots<Mth>(sd, recovered_sphere_c<T>(o, centre, f, r2)), eps);
   }
 
   // Fast: a ray that leaves a sphere from outside cannot meet it again (spheres are convex),
@@ -305,6 +306,7 @@ struct Kernel {
     const std::int32_t* id;       // null: the position is the id
     const std::uint8_t* recover;  // null: no sphere is flagged
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
+    V centre(int j) const noexcept { return {B(cx[j]), B(cy[j]), B(cz[j])}; }
   };
   static Spheres all_spheres(const Scene& s) noexcept {
     return {s.sphere_cx.data(),
@@ -341,7 +343,9 @@ struct Kernel {
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
     // where it wins.
     auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
-      const B t = first_root(s, sp, j, sd, o, f, r2, kFromEye, eps);
+      const B t = !kFromEye && sp.recover && sp.recover[j]
+                      ? recovered_first_root(s, sd, o, sp.centre(j), f, r2, eps)
+                      : first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
       const Id id = sp.object(j);
       if constexpr (kIdOrder)
         m = m & (t > eps) & (t < best_t);
@@ -452,7 +456,9 @@ struct Kernel {
         const SphereDisc<B> sd = disc_of(s, f, l, r2, false, T(0));
         M m = skip(live & (sd.disc >= B(0)), leaving, sp.object(j));
         if (!xsimd::any(m)) continue;
-        const B t = first_root(s, sp, j, sd, p, f, r2, false, eps);
+        const B t = sp.recover && sp.recover[j]
+                        ? recovered_first_root(s, sd, p, sp.centre(j), f, r2, eps)
+                        : first_root(s, sd, f, r2, false, T(0), eps);
         m = m & (t > eps) & (t < dist);
         if (!xsimd::any(m)) continue;
         pending = step(sp.object(j), m, pending);
