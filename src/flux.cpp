@@ -63,12 +63,15 @@ RayPlane ray_plane(const Scene& scene, const ObjectNames& names) {
   // The camera's basis and row exactly as the renderer computes them.
   const PreparedScene<double> p = prepare<double>(scene);
   const PreparedCamera<double>& cam = p.camera;
+  // The camera's basis in world space (prepared in its frame, which may be turned onto it).
   const Frame& frame = p.frame;
+  const Vec3<double> u = frame.world_direction(cam.u), v = frame.world_direction(cam.v),
+                     w = frame.world_direction(cam.w);
   RayPlane plane;
-  plane.along = frame.u;
-  plane.forward = -frame.w;
-  plane.normal = frame.v;
-  plane.origin = c.position + frame.v * cam.screen_y[0];
+  plane.along = u;
+  plane.forward = -w;
+  plane.normal = v;
+  plane.origin = c.position + v * cam.screen_y[0];
 
   double size = std::max(std::abs(c.xmin), std::abs(c.xmax));
   for (const Sphere& s : scene.spheres)

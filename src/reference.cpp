@@ -15,13 +15,6 @@ namespace {
 template <class T>
 using Color = std::array<T, 3>;
 
-// c = |f|^2 - r^2 of a sphere for a ray from o (f = o - centre): recovered for the spheres the
-// scene flags (PreparedScene::sphere_recover), else plain.
-template <class T>
-T c_of(const Vec3<T>& o, const Vec3<T>& centre, const Vec3<T>& f, const T& r2, bool recover) {
-  return recover ? recovered_sphere_c<T>(o, centre, f, r2) : sphere_c(f, r2);
-}
-
 template <class T>
 class Tracer {
  public:
@@ -182,12 +175,11 @@ class Tracer {
     const T eps = s_.epsilon;
     T transmittance(1);
     // Meets sphere (cx, cy, cz, r2), object `id`: returns true once the light is blocked.
-    auto sphere = [&](const T& cx, const T& cy, const T& cz, const T& r2, int id, bool recover) {
-      const Vec3<T> centre{cx, cy, cz};
-      const Vec3<T> f = p - centre;
+    auto sphere = [&](const T& cx, const T& cy, const T& cz, const T& r2, int id) {
+      const Vec3<T> f = p - Vec3<T>{cx, cy, cz};
       const SphereDisc<T> sd = sphere_disc(f, l, r2);
       if (!(sd.disc >= T(0))) return false;
-      const T t = sphere_first_root(sphere_roots(sd, c_of(p, centre, f, r2, recover)), eps);
+      const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       if (!(t > eps && t < dist)) return false;
       transmittance = kGlass ? attenuate(transmittance, s_.mat_transmit[id]) : T(0);
       return transmittance == T(0);
@@ -196,16 +188,13 @@ class Tracer {
     if (h.active() && !RayTraversal<T>::beyond(h, p)) {
       const bool blocked = RayTraversal<T>(h, p, l).any(dist, [&](int first, int count) {
         for (int j = first; j < first + count; ++j)
-          if (sphere(h.cx[j], h.cy[j], h.cz[j], h.r2[j], h.id[j],
-                     !h.recover.empty() && h.recover[j]))
-            return true;
+          if (sphere(h.cx[j], h.cy[j], h.cz[j], h.r2[j], h.id[j])) return true;
         return false;
       });
       if (blocked) return transmittance;
     } else {
       for (int i = 0; i < s_.num_spheres; ++i)
-        if (sphere(s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i], s_.sphere_r2[i], i,
-                   !s_.sphere_recover.empty() && s_.sphere_recover[i]))
+        if (sphere(s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i], s_.sphere_r2[i], i))
           return transmittance;
     }
     for (int k = 0; k < s_.num_planes; ++k) {
@@ -304,13 +293,10 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
     // The same spheres in another order: the lexicographic minimum of (t, id) is the loop's.
     RayTraversal<T>(h, origin, dir).closest(best.t, [&](int first, int count) {
       for (int j = first; j < first + count; ++j) {
-        const Vec3<T> centre{h.cx[j], h.cy[j], h.cz[j]};
-        const Vec3<T> f = origin - centre;
+        const Vec3<T> f = origin - Vec3<T>{h.cx[j], h.cy[j], h.cz[j]};
         const SphereDisc<T> sd = sphere_disc(f, dir, h.r2[j]);
         if (!(sd.disc >= T(0))) continue;
-        const bool recover = !h.recover.empty() && h.recover[j];
-        const T t =
-            sphere_first_root(sphere_roots(sd, c_of(origin, centre, f, h.r2[j], recover)), eps);
+        const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, h.r2[j])), eps);
         if (t > eps && (t < best.t || (t == best.t && h.id[j] < best.id))) best = {h.id[j], t};
       }
     });
@@ -318,12 +304,10 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
     // The definition: every sphere in id order, a nearer t wins (so an equal t keeps the lower id).
     for (int i = 0; i < s.num_spheres; ++i) {
       const T r2 = s.sphere_r2[i];
-      const Vec3<T> centre{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
-      const Vec3<T> f = origin - centre;
+      const Vec3<T> f = origin - Vec3<T>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
       const SphereDisc<T> sd = sphere_disc(f, dir, r2);
       if (!(sd.disc >= T(0))) continue;
-      const bool recover = !s.sphere_recover.empty() && s.sphere_recover[i];
-      const T t = sphere_first_root(sphere_roots(sd, c_of(origin, centre, f, r2, recover)), eps);
+      const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       if (t > eps && t < best.t) best = {i, t};
     }
   }

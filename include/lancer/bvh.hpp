@@ -37,7 +37,6 @@ struct Bvh {
   // The spheres in leaf order: centre, r^2, the eye's table (pinhole cameras) and object id.
   std::vector<T> cx, cy, cz, r2, eye_fx, eye_fy, eye_fz, eye_c;
   std::vector<std::int32_t> id;
-  std::vector<std::uint8_t> recover;  // PreparedScene::sphere_recover in leaf order (or empty)
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).
   T origin_limit = T(0);

@@ -310,16 +310,6 @@ inline T accurate_sphere_c(const Vec3<T>& f, const T& r2) {
   const T e = (two_sum_error(xx, yy, s1) + two_sum_error(s1, zz, s2)) + two_sum_error(s2, -r2, s3);
   return s3 + (e + lo);
 }
-// c = |o - centre|^2 - r^2 with the rounding of f = o - centre recovered as well (two-sum per
-// component, f + fl exact): c to about an ulp of itself where the origin lies near the surface
-// of a sphere far larger than its distance from the camera, whose plain c carries ulps of r^2.
-template <class S, class T>
-inline T recovered_sphere_c(const Vec3<T>& o, const Vec3<T>& centre, const Vec3<T>& f,
-                            const T& r2) {
-  const Vec3<T> fl{two_sum_error(o.x, -centre.x, f.x), two_sum_error(o.y, -centre.y, f.y),
-                   two_sum_error(o.z, -centre.z, f.z)};
-  return accurate_sphere_c<S>(f, r2) + T(2) * ((f.x * fl.x + f.y * fl.y) + f.z * fl.z);
-}
 template <class S, class Math = ExactMath, class T>
 inline SurfacePoint<T> sphere_point_large(const Vec3<T>& o, const Vec3<T>& d, const T& t,
                                           const Vec3<T>& c, const T& r2, const T& magnitude) {
@@ -329,8 +319,8 @@ inline SurfacePoint<T> sphere_point_large(const Vec3<T>& o, const Vec3<T>& d, co
   const T s = sqrt(positive_part(sd.disc));
   const T q = select(sd.b < T(0), s - sd.b, -(sd.b + s));
   const T small_root = Math::div(sphere_c<Math>(f, r2), q);
-  const T root = select(abs_of(t - small_root) <= abs_of(t - q),
-                        Math::div(recovered_sphere_c<S>(o, c, f, r2), q), q);
+  const T root =
+      select(abs_of(t - small_root) <= abs_of(t - q), Math::div(accurate_sphere_c<S>(f, r2), q), q);
   return sphere_point_along<S, Math>(o, d, root, c, magnitude);
 }
 

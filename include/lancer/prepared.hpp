@@ -62,9 +62,12 @@ struct EyeSphere {
 // sphere's surface: the eye sits at (0, 0, depth) and the spheres near 0, so that float's
 // spacing between neighbours is that of their spread, not of their distance. The eye's own
 // rounding (none: depth is a float) would move every camera ray alike.
+// `turned` false: the world's axes (a scene with a sphere larger than half its distance from the
+// eye: see camera_frame), moved to the eye only.
 struct Frame {
   Vec3<double> origin{0, 0, 0};  // the eye
   Vec3<double> u{1, 0, 0}, v{0, 1, 0}, w{0, 0, 1};
+  bool turned = false;
   double depth = 0;
 
   Vec3<double> point(const Vec3<double>& world) const {
@@ -99,12 +102,6 @@ struct PreparedScene {
   // the second the roots carry ulps of |b|, the distance to the centre, which for a huge sphere
   // seen from near its surface (a ground of radius 1e6) far exceed the hit's own distance.
   bool naive_spheres_hold = false;
-  // 1 for a sphere larger than half its distance from the camera (a ground sphere of radius 1e6
-  // a metre below the eye), whose surface rays leave near the camera: their c = |f|^2 - r^2
-  // carries ulps of r^2 and of f = o - centre, more than their origin's offset (2 r delta), and
-  // the sphere shadowed itself in bands. Exact and double tests take recovered_sphere_c for
-  // these. Empty when no sphere is one (most scenes: no test looks then).
-  std::vector<std::uint8_t> sphere_recover;
   // Planes: object ids num_spheres .. num_objects-1. Normals are unit.
   int num_planes = 0;
   std::vector<T> plane_px, plane_py, plane_pz, plane_nx, plane_ny, plane_nz;

@@ -277,16 +277,6 @@ struct Kernel {
     const B c = from_eye ? B(eye_c) : sphere_c<Mth>(f, r2);
     return sphere_first_root(sphere_roots<Mth>(sd, c), eps);
   }
-  // The same for a sphere the scene flags (PreparedScene::sphere_recover; never a camera ray's
-  // test: the eye's table holds its c), with c recovered, as the reference. Out of line and
-  // asked for apart from first_root: flagged spheres are rare (ground spheres), and the one
-  // function with both branches changed the code GCC made for every other sphere's test.
-  [[gnu::noinline]] static B recovered_first_root(const Scene& s, const SphereDisc<B>& sd,
-                                                  const V& o, const V& centre, const V& f,
-                                                  const B& r2, const B& eps) noexcept {
-    if (textbook(s)) return first_root(s, sd, f, r2, false, T(0), eps);
-    return sphere_first_root(sphere_roots<Mth>(sd, recovered_sphere_c<T>(o, centre, f, r2)), eps);
-  }
 
   // Fast: a ray that leaves a sphere from outside cannot meet it again (spheres are convex),
   // so its lanes skip that sphere's roots, which would only find the point it leaves. Exact
@@ -303,30 +293,18 @@ struct Kernel {
   // with their object ids.
   struct Spheres {
     const T *cx, *cy, *cz, *r2, *efx, *efy, *efz, *ec;
-    const std::int32_t* id;       // null: the position is the id
-    const std::uint8_t* recover;  // null: no sphere is flagged
+    const std::int32_t* id;  // null: the position is the id
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
-    V centre(int j) const noexcept { return {B(cx[j]), B(cy[j]), B(cz[j])}; }
   };
   static Spheres all_spheres(const Scene& s) noexcept {
-    return {s.sphere_cx.data(),
-            s.sphere_cy.data(),
-            s.sphere_cz.data(),
-            s.sphere_r2.data(),
-            s.eye.fx.data(),
-            s.eye.fy.data(),
-            s.eye.fz.data(),
-            s.eye.c.data(),
-            nullptr,
-            s.sphere_recover.empty() ? nullptr : s.sphere_recover.data()};
+    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(),
+            s.sphere_r2.data(), s.eye.fx.data(),    s.eye.fy.data(),
+            s.eye.fz.data(),    s.eye.c.data(),     nullptr};
   }
   static Spheres leaf_spheres(const Scene& s) noexcept {
     const Bvh<T>& h = s.bvh;
-    return {h.cx.data(),     h.cy.data(),
-            h.cz.data(),     h.r2.data(),
-            h.eye_fx.data(), h.eye_fy.data(),
-            h.eye_fz.data(), h.eye_c.data(),
-            h.id.data(),     h.recover.empty() ? nullptr : h.recover.data()};
+    return {h.cx.data(),     h.cy.data(),     h.cz.data(),    h.r2.data(), h.eye_fx.data(),
+            h.eye_fy.data(), h.eye_fz.data(), h.eye_c.data(), h.id.data()};
   }
 
   // Closest hit over spheres [begin, end) of `sp` for the lanes of `valid`; updates t and id
@@ -343,9 +321,7 @@ struct Kernel {
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
     // where it wins.
     auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
-      const B t = !kFromEye && sp.recover && sp.recover[j]
-                      ? recovered_first_root(s, sd, o, sp.centre(j), f, r2, eps)
-                      : first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
+      const B t = first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
       const Id id = sp.object(j);
       if constexpr (kIdOrder)
         m = m & (t > eps) & (t < best_t);
@@ -456,9 +432,7 @@ struct Kernel {
         const SphereDisc<B> sd = disc_of(s, f, l, r2, false, T(0));
         M m = skip(live & (sd.disc >= B(0)), leaving, sp.object(j));
         if (!xsimd::any(m)) continue;
-        const B t = sp.recover && sp.recover[j]
-                        ? recovered_first_root(s, sd, p, sp.centre(j), f, r2, eps)
-                        : first_root(s, sd, f, r2, false, T(0), eps);
+        const B t = first_root(s, sd, f, r2, false, T(0), eps);
         m = m & (t > eps) & (t < dist);
         if (!xsimd::any(m)) continue;
         pending = step(sp.object(j), m, pending);
