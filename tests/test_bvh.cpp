@@ -105,7 +105,7 @@ TEST(Bvh, BuildIsDeterministicAndHoldsEverySphereOnce) {
   // Every sphere in exactly one leaf, inside the box its parent holds for that leaf.
   std::vector<int> seen(std::size_t(a.num_spheres), 0);
   for (const auto& n : a.bvh.nodes)
-    for (int k = 0; k < 2; ++k)
+    for (int k = 0; k < n.arity; ++k)
       for (int j = n.child[k]; n.count[k] >= 0 && j < n.child[k] + n.count[k]; ++j) {
         const std::int32_t id = a.bvh.id[std::size_t(j)];
         ++seen[std::size_t(id)];

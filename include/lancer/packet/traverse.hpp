@@ -2,10 +2,11 @@
 // caller's leaf functor tests the spheres of a leaf for the lanes whose ray meets its box.
 // Include only from packet/kernel.hpp (code built for the batch's ISA).
 //
-// Closest hit: the packet visits the nearer child first by its direction's sign on the node's
-// split axis and re-culls popped subtrees against the lanes' best t. The result does not depend
-// on the order: the leaf functor keeps the lexicographic minimum of (t, object id).
-// Any hit: children in their FIXED order (0 then 1), depth first, for every packet and every ray,
+// Closest hit: the packet visits a wide node's children in the order of the binary splits it was
+// collapsed from, the nearer side first by its summed direction's sign on each split's axis, and
+// re-culls popped subtrees against the lanes' best t. The result does not depend on the order:
+// the leaf functor keeps the lexicographic minimum of (t, object id).
+// Any hit: children in their FIXED slot order (0 to 3), depth first, for every packet and ray,
 // so each lane meets the objects along its segment in one order on every path (a product of
 // transmittances over them is then the same bits everywhere). Stops once no lane is pending.
 #pragma once
@@ -74,11 +75,54 @@ struct Traversal {
     return xsimd::any(valid & (m > B(T(Bvh<T>::kFarLimit)))) ? 2 : 1;
   }
 
-  struct Entry {
-    std::int32_t child, count;
-    M mask;
-    B tnear;
+  // The direction code of a packet (docs/accel.md): bit a set where the lanes' summed
+  // direction goes up axis a. It orders a closest-hit traversal's children only.
+  static unsigned direction_code(const M& valid, const V& d) noexcept {
+    // Pairwise sums through memory (xsimd 8.1's AVX-512 hadd needs AVX512DQ): log2(W) steps.
+    alignas(64) T lanes[3][B::size];
+    const B* axes[3] = {&d.x, &d.y, &d.z};
+    unsigned code = 0;
+    for (int a = 0; a < 3; ++a) {
+      xsimd::select(valid, *axes[a], B(T(0))).store_aligned(lanes[a]);
+      for (std::size_t w = B::size / 2; w > 0; w /= 2)
+        for (std::size_t k = 0; k < w; ++k) lanes[a][k] += lanes[a][k + w];
+      code |= unsigned(lanes[a][0] >= T(0)) << a;
+    }
+    return code;
+  }
+
+  // The subtrees still to visit, with the lanes that met each one's box and where they entered
+  // it. A wide node pushes its children met (at most 4) and the traversal pops the next.
+  struct Stack {
+    std::int32_t child[Bvh<T>::kStack], count[Bvh<T>::kStack];
+    M mask[Bvh<T>::kStack];
+    B tnear[Bvh<T>::kStack];
+    int sp = 0;
   };
+
+  // Pushes the children of n met by the lanes of `mask` within tmax, the slots in the order
+  // `order` lists (2 bits each) last to first, so the first of the order is popped first.
+  // Branch-free: every child is written, only those met advance the stack pointer.
+  template <bool kPadded>
+  static void push_children(const Node& n, unsigned order, const Ray& r, const M& mask,
+                            const B& tmax, Stack& st) noexcept {
+    M m[4];
+    B tn[4];
+    int slot[4];
+    unsigned met = 0;
+    for (int p = 0; p < 4; ++p) {
+      slot[p] = int(order >> (2 * p)) & 3;
+      m[p] = child_hit<kPadded>(n, slot[p], r, mask, tmax, tn[p]);
+      met |= unsigned(xsimd::any(m[p])) << p;
+    }
+    met &= (1u << n.arity) - 1;  // the slots in use come first in every order
+    for (int p = 3; p >= 0; --p) {
+      const int i = st.sp;
+      st.child[i] = n.child[slot[p]], st.count[i] = n.count[slot[p]];
+      st.mask[i] = m[p], st.tnear[i] = tn[p];
+      st.sp += int(met >> p) & 1;
+    }
+  }
 
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
   // lowering best_t (read here to cull).
@@ -86,48 +130,19 @@ struct Traversal {
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
                       Leaf&& leaf) noexcept {
     const Ray r = slab_ray(o, d);
-    // The packet's mean direction picks the nearer child per split axis.
-    bool up[3];
-    alignas(64) T lanes[B::size];
-    const B* axes[3] = {&d.x, &d.y, &d.z};
-    for (int a = 0; a < 3; ++a) {
-      xsimd::select(valid, *axes[a], B(T(0))).store_aligned(lanes);
-      T sum(0);
-      for (std::size_t k = 0; k < B::size; ++k) sum += lanes[k];
-      up[a] = sum >= T(0);
-    }
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
-    std::int32_t child = 0, count = -1;
-    M mask = valid;
-    for (;;) {
-      if (count < 0) {
-        const Node& n = h.nodes[std::size_t(child)];
-        const int near = up[n.axis] ? 0 : 1, far = 1 - near;
-        B tn_near, tn_far;
-        const M m_near = child_hit<kPadded>(n, near, r, mask, best_t, tn_near);
-        const M m_far = child_hit<kPadded>(n, far, r, mask, best_t, tn_far);
-        const bool a_near = xsimd::any(m_near), a_far = xsimd::any(m_far);
-        if (a_near) {
-          if (a_far) stack[sp++] = {n.child[far], n.count[far], m_far, tn_far};
-          child = n.child[near], count = n.count[near], mask = m_near;
-          continue;
-        }
-        if (a_far) {
-          child = n.child[far], count = n.count[far], mask = m_far;
-          continue;
-        }
+    const unsigned shift = 8 * direction_code(valid, d);
+    Stack st;
+    st.child[0] = 0, st.count[0] = -1, st.mask[0] = valid, st.tnear[0] = B(T(0));
+    st.sp = 1;
+    while (st.sp > 0) {  // the next subtree some lane may still find a nearer hit in
+      const int i = --st.sp;
+      const M mask = st.mask[i] & (st.tnear[i] <= best_t);
+      if (!xsimd::any(mask)) continue;
+      if (st.count[i] >= 0) {
+        leaf(st.child[i], st.count[i], mask);
       } else {
-        leaf(child, count, mask);
-      }
-      for (;;) {  // the next subtree some lane may still find a nearer hit in
-        if (sp == 0) return;
-        const Entry& e = stack[--sp];
-        mask = e.mask & (e.tnear <= best_t);
-        if (xsimd::any(mask)) {
-          child = e.child, count = e.count;
-          break;
-        }
+        const Node& n = h.nodes[std::size_t(st.child[i])];
+        push_children<kPadded>(n, unsigned(n.order >> shift) & 0xFF, r, mask, best_t, st);
       }
     }
   }
@@ -138,40 +153,23 @@ struct Traversal {
   static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax,
                Leaf&& leaf) noexcept {
     const Ray r = slab_ray(o, d);
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
-    std::int32_t child = 0, count = -1;
-    M pending = valid, mask = valid;
-    for (;;) {
-      if (count < 0) {
-        const Node& n = h.nodes[std::size_t(child)];
-        B tn0, tn1;
-        const M m0 = child_hit<kPadded>(n, 0, r, mask, tmax, tn0);
-        const M m1 = child_hit<kPadded>(n, 1, r, mask, tmax, tn1);
-        const bool a0 = xsimd::any(m0), a1 = xsimd::any(m1);
-        if (a0) {
-          if (a1) stack[sp++] = {n.child[1], n.count[1], m1, tn1};
-          child = n.child[0], count = n.count[0], mask = m0;
-          continue;
-        }
-        if (a1) {
-          child = n.child[1], count = n.count[1], mask = m1;
-          continue;
-        }
-      } else {
-        pending = leaf(child, count, mask, pending);
+    Stack st;
+    st.child[0] = 0, st.count[0] = -1, st.mask[0] = valid, st.tnear[0] = B(T(0));
+    st.sp = 1;
+    M pending = valid;
+    while (st.sp > 0) {
+      const int i = --st.sp;
+      const M mask = st.mask[i] & pending;
+      if (!xsimd::any(mask)) continue;
+      if (st.count[i] >= 0) {
+        pending = leaf(st.child[i], st.count[i], mask, pending);
         if (!xsimd::any(pending)) return pending;
-      }
-      for (;;) {
-        if (sp == 0) return pending;
-        const Entry& e = stack[--sp];
-        mask = e.mask & pending;
-        if (xsimd::any(mask)) {
-          child = e.child, count = e.count;
-          break;
-        }
+      } else {
+        push_children<kPadded>(h.nodes[std::size_t(st.child[i])], Bvh<T>::kSlotOrder, r, mask, tmax,
+                               st);
       }
     }
+    return pending;
   }
 };
 
