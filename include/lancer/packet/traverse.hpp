@@ -11,6 +11,7 @@
 // transmittances over them is then the same bits everywhere). Stops once no lane is pending.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <xsimd/xsimd.hpp>
 
@@ -31,8 +32,12 @@ struct Traversal {
   // (or tiny) direction component becomes 2^-64: the reciprocal stays finite, so no 0 * inf NaN,
   // and every product stays below FLT_MAX for the loader's coordinates (|x| <= 1e18).
   // pad: per axis, how far (in t) each slab widens for this ray (kPadded traversals only).
+  // neg[a]: every live lane's reciprocal on axis a is negative (meaningful only where
+  // same_signs() says every live lane agrees on every axis).
   struct Ray {
     V inv, oi, pad;
+    bool neg[3];
+    std::size_t near[3], far[3];  // signed: byte offsets in a Node of each axis' lo or hi array
   };
   static Ray slab_ray(const V& o, const V& d) noexcept {
     const B tiny(T(0x1p-64));
@@ -48,16 +53,54 @@ struct Traversal {
     return r;
   }
 
+  // Whether the live lanes' reciprocals agree in sign on every axis (coherent packets: camera
+  // tiles off the image's centre lines); sets r.neg then.
+  static bool same_signs(Ray& r, const M& valid) noexcept {
+    const B zero(T(0));
+    const B* inv[3] = {&r.inv.x, &r.inv.y, &r.inv.z};
+    for (int a = 0; a < 3; ++a) {
+      const M neg = *inv[a] < zero;
+      if (xsimd::all(neg | !valid))
+        r.neg[a] = true;
+      else if (!xsimd::any(neg & valid))
+        r.neg[a] = false;
+      else
+        return false;
+    }
+    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
+    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
+    for (int a = 0; a < 3; ++a) {
+      r.near[a] = r.neg[a] ? hi[a] : lo[a];
+      r.far[a] = r.neg[a] ? lo[a] : hi[a];
+    }
+    return true;
+  }
+
+  // How a traversal tests boxes: padded for rays from beyond the origin limit; signed where
+  // every live lane agrees on the direction's signs: each slab's near plane is then known per
+  // packet (lo * inv <= hi * inv for inv > 0, rounding being monotonic: the same values as
+  // generic's min and max), so no min/max per plane.
+  enum class Slab { generic, padded, signed_ };
+
   // The lanes of `active` whose ray meets child k's box within [0, tmax]; tnear: where it enters.
-  template <bool kPadded>
+  template <Slab kSlab>
   static M child_hit(const Node& n, int k, const Ray& r, const M& active, const B& tmax,
                      B& tnear) noexcept {
-    const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
-    const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
-    const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
-    B nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
-    B fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
-    if constexpr (kPadded) {
+    B nx, ny, nz, fx, fy, fz;
+    if constexpr (kSlab == Slab::signed_) {
+      const char* base = reinterpret_cast<const char*>(&n) + std::size_t(k) * sizeof(T);
+      auto plane = [&](std::size_t off) { return B(*reinterpret_cast<const T*>(base + off)); };
+      nx = fmsub(plane(r.near[0]), r.inv.x, r.oi.x), fx = fmsub(plane(r.far[0]), r.inv.x, r.oi.x);
+      ny = fmsub(plane(r.near[1]), r.inv.y, r.oi.y), fy = fmsub(plane(r.far[1]), r.inv.y, r.oi.y);
+      nz = fmsub(plane(r.near[2]), r.inv.z, r.oi.z), fz = fmsub(plane(r.far[2]), r.inv.z, r.oi.z);
+    } else {
+      const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
+      const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
+      const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
+      nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
+      fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
+    }
+    if constexpr (kSlab == Slab::padded) {
       nx = nx - r.pad.x, ny = ny - r.pad.y, nz = nz - r.pad.z;
       fx = fx + r.pad.x, fy = fy + r.pad.y, fz = fz + r.pad.z;
     }
@@ -92,7 +135,7 @@ struct Traversal {
   }
 
   // The subtrees still to visit, with the lanes that met each one's box and where they entered
-  // it. A wide node pushes its children met (at most 4) and the traversal pops the next.
+  // it.
   struct Stack {
     std::int32_t child[Bvh<T>::kStack], count[Bvh<T>::kStack];
     M mask[Bvh<T>::kStack];
@@ -100,28 +143,38 @@ struct Traversal {
     int sp = 0;
   };
 
-  // Pushes the children of n met by the lanes of `mask` within tmax, the slots in the order
-  // `order` lists (2 bits each) last to first, so the first of the order is popped first.
-  // Branch-free: every child is written, only those met advance the stack pointer.
-  template <bool kPadded>
-  static void push_children(const Node& n, unsigned order, const Ray& r, const M& mask,
-                            const B& tmax, Stack& st) noexcept {
+  // The children of n met by the lanes of `mask` within tmax, taken in `order` (slots, 2 bits
+  // each): the first becomes (child, count, mask), the node to descend into; the others go onto
+  // the stack, the last first, so that they pop in order. False when none is met.
+  // Branches rather than masks: coherent packets meet the same children from node to node, and
+  // a predicted branch lets the next node's load start before these tests end.
+  template <Slab kSlab>
+  static bool descend(const Node& n, unsigned order, const Ray& r, M& mask, const B& tmax,
+                      Stack& st, std::int32_t& child, std::int32_t& count) noexcept {
     M m[4];
     B tn[4];
     int slot[4];
     unsigned met = 0;
     for (int p = 0; p < 4; ++p) {
       slot[p] = int(order >> (2 * p)) & 3;
-      m[p] = child_hit<kPadded>(n, slot[p], r, mask, tmax, tn[p]);
+      m[p] = child_hit<kSlab>(n, slot[p], r, mask, tmax, tn[p]);
       met |= unsigned(xsimd::any(m[p])) << p;
     }
     met &= (1u << n.arity) - 1;  // the slots in use come first in every order
-    for (int p = 3; p >= 0; --p) {
-      const int i = st.sp;
-      st.child[i] = n.child[slot[p]], st.count[i] = n.count[slot[p]];
-      st.mask[i] = m[p], st.tnear[i] = tn[p];
-      st.sp += int(met >> p) & 1;
+#pragma GCC unroll 4
+    for (int p = 0; p < 4; ++p) {
+      if (!(met >> p & 1)) continue;
+#pragma GCC unroll 3
+      for (int q = 3; q > p; --q) {
+        if (!(met >> q & 1)) continue;
+        const int i = st.sp++;
+        st.child[i] = n.child[slot[q]], st.count[i] = n.count[slot[q]];
+        st.mask[i] = m[q], st.tnear[i] = tn[q];
+      }
+      child = n.child[slot[p]], count = n.count[slot[p]], mask = m[p];
+      return true;
     }
+    return false;
   }
 
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
@@ -129,22 +182,13 @@ struct Traversal {
   template <bool kPadded, class Leaf>
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
                       Leaf&& leaf) noexcept {
-    const Ray r = slab_ray(o, d);
-    const unsigned shift = 8 * direction_code(valid, d);
-    Stack st;
-    st.child[0] = 0, st.count[0] = -1, st.mask[0] = valid, st.tnear[0] = B(T(0));
-    st.sp = 1;
-    while (st.sp > 0) {  // the next subtree some lane may still find a nearer hit in
-      const int i = --st.sp;
-      const M mask = st.mask[i] & (st.tnear[i] <= best_t);
-      if (!xsimd::any(mask)) continue;
-      if (st.count[i] >= 0) {
-        leaf(st.child[i], st.count[i], mask);
-      } else {
-        const Node& n = h.nodes[std::size_t(st.child[i])];
-        push_children<kPadded>(n, unsigned(n.order >> shift) & 0xFF, r, mask, best_t, st);
-      }
-    }
+    Ray r = slab_ray(o, d);
+    if constexpr (kPadded)
+      closest_with<Slab::padded>(h, valid, r, d, best_t, leaf);
+    else if (same_signs(r, valid))
+      closest_with<Slab::signed_>(h, valid, r, d, best_t, leaf);
+    else
+      closest_with<Slab::generic>(h, valid, r, d, best_t, leaf);
   }
 
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
@@ -152,24 +196,72 @@ struct Traversal {
   template <bool kPadded, class Leaf>
   static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax,
                Leaf&& leaf) noexcept {
-    const Ray r = slab_ray(o, d);
+    Ray r = slab_ray(o, d);
+    if constexpr (kPadded)
+      return any_with<Slab::padded>(h, valid, r, tmax, leaf);
+    else if (same_signs(r, valid))
+      return any_with<Slab::signed_>(h, valid, r, tmax, leaf);
+    else
+      return any_with<Slab::generic>(h, valid, r, tmax, leaf);
+  }
+
+ private:
+  template <Slab kSlab, class Leaf>
+  static void closest_with(const Bvh<T>& h, const M& valid, const Ray& r, const V& d,
+                           const B& best_t, Leaf& leaf) noexcept {
+    // Signed: every lane goes the same way along each axis; else the lanes' summed direction.
+    const unsigned code = kSlab == Slab::signed_ ? unsigned(!r.neg[0]) | unsigned(!r.neg[1]) << 1 |
+                                                       unsigned(!r.neg[2]) << 2
+                                                 : direction_code(valid, d);
+    const unsigned shift = 8 * code;
     Stack st;
-    st.child[0] = 0, st.count[0] = -1, st.mask[0] = valid, st.tnear[0] = B(T(0));
-    st.sp = 1;
-    M pending = valid;
-    while (st.sp > 0) {
-      const int i = --st.sp;
-      const M mask = st.mask[i] & pending;
-      if (!xsimd::any(mask)) continue;
-      if (st.count[i] >= 0) {
-        pending = leaf(st.child[i], st.count[i], mask, pending);
-        if (!xsimd::any(pending)) return pending;
+    std::int32_t child = 0, count = -1;
+    M mask = valid;
+    for (;;) {
+      if (count < 0) {
+        const Node& n = h.nodes[std::size_t(child)];
+        if (descend<kSlab>(n, unsigned(n.order >> shift) & 0xFF, r, mask, best_t, st, child, count))
+          continue;
       } else {
-        push_children<kPadded>(h.nodes[std::size_t(st.child[i])], Bvh<T>::kSlotOrder, r, mask, tmax,
-                               st);
+        leaf(child, count, mask);
+      }
+      for (;;) {  // the next subtree some lane may still find a nearer hit in
+        if (st.sp == 0) return;
+        const int i = --st.sp;
+        mask = st.mask[i] & (st.tnear[i] <= best_t);
+        if (xsimd::any(mask)) {
+          child = st.child[i], count = st.count[i];
+          break;
+        }
       }
     }
-    return pending;
+  }
+
+  template <Slab kSlab, class Leaf>
+  static M any_with(const Bvh<T>& h, const M& valid, const Ray& r, const B& tmax,
+                    Leaf& leaf) noexcept {
+    Stack st;
+    std::int32_t child = 0, count = -1;
+    M pending = valid, mask = valid;
+    for (;;) {
+      if (count < 0) {
+        if (descend<kSlab>(h.nodes[std::size_t(child)], Bvh<T>::kSlotOrder, r, mask, tmax, st,
+                           child, count))
+          continue;
+      } else {
+        pending = leaf(child, count, mask, pending);
+        if (!xsimd::any(pending)) return pending;
+      }
+      for (;;) {
+        if (st.sp == 0) return pending;
+        const int i = --st.sp;
+        mask = st.mask[i] & pending;
+        if (xsimd::any(mask)) {
+          child = st.child[i], count = st.count[i];
+          break;
+        }
+      }
+    }
   }
 };
 
