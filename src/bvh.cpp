@@ -35,8 +35,11 @@ const char* to_string(Accel a) {
 
 template <class T>
 std::size_t Bvh<T>::bytes() const {
-  return nodes.size() * sizeof(Node) + (cx.size() + cy.size() + cz.size() + r2.size()) * sizeof(T) +
-         id.size() * sizeof(std::int32_t) + eye.size() * sizeof(EyeRecord);
+  return nodes.size() * sizeof(Node) +
+         (cx.size() + cy.size() + cz.size() + r2.size() + eye_fx.size() + eye_fy.size() +
+          eye_fz.size() + eye_c.size()) *
+             sizeof(T) +
+         id.size() * sizeof(std::int32_t);
 }
 
 // The 32-byte vectors of double change the calling convention without AVX (-Wpsabi): these are

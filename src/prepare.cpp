@@ -38,7 +38,8 @@ void add_bvh(PreparedScene<T>& p) {
   h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order);
   const bool eye = !p.eye.c.empty();
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->reserve(order.size());
-  if (eye) h.eye.reserve(order.size());
+  if (eye)
+    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) v->reserve(order.size());
   h.id = order;
   for (std::int32_t i : order) {
     const std::size_t k = std::size_t(i);
@@ -46,8 +47,12 @@ void add_bvh(PreparedScene<T>& p) {
     h.cy.push_back(p.sphere_cy[k]);
     h.cz.push_back(p.sphere_cz[k]);
     h.r2.push_back(p.sphere_r2[k]);
-    if (eye)
-      h.eye.push_back({p.eye.fx[k], p.eye.fy[k], p.eye.fz[k], p.eye.c[k], p.sphere_r2[k], i});
+    if (eye) {
+      h.eye_fx.push_back(p.eye.fx[k]);
+      h.eye_fy.push_back(p.eye.fy[k]);
+      h.eye_fz.push_back(p.eye.fz[k]);
+      h.eye_c.push_back(p.eye.c[k]);
+    }
   }
   // The build time covers the copy too: the structure is not usable before it.
   h.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -39,17 +39,9 @@ struct Bvh {
   // The any-hit traversal's order: slots 0, 1, 2, 3.
   static constexpr unsigned kSlotOrder = 0xE4;
   std::vector<Node> nodes;  // nodes[0] is the root; empty: no hierarchy (plain loop)
-  // The spheres in leaf order: centre, r^2 and object id.
-  std::vector<T> cx, cy, cz, r2;
+  // The spheres in leaf order: centre, r^2, the eye's table (pinhole cameras) and object id.
+  std::vector<T> cx, cy, cz, r2, eye_fx, eye_fy, eye_fz, eye_c;
   std::vector<std::int32_t> id;
-  // For camera rays (pinhole cameras; else empty), in leaf order: the eye's f = eye - centre and
-  // c, with r^2 and the object id, in one record: a leaf's spheres share two or three cache lines
-  // where one array per field took a line per field (the primary rays' leaf loads).
-  struct EyeRecord {
-    T fx, fy, fz, c, r2;
-    std::int32_t id;
-  };
-  std::vector<EyeRecord> eye;
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).
   T origin_limit = T(0);

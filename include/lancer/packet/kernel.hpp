@@ -291,29 +291,20 @@ struct Kernel {
 
   // The spheres a loop walks: the scene's, in id order, or the hierarchy's copy in leaf order
   // with their object ids.
-  // The hierarchy's camera-ray fields come as records (Bvh::EyeRecord), the scene's as arrays.
   struct Spheres {
     const T *cx, *cy, *cz, *r2, *efx, *efy, *efz, *ec;
-    const std::int32_t* id;                 // null: the position is the id
-    const typename Bvh<T>::EyeRecord* eye;  // the hierarchy's (leaf order), else null
+    const std::int32_t* id;  // null: the position is the id
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
   };
   static Spheres all_spheres(const Scene& s) noexcept {
-    return {s.sphere_cx.data(),
-            s.sphere_cy.data(),
-            s.sphere_cz.data(),
-            s.sphere_r2.data(),
-            s.eye.fx.data(),
-            s.eye.fy.data(),
-            s.eye.fz.data(),
-            s.eye.c.data(),
-            nullptr,
-            nullptr};
+    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(),
+            s.sphere_r2.data(), s.eye.fx.data(),    s.eye.fy.data(),
+            s.eye.fz.data(),    s.eye.c.data(),     nullptr};
   }
   static Spheres leaf_spheres(const Scene& s) noexcept {
     const Bvh<T>& h = s.bvh;
-    return {h.cx.data(), h.cy.data(), h.cz.data(), h.r2.data(), nullptr,
-            nullptr,     nullptr,     nullptr,     h.id.data(), h.eye.data()};
+    return {h.cx.data(),     h.cy.data(),     h.cz.data(),    h.r2.data(), h.eye_fx.data(),
+            h.eye_fy.data(), h.eye_fz.data(), h.eye_c.data(), h.id.data()};
   }
 
   // Closest hit over spheres [begin, end) of `sp` for the lanes of `valid`; updates t and id
@@ -326,16 +317,12 @@ struct Kernel {
                                                      B& best_t, I& best_id, RayCounts& counts,
                                                      const I& leaving) noexcept {
     const B eps(s.epsilon);
-    // Camera rays through the hierarchy (its spheres never in id order) read its records.
-    constexpr bool kRecords = kFromEye && !kIdOrder;
-    auto r2_of = [&](int j) { return B(kRecords ? sp.eye[j].r2 : sp.r2[j]); };
-    auto c_of = [&](int j) { return kRecords ? sp.eye[j].c : kFromEye ? sp.ec[j] : T(0); };
-    auto object = [&](int j) { return kRecords ? Id(sp.eye[j].id) : sp.object(j); };
+    const T no_c(0);
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
     // where it wins.
     auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
-      const B t = first_root(s, sd, f, r2, kFromEye, c_of(j), eps);
-      const Id id = object(j);
+      const B t = first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
+      const Id id = sp.object(j);
       if constexpr (kIdOrder)
         m = m & (t > eps) & (t < best_t);
       else
@@ -344,11 +331,8 @@ struct Kernel {
       best_id = xsimd::select(to_mi(m), I(id), best_id);
     };
     auto offset = [&](int j) {
-      if constexpr (kRecords)
-        return V{B(sp.eye[j].fx), B(sp.eye[j].fy), B(sp.eye[j].fz)};
-      else
-        return kFromEye ? V{B(sp.efx[j]), B(sp.efy[j]), B(sp.efz[j])}
-                        : o - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
+      return kFromEye ? V{B(sp.efx[j]), B(sp.efy[j]), B(sp.efz[j])}
+                      : o - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
     };
     // kGroup spheres per early-out test: most rays miss most spheres, and one branch then
     // skips the group. Hits are still taken in sphere order: the sequential loop's result.
@@ -360,7 +344,7 @@ struct Kernel {
       for (int g = 0; g < kGroup; ++g) {
         tests(counts, valid, true);
         f[g] = offset(j + g);
-        sd[g] = disc_of(s, f[g], d, r2_of(j + g), kFromEye, c_of(j + g));
+        sd[g] = disc_of(s, f[g], d, B(sp.r2[j + g]), kFromEye, kFromEye ? sp.ec[j + g] : no_c);
       }
       // Some disc >= 0 exactly where the largest is: one compare for the group. (The
       // discriminants of a loaded scene are never NaN: its coordinates are bounded.)
@@ -369,16 +353,16 @@ struct Kernel {
           xsimd::max(xsimd::max(sd[0].disc, sd[1].disc), xsimd::max(sd[2].disc, sd[3].disc));
       if (!xsimd::any(valid & (largest >= B(0)))) continue;
       for (int g = 0; g < kGroup; ++g) {
-        const M m = skip<kFromEye>(valid & (sd[g].disc >= B(0)), leaving, object(j + g));
-        if (xsimd::any(m)) update(j + g, f[g], r2_of(j + g), sd[g], m);
+        const M m = skip<kFromEye>(valid & (sd[g].disc >= B(0)), leaving, sp.object(j + g));
+        if (xsimd::any(m)) update(j + g, f[g], B(sp.r2[j + g]), sd[g], m);
       }
     }
     for (; j < end; ++j) {
       tests(counts, valid, true);
-      const B r2 = r2_of(j);
+      const B r2(sp.r2[j]);
       const V f = offset(j);
-      const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, c_of(j));
-      const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, object(j));
+      const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, kFromEye ? sp.ec[j] : no_c);
+      const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, sp.object(j));
       if (xsimd::any(m)) update(j, f, r2, sd, m);
     }
   }
