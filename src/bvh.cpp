@@ -319,8 +319,8 @@ class Builder {
   std::vector<char> used_;
 };
 
-// The binary tree collapsed into 4-wide nodes, in depth-first pre-order. A wide node over binary
-// node b opens b's inner children (so each inner child of a wide node lies two binary levels
+// The binary tree collapsed into kWidth-wide nodes, in depth-first pre-order. A wide node over
+// binary node b opens b's inner children (so each inner child of a wide node lies two binary levels
 // down: the wide depth is at most half the binary one), then, while slots remain, the inner
 // child of largest area. Opening in place keeps the depth-first order of the leaves.
 template <class T>
@@ -331,8 +331,9 @@ class Collapse {
 
   // The wide node over binary node b at wide depth `depth`: returns its index.
   std::int32_t node(int b, int depth) {
+    constexpr int kW = Bvh<T>::kWidth;
     deepest = std::max(deepest, depth);
-    Ref e[4] = {{b, 0}, {b, 1}};
+    Ref e[kW] = {{b, 0}, {b, 1}};
     int n = 2;
     auto open = [&](int i) {
       const Ref r = e[i];
@@ -342,7 +343,7 @@ class Collapse {
     };
     for (int i = 1; i >= 0; --i)
       if (inner(e[i])) open(i);
-    while (n < 4) {
+    while (n < kW) {
       int best = -1;
       double area = -1;
       for (int i = 0; i < n; ++i)
@@ -356,7 +357,7 @@ class Collapse {
       if (inner(e[i]) || at(e[i]).count[e[i].k] > 0) e[arity++] = e[i];
     const auto self = static_cast<std::int32_t>(out_.size());
     out_.emplace_back();  // value-initialized: padding and unused slots are zero
-    std::int32_t child[4] = {};
+    std::int32_t child[kW] = {};
     for (int i = 0; i < arity; ++i)
       child[i] = inner(e[i]) ? node(at(e[i]).child[e[i].k], depth + 1) : at(e[i]).child[e[i].k];
     Node& w = out_[std::size_t(self)];
@@ -372,10 +373,10 @@ class Collapse {
     // Per direction code u, the slots in the binary traversal's near-first order.
     for (unsigned u = 0; u < 8; ++u) {
       int p = 0;
-      std::uint64_t code = 0;
+      std::uint32_t code = 0;
       emit(b, u, e, arity, code, p);
-      for (int i = arity; i < 4; ++i, ++p) code |= std::uint64_t(i) << (2 * p);
-      w.order |= code << (8 * u);
+      for (int i = arity; i < kW; ++i, ++p) code |= std::uint32_t(i) << (Bvh<T>::kOrderBits * p);
+      w.order[u] = static_cast<typename Bvh<T>::Order>(code);
     }
     return self;
   }
@@ -395,14 +396,14 @@ class Collapse {
     return dx * (dy + dz) + dy * dz;
   }
   // The slots under binary node x, the near child first (child 0 where the rays go up x's axis).
-  void emit(int x, unsigned u, const Ref* e, int arity, std::uint64_t& code, int& p) const {
+  void emit(int x, unsigned u, const Ref* e, int arity, std::uint32_t& code, int& p) const {
     const int near = (u >> bin_[std::size_t(x)].axis) & 1 ? 0 : 1;
     for (const int k : {near, 1 - near}) {
       int slot = -1;
       for (int i = 0; i < arity; ++i)
         if (e[i].b == x && e[i].k == k) slot = i;
       if (slot >= 0)
-        code |= std::uint64_t(slot) << (2 * p++);
+        code |= std::uint32_t(slot) << (Bvh<T>::kOrderBits * p++);
       else if (bin_[std::size_t(x)].count[k] < 0)
         emit(bin_[std::size_t(x)].child[k], u, e, arity, code, p);
     }
@@ -468,7 +469,7 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
   Collapse<T> collapse(binary, bvh.nodes);
   collapse.node(0, 1);
   bvh.depth = collapse.deepest;
-  LANCER_CHECK(3 * bvh.depth + 1 <= Bvh<T>::kStack);
+  LANCER_CHECK((Bvh<T>::kWidth - 1) * bvh.depth + 1 <= Bvh<T>::kStack);
   bvh.build_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return bvh;

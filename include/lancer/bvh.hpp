@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace lancer {
@@ -22,22 +23,30 @@ inline constexpr int kBvhMinSpheres = 16;
 
 template <class T>
 struct Bvh {
-  // A 4-wide node: a binary SAH tree collapsed two levels at a time (docs/accel.md). Child slot
-  // k < arity: count[k] < 0: child[k] is an inner node; else a leaf of count[k] spheres from
-  // leaf-order index child[k]. Slots hold the binary tree's depth-first order, so children
-  // visited in slot order meet the leaves in the binary tree's fixed order.
-  // order: per packet direction code u (bit a set: the rays go up along axis a), 8 bits at
-  // 8u listing the slots nearest first (2 bits each; the binary splits' near-first rule), the
-  // slots >= arity last. Two 64-byte cache lines for float, aligned.
+  // A kWidth-wide node: a binary SAH tree collapsed (docs/accel.md). Child slot k < arity:
+  // count[k] < 0: child[k] is an inner node; else a leaf of count[k] spheres from leaf-order
+  // index child[k]. Slots hold the binary tree's depth-first order, so children visited in slot
+  // order meet the leaves in the binary tree's fixed order.
+  // order[u], per packet direction code u (bit a set: the rays go up along axis a): the slots
+  // nearest first (kOrderBits each, the first lowest; the binary splits' near-first rule), the
+  // slots >= arity last. Aligned to 64-byte cache lines.
+  static constexpr int kWidth = 4;  // 8 measured: no faster at 65536 spheres, slower at 16384
+  static constexpr int kOrderBits = kWidth == 4 ? 2 : 3;
+  using Order = std::conditional_t<kWidth == 4, std::uint8_t, std::uint32_t>;
   struct alignas(64) Node {
-    T lo_x[4], hi_x[4], lo_y[4], hi_y[4], lo_z[4], hi_z[4];
-    std::int32_t child[4];
-    std::uint64_t order;
-    std::int8_t count[4];
-    std::int32_t arity;  // children in use: 1 (a one-sphere tree) to 4
+    T lo_x[kWidth], hi_x[kWidth], lo_y[kWidth], hi_y[kWidth], lo_z[kWidth], hi_z[kWidth];
+    std::int32_t child[kWidth];
+    Order order[8];
+    std::int8_t count[kWidth];
+    std::int32_t arity;  // children in use: 1 (a one-sphere tree) to kWidth
   };
-  // The any-hit traversal's order: slots 0, 1, 2, 3.
-  static constexpr unsigned kSlotOrder = 0xE4;
+  // The any-hit traversal's order: the slots in their order.
+  static constexpr unsigned slot_order() {
+    unsigned o = 0;
+    for (int p = 0; p < kWidth; ++p) o |= unsigned(p) << (kOrderBits * p);
+    return o;
+  }
+  static constexpr unsigned kSlotOrder = slot_order();
   std::vector<Node> nodes;  // nodes[0] is the root; empty: no hierarchy (plain loop)
   // The spheres in leaf order: centre, r^2, the eye's table (pinhole cameras) and object id.
   std::vector<T> cx, cy, cz, r2, eye_fx, eye_fy, eye_fz, eye_c;
@@ -49,9 +58,9 @@ struct Bvh {
   double build_seconds = 0;
 
   // The binary tree's depth bound; every inner child of a wide node lies two binary levels down,
-  // so a traversal stack (at most 3 entries per wide level, + 1) holds kStack entries.
+  // so a traversal stack (at most kWidth - 1 entries per wide level, + 1) holds kStack entries.
   static constexpr int kMaxDepth = 96;
-  static constexpr int kStack = 3 * (kMaxDepth / 2) + 2;
+  static constexpr int kStack = (kWidth - 1) * (kMaxDepth / 2) + 2;
   // Rays from beyond origin_limit traverse boxes grown by kOriginPad |origin| (max-norm), up to
   // kFarLimit; beyond that they loop over all spheres. The slab products stay finite below it.
   static constexpr double kOriginPad = 1024.0 * (sizeof(T) == 4 ? 0x1p-24 : 0x1p-53);

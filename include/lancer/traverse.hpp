@@ -28,7 +28,7 @@ class RayTraversal {
     const T m = std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)});
     const T far = m > h.origin_limit ? m * T(Bvh<T>::kOriginPad) : T(0);
     pad_ = {far * std::fabs(inv_.x), far * std::fabs(inv_.y), far * std::fabs(inv_.z)};
-    shift_ = 8 * (unsigned(d.x >= T(0)) | unsigned(d.y >= T(0)) << 1 | unsigned(d.z >= T(0)) << 2);
+    code_ = unsigned(d.x >= T(0)) | unsigned(d.y >= T(0)) << 1 | unsigned(d.z >= T(0)) << 2;
   }
 
   // Whether the ray starts beyond Bvh::kFarLimit (the caller then loops over all spheres).
@@ -41,7 +41,7 @@ class RayTraversal {
   template <class Leaf>
   void closest(const T& best_t, Leaf&& leaf) const {
     walk(
-        best_t, [&](const Node& n) { return unsigned(n.order >> shift_) & 0xFF; },
+        best_t, [&](const Node& n) { return unsigned(n.order[code_]); },
         [&](std::int32_t first, std::int32_t count) {
           leaf(first, count);
           return false;
@@ -63,7 +63,7 @@ class RayTraversal {
   };
 
   // The depth-first walk both queries share: at a wide node, the children its ray meets within
-  // tmax (read afresh: leaves lower it) pushed in order(n)'s slot order (2 bits each), last
+  // tmax (read afresh: leaves lower it) pushed in order(n)'s slot order, last
   // first, so the first is visited next. leaf(first, count) -> true to stop; a popped subtree
   // is skipped where cull(tnear).
   template <class Order, class Leaf, class Cull>
@@ -80,8 +80,8 @@ class RayTraversal {
       }
       const Node& n = h_.nodes[std::size_t(e.child)];
       const unsigned ord = order(n);
-      for (int p = 3; p >= 0; --p) {
-        const int k = int(ord >> (2 * p)) & 3;
+      for (int p = Bvh<T>::kWidth - 1; p >= 0; --p) {
+        const int k = int(ord >> (Bvh<T>::kOrderBits * p)) & (Bvh<T>::kWidth - 1);
         T tn;
         if (k < n.arity && hit(n, k, tmax, tn)) stack[sp++] = {n.child[k], n.count[k], tn};
       }
@@ -102,7 +102,7 @@ class RayTraversal {
 
   const Bvh<T>& h_;
   Vec3<T> inv_, oi_, pad_;
-  unsigned shift_;  // 8 x the ray's direction code (Bvh::Node::order)
+  unsigned code_;  // the ray's direction code (Bvh::Node::order)
 };
 
 }  // namespace lancer

@@ -6,7 +6,7 @@
 // collapsed from, the nearer side first by its summed direction's sign on each split's axis, and
 // re-culls popped subtrees against the lanes' best t. The result does not depend on the order:
 // the leaf functor keeps the lexicographic minimum of (t, object id).
-// Any hit: children in their FIXED slot order (0 to 3), depth first, for every packet and ray,
+// Any hit: children in their FIXED slot order, depth first, for every packet and ray,
 // so each lane meets the objects along its segment in one order on every path (a product of
 // transmittances over them is then the same bits everywhere). Stops once no lane is pending.
 #pragma once
@@ -143,29 +143,30 @@ struct Traversal {
     int sp = 0;
   };
 
-  // The children of n met by the lanes of `mask` within tmax, taken in `order` (slots, 2 bits
-  // each): the first becomes (child, count, mask), the node to descend into; the others go onto
-  // the stack, the last first, so that they pop in order. False when none is met.
+  // The children of n met by the lanes of `mask` within tmax, taken in `order` (slots,
+  // Bvh::kOrderBits each): the first becomes (child, count, mask), the node to descend into; the
+  // others go onto the stack, the last first, so that they pop in order. False when none is met.
   // Branches rather than masks: coherent packets meet the same children from node to node, and
   // a predicted branch lets the next node's load start before these tests end.
   template <Slab kSlab>
   static bool descend(const Node& n, unsigned order, const Ray& r, M& mask, const B& tmax,
                       Stack& st, std::int32_t& child, std::int32_t& count) noexcept {
-    M m[4];
-    B tn[4];
-    int slot[4];
+    constexpr int kW = Bvh<T>::kWidth;
+    M m[kW];
+    B tn[kW];
+    int slot[kW];
     unsigned met = 0;
-    for (int p = 0; p < 4; ++p) {
-      slot[p] = int(order >> (2 * p)) & 3;
+    for (int p = 0; p < kW; ++p) {
+      slot[p] = int(order >> (Bvh<T>::kOrderBits * p)) & (kW - 1);
       m[p] = child_hit<kSlab>(n, slot[p], r, mask, tmax, tn[p]);
       met |= unsigned(xsimd::any(m[p])) << p;
     }
     met &= (1u << n.arity) - 1;  // the slots in use come first in every order
-#pragma GCC unroll 4
-    for (int p = 0; p < 4; ++p) {
+#pragma GCC unroll 8
+    for (int p = 0; p < kW; ++p) {
       if (!(met >> p & 1)) continue;
-#pragma GCC unroll 3
-      for (int q = 3; q > p; --q) {
+#pragma GCC unroll 7
+      for (int q = kW - 1; q > p; --q) {
         if (!(met >> q & 1)) continue;
         const int i = st.sp++;
         st.child[i] = n.child[slot[q]], st.count[i] = n.count[slot[q]];
@@ -213,15 +214,13 @@ struct Traversal {
     const unsigned code = kSlab == Slab::signed_ ? unsigned(!r.neg[0]) | unsigned(!r.neg[1]) << 1 |
                                                        unsigned(!r.neg[2]) << 2
                                                  : direction_code(valid, d);
-    const unsigned shift = 8 * code;
     Stack st;
     std::int32_t child = 0, count = -1;
     M mask = valid;
     for (;;) {
       if (count < 0) {
         const Node& n = h.nodes[std::size_t(child)];
-        if (descend<kSlab>(n, unsigned(n.order >> shift) & 0xFF, r, mask, best_t, st, child, count))
-          continue;
+        if (descend<kSlab>(n, unsigned(n.order[code]), r, mask, best_t, st, child, count)) continue;
       } else {
         leaf(child, count, mask);
       }
