@@ -110,6 +110,7 @@ constexpr int kMaxLeaf = 4;             // always a leaf at or below
 constexpr int kMaxSahLeaf = 8;          // a leaf up to here where the SAH says a split does not pay
 constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
 constexpr int kParallelMin = 4096;      // subtrees at least this large build as parallel tasks
+static_assert(kMaxSahLeaf <= 127, "a wide node's counts are 8 bits");
 
 // Top-down binned SAH over prims_/idx_ (partitioned in place, in lockstep). Inner nodes go to
 // preassigned slots: a subtree over n spheres has at most n - 1 inner nodes, so the one over
