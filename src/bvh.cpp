@@ -50,6 +50,16 @@ namespace {
 
 // Four lanes (x, y, z, unused) as one vector (GCC's vector extension): a box grows by two
 // min/max instructions.
+// A node of the binary tree the build makes (then collapsed into Bvh<T>::Node): its two
+// children's boxes, references and counts (< 0: inner) as the wide node's, and its split axis.
+template <class T>
+struct BinaryNode {
+  T lo_x[2], hi_x[2], lo_y[2], hi_y[2], lo_z[2], hi_z[2];
+  std::int32_t child[2];
+  std::int16_t count[2];
+  std::int32_t axis;
+};
+
 template <class T>
 struct Vector4;
 template <>
@@ -100,6 +110,7 @@ constexpr int kMaxLeaf = 4;             // always a leaf at or below
 constexpr int kMaxSahLeaf = 8;          // a leaf up to here where the SAH says a split does not pay
 constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
 constexpr int kParallelMin = 4096;      // subtrees at least this large build as parallel tasks
+static_assert(kMaxSahLeaf <= 127, "a wide node's counts are 8 bits");
 
 // Top-down binned SAH over prims_/idx_ (partitioned in place, in lockstep). Inner nodes go to
 // preassigned slots: a subtree over n spheres has at most n - 1 inner nodes, so the one over
@@ -110,7 +121,7 @@ constexpr int kParallelMin = 4096;      // subtrees at least this large build as
 template <class T>
 class Builder {
  public:
-  using Node = typename Bvh<T>::Node;
+  using Node = BinaryNode<T>;
   Builder(std::vector<Prim<T>>& prims, std::vector<std::int32_t>& idx)
       : prims_(prims),
         idx_(idx),
@@ -309,6 +320,100 @@ class Builder {
   std::vector<char> used_;
 };
 
+// The binary tree collapsed into kWidth-wide nodes, in depth-first pre-order. A wide node over
+// binary node b opens b's inner children (so each inner child of a wide node lies two binary levels
+// down: the wide depth is at most half the binary one), then, while slots remain, the inner
+// child of largest area. Opening in place keeps the depth-first order of the leaves.
+template <class T>
+class Collapse {
+ public:
+  using Node = typename Bvh<T>::Node;
+  Collapse(const std::vector<BinaryNode<T>>& bin, std::vector<Node>& out) : bin_(bin), out_(out) {}
+
+  // The wide node over binary node b at wide depth `depth`: returns its index.
+  std::int32_t node(int b, int depth) {
+    constexpr int kW = Bvh<T>::kWidth;
+    deepest = std::max(deepest, depth);
+    Ref e[kW] = {{b, 0}, {b, 1}};
+    int n = 2;
+    auto open = [&](int i) {
+      const Ref r = e[i];
+      for (int j = n; j > i + 1; --j) e[j] = e[j - 1];
+      e[i] = {at(r).child[r.k], 0}, e[i + 1] = {at(r).child[r.k], 1};
+      ++n;
+    };
+    for (int i = 1; i >= 0; --i)
+      if (inner(e[i])) open(i);
+    while (n < kW) {
+      int best = -1;
+      double area = -1;
+      for (int i = 0; i < n; ++i)
+        if (inner(e[i]) && half_area(e[i]) > area) best = i, area = half_area(e[i]);
+      if (best < 0) break;
+      open(best);
+    }
+    // A one-sphere tree's empty slot (a leaf of 0 spheres) is dropped.
+    int arity = 0;
+    for (int i = 0; i < n; ++i)
+      if (inner(e[i]) || at(e[i]).count[e[i].k] > 0) e[arity++] = e[i];
+    const auto self = static_cast<std::int32_t>(out_.size());
+    out_.emplace_back();  // value-initialized: padding and unused slots are zero
+    std::int32_t child[kW] = {};
+    for (int i = 0; i < arity; ++i)
+      child[i] = inner(e[i]) ? node(at(e[i]).child[e[i].k], depth + 1) : at(e[i]).child[e[i].k];
+    Node& w = out_[std::size_t(self)];
+    w.arity = arity;
+    for (int i = 0; i < arity; ++i) {
+      const BinaryNode<T>& p = at(e[i]);
+      const int k = e[i].k;
+      w.lo_x[i] = p.lo_x[k], w.lo_y[i] = p.lo_y[k], w.lo_z[i] = p.lo_z[k];
+      w.hi_x[i] = p.hi_x[k], w.hi_y[i] = p.hi_y[k], w.hi_z[i] = p.hi_z[k];
+      w.child[i] = child[i];
+      w.count[i] = static_cast<std::int8_t>(inner(e[i]) ? -1 : p.count[k]);
+    }
+    // Per direction code u, the slots in the binary traversal's near-first order.
+    for (unsigned u = 0; u < 8; ++u) {
+      int p = 0;
+      std::uint32_t code = 0;
+      emit(b, u, e, arity, code, p);
+      for (int i = arity; i < kW; ++i, ++p) code |= std::uint32_t(i) << (Bvh<T>::kOrderBits * p);
+      w.order[u] = static_cast<typename Bvh<T>::Order>(code);
+    }
+    return self;
+  }
+
+  int deepest = 0;
+
+ private:
+  struct Ref {
+    int b, k;  // child k of binary node b
+  };
+  const BinaryNode<T>& at(const Ref& r) const { return bin_[std::size_t(r.b)]; }
+  bool inner(const Ref& r) const { return at(r).count[r.k] < 0; }
+  double half_area(const Ref& r) const {
+    const BinaryNode<T>& p = at(r);
+    const double dx = double(p.hi_x[r.k]) - p.lo_x[r.k], dy = double(p.hi_y[r.k]) - p.lo_y[r.k],
+                 dz = double(p.hi_z[r.k]) - p.lo_z[r.k];
+    return dx * (dy + dz) + dy * dz;
+  }
+  // The slots under binary node x, the near child first (child 0 where the rays go up x's axis).
+  void emit(int x, unsigned u, const Ref* e, int arity, std::uint32_t& code, int& p) const {
+    const int near = (u >> bin_[std::size_t(x)].axis) & 1 ? 0 : 1;
+    for (const int k : {near, 1 - near}) {
+      int slot = -1;
+      for (int i = 0; i < arity; ++i)
+        if (e[i].b == x && e[i].k == k) slot = i;
+      if (slot >= 0)
+        code |= std::uint32_t(slot) << (Bvh<T>::kOrderBits * p++);
+      else if (bin_[std::size_t(x)].count[k] < 0)
+        emit(bin_[std::size_t(x)].child[k], u, e, arity, code, p);
+    }
+  }
+
+  const std::vector<BinaryNode<T>>& bin_;
+  std::vector<Node>& out_;
+};
+
 // Padding per unit of magnitude: 2^8 ulps of T, far above the rounding of the sphere test
 // (a few ulps of |origin - centre|) and of the slab test, so no ray the plain loop finds a sphere
 // for misses its box.
@@ -349,18 +454,24 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
     order[k] = i;
   }
   Builder<T> builder(prims, order);
+  std::vector<BinaryNode<T>> binary;
+  int binary_depth = 1;
   if (n == 1) {  // the root's child 0 holds the sphere, child 1 is empty
     for (int k = 0; k < 2; ++k) Builder<T>::set_box(builder.node(0), k, all);
     Builder<T>::leaf(builder.node(0), 0, 0, 1);
     Builder<T>::leaf(builder.node(0), 1, 1, 0);
     builder.node(0).axis = 0;
-    bvh.nodes.assign(1, builder.node(0));
-    bvh.depth = 1;
+    binary.assign(1, builder.node(0));
   } else {  // the root holds the two top subtrees' boxes, whatever their size
     builder.inner(0, 0, n, builder.best_split(0, n, call), 0);
-    bvh.depth = builder.compact(bvh.nodes);
+    binary_depth = builder.compact(binary);
   }
-  LANCER_CHECK(bvh.depth < Bvh<T>::kMaxDepth);
+  LANCER_CHECK(binary_depth < Bvh<T>::kMaxDepth);
+  bvh.nodes.reserve(binary.size() / 2 + 1);
+  Collapse<T> collapse(binary, bvh.nodes);
+  collapse.node(0, 1);
+  bvh.depth = collapse.deepest;
+  LANCER_CHECK((Bvh<T>::kWidth - 1) * bvh.depth + 1 <= Bvh<T>::kStack);
   bvh.build_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return bvh;

@@ -105,7 +105,7 @@ TEST(Bvh, BuildIsDeterministicAndHoldsEverySphereOnce) {
   // Every sphere in exactly one leaf, inside the box its parent holds for that leaf.
   std::vector<int> seen(std::size_t(a.num_spheres), 0);
   for (const auto& n : a.bvh.nodes)
-    for (int k = 0; k < 2; ++k)
+    for (int k = 0; k < n.arity; ++k)
       for (int j = n.child[k]; n.count[k] >= 0 && j < n.child[k] + n.count[k]; ++j) {
         const std::int32_t id = a.bvh.id[std::size_t(j)];
         ++seen[std::size_t(id)];
@@ -118,6 +118,31 @@ TEST(Bvh, BuildIsDeterministicAndHoldsEverySphereOnce) {
         EXPECT_GE(n.hi_z[k], a.sphere_cz[std::size_t(id)] + r);
       }
   for (int c : seen) ASSERT_EQ(c, 1);
+}
+
+// Each wide node's order table (one per direction code) lists every slot once, its children in
+// use first: a traversal taking the first `arity` slots of any order visits each child once.
+TEST(Bvh, WideNodeOrdersArePermutationsOfTheChildren) {
+  CloudOptions o;
+  o.spheres = 3000;
+  const PreparedScene<float> a = prepare<float>(cloud(11, o), Accel::bvh);
+  using H = Bvh<float>;
+  ASSERT_TRUE(a.bvh.active());
+  for (const auto& n : a.bvh.nodes) {
+    ASSERT_GE(n.arity, 2);  // only a one-sphere tree's root has one child
+    ASSERT_LE(n.arity, H::kWidth);
+    for (int u = 0; u < 8; ++u) {
+      unsigned seen = 0;
+      for (int p = 0; p < H::kWidth; ++p) {
+        const int k = int(unsigned(n.order[u]) >> (H::kOrderBits * p)) & (H::kWidth - 1);
+        EXPECT_EQ(p < n.arity, k < n.arity) << "node order " << u << " position " << p;
+        seen |= 1u << k;
+      }
+      EXPECT_EQ(seen, (1u << H::kWidth) - 1);
+    }
+    for (int k = 0; k < n.arity; ++k) EXPECT_TRUE(n.count[k] < 0 || n.count[k] > 0);
+  }
+  EXPECT_LE((H::kWidth - 1) * a.bvh.depth + 1, H::kStack);
 }
 
 TEST(Bvh, OneSphereAndAutoThreshold) {

@@ -1,8 +1,8 @@
 // One-ray traversal of the sphere hierarchy (lancer/bvh.hpp), for the reference: the same visiting
 // rules as the packets' (packet/traverse.hpp), the primitive tests left to the caller's leaf
-// functor. Closest hit: nearer child first by the ray's direction; the caller keeps the
+// functor. Closest hit: nearer children first by the ray's direction; the caller keeps the
 // lexicographic minimum of (t, object id), so the order cannot change the result. Any hit: the
-// children's fixed order, depth first, as every packet visits them.
+// children's fixed slot order, depth first, as every packet visits them.
 #pragma once
 
 #include <algorithm>
@@ -28,7 +28,7 @@ class RayTraversal {
     const T m = std::max({std::fabs(o.x), std::fabs(o.y), std::fabs(o.z)});
     const T far = m > h.origin_limit ? m * T(Bvh<T>::kOriginPad) : T(0);
     pad_ = {far * std::fabs(inv_.x), far * std::fabs(inv_.y), far * std::fabs(inv_.z)};
-    up_[0] = d.x >= T(0), up_[1] = d.y >= T(0), up_[2] = d.z >= T(0);
+    code_ = unsigned(d.x >= T(0)) | unsigned(d.y >= T(0)) << 1 | unsigned(d.z >= T(0)) << 2;
   }
 
   // Whether the ray starts beyond Bvh::kFarLimit (the caller then loops over all spheres).
@@ -41,7 +41,7 @@ class RayTraversal {
   template <class Leaf>
   void closest(const T& best_t, Leaf&& leaf) const {
     walk(
-        best_t, [&](const Node& n) { return up_[n.axis] ? 0 : 1; },
+        best_t, [&](const Node& n) { return unsigned(n.order[code_]); },
         [&](std::int32_t first, std::int32_t count) {
           leaf(first, count);
           return false;
@@ -53,7 +53,7 @@ class RayTraversal {
   template <class Leaf>
   bool any(const T& tmax, Leaf&& leaf) const {
     return walk(
-        tmax, [](const Node&) { return 0; }, leaf, [](T) { return false; });
+        tmax, [](const Node&) { return Bvh<T>::kSlotOrder; }, leaf, [](T) { return false; });
   }
 
  private:
@@ -62,41 +62,31 @@ class RayTraversal {
     T tnear;
   };
 
-  // The depth-first walk both queries share: at an inner node, child first(n) then the other,
-  // each tested against tmax (read afresh: leaves lower it); the second pushed when both are
-  // met. leaf(first, count) -> true to stop; a popped subtree is skipped where cull(tnear).
-  template <class First, class Leaf, class Cull>
-  bool walk(const T& tmax, First first, Leaf&& leaf, Cull cull) const {
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
-    std::int32_t child = 0, count = -1;
-    for (;;) {
-      if (count < 0) {
-        const Node& n = h_.nodes[std::size_t(child)];
-        const int a = first(n), b = 1 - a;
-        T tn_a, tn_b;
-        const bool hit_a = hit(n, a, tmax, tn_a), hit_b = hit(n, b, tmax, tn_b);
-        if (hit_a) {
-          if (hit_b) stack[sp++] = {n.child[b], n.count[b], tn_b};
-          child = n.child[a], count = n.count[a];
-          continue;
-        }
-        if (hit_b) {
-          child = n.child[b], count = n.count[b];
-          continue;
-        }
-      } else if (leaf(child, count)) {
-        return true;
+  // The depth-first walk both queries share: at a wide node, the children its ray meets within
+  // tmax (read afresh: leaves lower it) pushed in order(n)'s slot order, last
+  // first, so the first is visited next. leaf(first, count) -> true to stop; a popped subtree
+  // is skipped where cull(tnear).
+  template <class Order, class Leaf, class Cull>
+  bool walk(const T& tmax, Order order, Leaf&& leaf, Cull cull) const {
+    Entry stack[Bvh<T>::kStack];
+    stack[0] = {0, -1, T(0)};
+    int sp = 1;
+    while (sp > 0) {
+      const Entry e = stack[--sp];
+      if (cull(e.tnear)) continue;
+      if (e.count >= 0) {
+        if (leaf(e.child, e.count)) return true;
+        continue;
       }
-      for (;;) {  // the next subtree still worth a visit
-        if (sp == 0) return false;
-        const Entry& e = stack[--sp];
-        if (!cull(e.tnear)) {
-          child = e.child, count = e.count;
-          break;
-        }
+      const Node& n = h_.nodes[std::size_t(e.child)];
+      const unsigned ord = order(n);
+      for (int p = Bvh<T>::kWidth - 1; p >= 0; --p) {
+        const int k = int(ord >> (Bvh<T>::kOrderBits * p)) & (Bvh<T>::kWidth - 1);
+        T tn;
+        if (k < n.arity && hit(n, k, tmax, tn)) stack[sp++] = {n.child[k], n.count[k], tn};
       }
     }
+    return false;
   }
 
   bool hit(const Node& n, int k, const T& tmax, T& tnear) const {
@@ -112,7 +102,7 @@ class RayTraversal {
 
   const Bvh<T>& h_;
   Vec3<T> inv_, oi_, pad_;
-  bool up_[3];
+  unsigned code_;  // the ray's direction code (Bvh::Node::order)
 };
 
 }  // namespace lancer

@@ -2,14 +2,16 @@
 // caller's leaf functor tests the spheres of a leaf for the lanes whose ray meets its box.
 // Include only from packet/kernel.hpp (code built for the batch's ISA).
 //
-// Closest hit: the packet visits the nearer child first by its direction's sign on the node's
-// split axis and re-culls popped subtrees against the lanes' best t. The result does not depend
-// on the order: the leaf functor keeps the lexicographic minimum of (t, object id).
-// Any hit: children in their FIXED order (0 then 1), depth first, for every packet and every ray,
+// Closest hit: the packet visits a wide node's children in the order of the binary splits it was
+// collapsed from, the nearer side first by its summed direction's sign on each split's axis, and
+// re-culls popped subtrees against the lanes' best t. The result does not depend on the order:
+// the leaf functor keeps the lexicographic minimum of (t, object id).
+// Any hit: children in their FIXED slot order, depth first, for every packet and ray,
 // so each lane meets the objects along its segment in one order on every path (a product of
 // transmittances over them is then the same bits everywhere). Stops once no lane is pending.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <xsimd/xsimd.hpp>
 
@@ -30,8 +32,12 @@ struct Traversal {
   // (or tiny) direction component becomes 2^-64: the reciprocal stays finite, so no 0 * inf NaN,
   // and every product stays below FLT_MAX for the loader's coordinates (|x| <= 1e18).
   // pad: per axis, how far (in t) each slab widens for this ray (kPadded traversals only).
+  // neg[a]: every live lane's reciprocal on axis a is negative (meaningful only where
+  // same_signs() says every live lane agrees on every axis).
   struct Ray {
     V inv, oi, pad;
+    bool neg[3];
+    std::size_t near[3], far[3];  // signed: byte offsets in a Node of each axis' lo or hi array
   };
   static Ray slab_ray(const V& o, const V& d) noexcept {
     const B tiny(T(0x1p-64));
@@ -47,16 +53,54 @@ struct Traversal {
     return r;
   }
 
+  // Whether the live lanes' reciprocals agree in sign on every axis (coherent packets: camera
+  // tiles off the image's centre lines); sets r.neg then.
+  static bool same_signs(Ray& r, const M& valid) noexcept {
+    const B zero(T(0));
+    const B* inv[3] = {&r.inv.x, &r.inv.y, &r.inv.z};
+    for (int a = 0; a < 3; ++a) {
+      const M neg = *inv[a] < zero;
+      if (xsimd::all(neg | !valid))
+        r.neg[a] = true;
+      else if (!xsimd::any(neg & valid))
+        r.neg[a] = false;
+      else
+        return false;
+    }
+    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
+    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
+    for (int a = 0; a < 3; ++a) {
+      r.near[a] = r.neg[a] ? hi[a] : lo[a];
+      r.far[a] = r.neg[a] ? lo[a] : hi[a];
+    }
+    return true;
+  }
+
+  // How a traversal tests boxes: padded for rays from beyond the origin limit; signed where
+  // every live lane agrees on the direction's signs: each slab's near plane is then known per
+  // packet (lo * inv <= hi * inv for inv > 0, rounding being monotonic: the same values as
+  // generic's min and max), so no min/max per plane.
+  enum class Slab { generic, padded, signed_ };
+
   // The lanes of `active` whose ray meets child k's box within [0, tmax]; tnear: where it enters.
-  template <bool kPadded>
+  template <Slab kSlab>
   static M child_hit(const Node& n, int k, const Ray& r, const M& active, const B& tmax,
                      B& tnear) noexcept {
-    const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
-    const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
-    const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
-    B nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
-    B fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
-    if constexpr (kPadded) {
+    B nx, ny, nz, fx, fy, fz;
+    if constexpr (kSlab == Slab::signed_) {
+      const char* base = reinterpret_cast<const char*>(&n) + std::size_t(k) * sizeof(T);
+      auto plane = [&](std::size_t off) { return B(*reinterpret_cast<const T*>(base + off)); };
+      nx = fmsub(plane(r.near[0]), r.inv.x, r.oi.x), fx = fmsub(plane(r.far[0]), r.inv.x, r.oi.x);
+      ny = fmsub(plane(r.near[1]), r.inv.y, r.oi.y), fy = fmsub(plane(r.far[1]), r.inv.y, r.oi.y);
+      nz = fmsub(plane(r.near[2]), r.inv.z, r.oi.z), fz = fmsub(plane(r.far[2]), r.inv.z, r.oi.z);
+    } else {
+      const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
+      const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
+      const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
+      nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
+      fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
+    }
+    if constexpr (kSlab == Slab::padded) {
       nx = nx - r.pad.x, ny = ny - r.pad.y, nz = nz - r.pad.z;
       fx = fx + r.pad.x, fy = fy + r.pad.y, fz = fz + r.pad.z;
     }
@@ -74,62 +118,78 @@ struct Traversal {
     return xsimd::any(valid & (m > B(T(Bvh<T>::kFarLimit)))) ? 2 : 1;
   }
 
-  struct Entry {
-    std::int32_t child, count;
-    M mask;
-    B tnear;
+  // The direction code of a packet (docs/accel.md): bit a set where the lanes' summed
+  // direction goes up axis a. It orders a closest-hit traversal's children only.
+  static unsigned direction_code(const M& valid, const V& d) noexcept {
+    // Pairwise sums through memory (xsimd 8.1's AVX-512 hadd needs AVX512DQ): log2(W) steps.
+    alignas(64) T lanes[3][B::size];
+    const B* axes[3] = {&d.x, &d.y, &d.z};
+    unsigned code = 0;
+    for (int a = 0; a < 3; ++a) {
+      xsimd::select(valid, *axes[a], B(T(0))).store_aligned(lanes[a]);
+      for (std::size_t w = B::size / 2; w > 0; w /= 2)
+        for (std::size_t k = 0; k < w; ++k) lanes[a][k] += lanes[a][k + w];
+      code |= unsigned(lanes[a][0] >= T(0)) << a;
+    }
+    return code;
+  }
+
+  // The subtrees still to visit, with the lanes that met each one's box and where they entered
+  // it.
+  struct Stack {
+    std::int32_t child[Bvh<T>::kStack], count[Bvh<T>::kStack];
+    M mask[Bvh<T>::kStack];
+    B tnear[Bvh<T>::kStack];
+    int sp = 0;
   };
+
+  // The children of n met by the lanes of `mask` within tmax, taken in `order` (slots,
+  // Bvh::kOrderBits each): the first becomes (child, count, mask), the node to descend into; the
+  // others go onto the stack, the last first, so that they pop in order. False when none is met.
+  // Branches rather than masks: coherent packets meet the same children from node to node, and
+  // a predicted branch lets the next node's load start before these tests end.
+  template <Slab kSlab>
+  static bool descend(const Node& n, unsigned order, const Ray& r, M& mask, const B& tmax,
+                      Stack& st, std::int32_t& child, std::int32_t& count) noexcept {
+    constexpr int kW = Bvh<T>::kWidth;
+    M m[kW];
+    B tn[kW];
+    int slot[kW];
+    unsigned met = 0;
+    for (int p = 0; p < kW; ++p) {
+      slot[p] = int(order >> (Bvh<T>::kOrderBits * p)) & (kW - 1);
+      m[p] = child_hit<kSlab>(n, slot[p], r, mask, tmax, tn[p]);
+      met |= unsigned(xsimd::any(m[p])) << p;
+    }
+    met &= (1u << n.arity) - 1;  // the slots in use come first in every order
+#pragma GCC unroll 8
+    for (int p = 0; p < kW; ++p) {
+      if (!(met >> p & 1)) continue;
+#pragma GCC unroll 7
+      for (int q = kW - 1; q > p; --q) {
+        if (!(met >> q & 1)) continue;
+        const int i = st.sp++;
+        st.child[i] = n.child[slot[q]], st.count[i] = n.count[slot[q]];
+        st.mask[i] = m[q], st.tnear[i] = tn[q];
+      }
+      child = n.child[slot[p]], count = n.count[slot[p]], mask = m[p];
+      return true;
+    }
+    return false;
+  }
 
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
   // lowering best_t (read here to cull).
   template <bool kPadded, class Leaf>
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
                       Leaf&& leaf) noexcept {
-    const Ray r = slab_ray(o, d);
-    // The packet's mean direction picks the nearer child per split axis.
-    bool up[3];
-    alignas(64) T lanes[B::size];
-    const B* axes[3] = {&d.x, &d.y, &d.z};
-    for (int a = 0; a < 3; ++a) {
-      xsimd::select(valid, *axes[a], B(T(0))).store_aligned(lanes);
-      T sum(0);
-      for (std::size_t k = 0; k < B::size; ++k) sum += lanes[k];
-      up[a] = sum >= T(0);
-    }
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
-    std::int32_t child = 0, count = -1;
-    M mask = valid;
-    for (;;) {
-      if (count < 0) {
-        const Node& n = h.nodes[std::size_t(child)];
-        const int near = up[n.axis] ? 0 : 1, far = 1 - near;
-        B tn_near, tn_far;
-        const M m_near = child_hit<kPadded>(n, near, r, mask, best_t, tn_near);
-        const M m_far = child_hit<kPadded>(n, far, r, mask, best_t, tn_far);
-        const bool a_near = xsimd::any(m_near), a_far = xsimd::any(m_far);
-        if (a_near) {
-          if (a_far) stack[sp++] = {n.child[far], n.count[far], m_far, tn_far};
-          child = n.child[near], count = n.count[near], mask = m_near;
-          continue;
-        }
-        if (a_far) {
-          child = n.child[far], count = n.count[far], mask = m_far;
-          continue;
-        }
-      } else {
-        leaf(child, count, mask);
-      }
-      for (;;) {  // the next subtree some lane may still find a nearer hit in
-        if (sp == 0) return;
-        const Entry& e = stack[--sp];
-        mask = e.mask & (e.tnear <= best_t);
-        if (xsimd::any(mask)) {
-          child = e.child, count = e.count;
-          break;
-        }
-      }
-    }
+    Ray r = slab_ray(o, d);
+    if constexpr (kPadded)
+      closest_with<Slab::padded>(h, valid, r, d, best_t, leaf);
+    else if (same_signs(r, valid))
+      closest_with<Slab::signed_>(h, valid, r, d, best_t, leaf);
+    else
+      closest_with<Slab::generic>(h, valid, r, d, best_t, leaf);
   }
 
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
@@ -137,37 +197,66 @@ struct Traversal {
   template <bool kPadded, class Leaf>
   static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax,
                Leaf&& leaf) noexcept {
-    const Ray r = slab_ray(o, d);
-    Entry stack[Bvh<T>::kMaxDepth + 2];
-    int sp = 0;
+    Ray r = slab_ray(o, d);
+    if constexpr (kPadded)
+      return any_with<Slab::padded>(h, valid, r, tmax, leaf);
+    else if (same_signs(r, valid))
+      return any_with<Slab::signed_>(h, valid, r, tmax, leaf);
+    else
+      return any_with<Slab::generic>(h, valid, r, tmax, leaf);
+  }
+
+ private:
+  template <Slab kSlab, class Leaf>
+  static void closest_with(const Bvh<T>& h, const M& valid, const Ray& r, const V& d,
+                           const B& best_t, Leaf& leaf) noexcept {
+    // Signed: every lane goes the same way along each axis; else the lanes' summed direction.
+    const unsigned code = kSlab == Slab::signed_ ? unsigned(!r.neg[0]) | unsigned(!r.neg[1]) << 1 |
+                                                       unsigned(!r.neg[2]) << 2
+                                                 : direction_code(valid, d);
+    Stack st;
+    std::int32_t child = 0, count = -1;
+    M mask = valid;
+    for (;;) {
+      if (count < 0) {
+        const Node& n = h.nodes[std::size_t(child)];
+        if (descend<kSlab>(n, unsigned(n.order[code]), r, mask, best_t, st, child, count)) continue;
+      } else {
+        leaf(child, count, mask);
+      }
+      for (;;) {  // the next subtree some lane may still find a nearer hit in
+        if (st.sp == 0) return;
+        const int i = --st.sp;
+        mask = st.mask[i] & (st.tnear[i] <= best_t);
+        if (xsimd::any(mask)) {
+          child = st.child[i], count = st.count[i];
+          break;
+        }
+      }
+    }
+  }
+
+  template <Slab kSlab, class Leaf>
+  static M any_with(const Bvh<T>& h, const M& valid, const Ray& r, const B& tmax,
+                    Leaf& leaf) noexcept {
+    Stack st;
     std::int32_t child = 0, count = -1;
     M pending = valid, mask = valid;
     for (;;) {
       if (count < 0) {
-        const Node& n = h.nodes[std::size_t(child)];
-        B tn0, tn1;
-        const M m0 = child_hit<kPadded>(n, 0, r, mask, tmax, tn0);
-        const M m1 = child_hit<kPadded>(n, 1, r, mask, tmax, tn1);
-        const bool a0 = xsimd::any(m0), a1 = xsimd::any(m1);
-        if (a0) {
-          if (a1) stack[sp++] = {n.child[1], n.count[1], m1, tn1};
-          child = n.child[0], count = n.count[0], mask = m0;
+        if (descend<kSlab>(h.nodes[std::size_t(child)], Bvh<T>::kSlotOrder, r, mask, tmax, st,
+                           child, count))
           continue;
-        }
-        if (a1) {
-          child = n.child[1], count = n.count[1], mask = m1;
-          continue;
-        }
       } else {
         pending = leaf(child, count, mask, pending);
         if (!xsimd::any(pending)) return pending;
       }
       for (;;) {
-        if (sp == 0) return pending;
-        const Entry& e = stack[--sp];
-        mask = e.mask & pending;
+        if (st.sp == 0) return pending;
+        const int i = --st.sp;
+        mask = st.mask[i] & pending;
         if (xsimd::any(mask)) {
-          child = e.child, count = e.count;
+          child = st.child[i], count = st.count[i];
           break;
         }
       }
