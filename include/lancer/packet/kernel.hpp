@@ -220,7 +220,7 @@ struct Kernel {
   // entries the field fits one register and one permute looks every lane up; beyond, a hardware
   // gather. (xsimd 8.1's B::gather falls back to inserting lane by lane here.) SSE has neither:
   // lane by lane.
-  static B gather(const std::vector<T>& field, const I& id, int n) noexcept {
+  [[gnu::always_inline]] static B gather(const std::vector<T>& field, const I& id, int n) noexcept {
     if constexpr (std::is_same_v<T, float> && W == 16) {
       if (n <= 16) return _mm512_permutexvar_ps(id, _mm512_loadu_ps(field.data()));
       return _mm512_i32gather_ps(id, field.data(), 4);
@@ -239,7 +239,8 @@ struct Kernel {
     }
   }
   // A field of every object (materials).
-  static B gather(const Scene& s, const std::vector<T>& field, const I& id) noexcept {
+  [[gnu::always_inline]] static B gather(const Scene& s, const std::vector<T>& field,
+                                         const I& id) noexcept {
     return gather(field, id, s.num_objects());
   }
 
@@ -367,6 +368,25 @@ struct Kernel {
     }
   }
 
+  // The spheres through the hierarchy (reach 0 or 1: Traversal::reach). Out of line: inlined
+  // into closest_hit, the 4-wide traversal changed the code GCC made for the plain loop around
+  // it (course scenes, no hierarchy: 2.5% more instructions at width 8, callgrind).
+  template <bool kFromEye>
+  [[gnu::noinline]] static void closest_in_hierarchy(const Scene& s, int reach, M valid, const V& o,
+                                                     const V& d, B& best_t, I& best_id,
+                                                     RayCounts& counts, const I& leaving) noexcept {
+    const Spheres sp = leaf_spheres(s);
+    auto leaf = [&](int first, int n, const M& m) {
+      leaf_visit(counts, m);
+      spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t, best_id, counts,
+                                       leaving);
+    };
+    if (reach == 0)
+      Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf);
+    else
+      Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
+  }
+
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
   // hit is found (an equal t: a lower id); returns the lanes whose t is now finite.
   // Spheres through the hierarchy where the scene has one (and every lane starts within its
@@ -381,16 +401,7 @@ struct Kernel {
     if (s.features.spheres) {
       const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
       if (reach < 2) {
-        const Spheres sp = leaf_spheres(s);
-        auto leaf = [&](int first, int n, const M& m) {
-          leaf_visit(counts, m);
-          spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t, best_id,
-                                           counts, leaving);
-        };
-        if (reach == 0)
-          Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf);
-        else
-          Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
+        closest_in_hierarchy<kFromEye>(s, reach, valid, o, d, best_t, best_id, counts, leaving);
       } else {
         spheres_closest<kFromEye, true>(s, all_spheres(s), 0, s.num_spheres, valid, o, d, best_t,
                                         best_id, counts, leaving);
@@ -495,9 +506,12 @@ struct Kernel {
   // Shadow rays from p along unit l towards lights at `dist`: each lane's transmittance over
   // the objects it meets; `pending` keeps the lanes whose transmittance is not 0 (in opaque
   // scenes, those not blocked). `leaving` as for closest_hit.
+  // Always inlined: with the 4-wide traversal in any_hit, GCC stopped inlining it into
+  // render_rows, and course scenes ran 6% to 9% more instructions (callgrind, widths 4 and 8).
   template <bool kGlass>
-  static Shadow occluded(const Scene& s, M valid, const V& p, const V& l, const B& dist,
-                         RayCounts& counts, const I& leaving) noexcept {
+  [[gnu::always_inline]] static Shadow occluded(const Scene& s, M valid, const V& p, const V& l,
+                                                const B& dist, RayCounts& counts,
+                                                const I& leaving) noexcept {
     Shadow sh{valid, B(T(1))};
     sh.pending =
         any_hit(s, valid, p, l, dist, counts, leaving, [&](Id id, const M& met, const M& pending) {
