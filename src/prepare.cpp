@@ -23,17 +23,17 @@ void camera_basis(const CameraSpec& c, Vec3<double>& u, Vec3<double>& v, Vec3<do
 
 // Frame::depth: the nearest sphere surface's distance along the view, as a T, where every
 // sphere lies beyond it, the spheres spread over less than 1/64 of it and there is no plane;
-// else 0.
+// else 0. Sets frame.spread along with it.
 template <class T>
-double view_depth(const Scene& scene, const Frame& frame) {
+void set_view_depth(const Scene& scene, Frame& frame) {
   // Planes keep their hit points at o + t d and leave them by 64 ulps of |o| + t: an eye moved
   // away from the origin doubles both (measured: a cloud on a ground plane seen from afar,
   // FloatEnvelope.TelescopeViewsOfACloud, lost more pixels than it won).
-  if (scene.spheres.empty() || !scene.planes.empty()) return 0;
+  if (scene.spheres.empty() || !scene.planes.empty()) return;
   double nearest = INFINITY;
   for (const Sphere& s : scene.spheres)
     nearest = std::min(nearest, -frame.point(s.center).z - s.radius);
-  if (!(nearest > 0)) return 0;
+  if (!(nearest > 0)) return;
   const double depth = double(T(nearest));
   double spread = 0;
   for (const Sphere& s : scene.spheres) {
@@ -41,7 +41,7 @@ double view_depth(const Scene& scene, const Frame& frame) {
     spread = std::max<double>({spread, std::fabs(c.x) + s.radius, std::fabs(c.y) + s.radius,
                                std::fabs(c.z + depth) + s.radius});
   }
-  return spread * 64 < depth ? depth : 0;
+  if (spread * 64 < depth) frame.depth = depth, frame.spread = spread;
 }
 
 }  // namespace
@@ -59,7 +59,7 @@ Frame camera_frame(const Scene& scene) {
     if (s.radius > 0.5 * length(s.center - frame.origin)) return frame;
   frame.turned = true;
   camera_basis(scene.camera, frame.u, frame.v, frame.w);
-  frame.depth = view_depth<T>(scene, frame);
+  set_view_depth<T>(scene, frame);
   return frame;
 }
 template Frame camera_frame<float>(const Scene&);

@@ -116,12 +116,7 @@ PrecisionChoice choose_precision(const Scene& scene) {
   const Frame frame = camera_frame<float>(scene);
   const char* against = "the scene's extent";
   if (frame.depth > 0) {
-    extent = 0;
-    for (const Sphere& s : scene.spheres) {
-      const Vec3<double> c = frame.point(s.center);
-      extent = std::max<double>({extent, std::fabs(c.x) + s.radius, std::fabs(c.y) + s.radius,
-                                 std::fabs(c.z) + s.radius});
-    }
+    extent = frame.spread;
     against = "the spheres' spread (the frame moved to them)";
   }
   char why[200];

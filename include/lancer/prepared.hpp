@@ -69,6 +69,7 @@ struct Frame {
   Vec3<double> u{1, 0, 0}, v{0, 1, 0}, w{0, 0, 1};
   bool turned = false;
   double depth = 0;
+  double spread = 0;  // with depth: the spheres' largest coordinate + radius in this frame
 
   Vec3<double> point(const Vec3<double>& world) const {
     const Vec3<double> d = direction(world - origin);
