@@ -87,8 +87,10 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
         "--mode kernel: the kernel alone runs float packets (exact or fast, width 4, 8 or 16): "
         "nothing to run");
 
-  // The kernel rows' camera rays are made here, once, untimed.
+  // The kernel rows' camera rays are made here, once, untimed; the other lancer rows' scene is
+  // prepared here, once per precision, untimed, as the peer's scenes above.
   std::vector<std::unique_ptr<PrimaryKernelRun>> kernels(rows.size());
+  std::map<Precision, std::unique_ptr<PreparedRun>> prepared;
   std::vector<std::function<double()>> run;
   for (std::size_t k = 0; k < rows.size(); ++k) {
     BenchRow& row = rows[k];
@@ -97,10 +99,16 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     ro.threads = row.threads;
     ro.precision = row_precision[k];
     ro.accel = opt.accel;
-    if (row.engine == "lancer" && row.mode == "kernel")
+    if (row.engine == "lancer" && row.mode == "kernel") {
       kernels[k] = std::make_unique<PrimaryKernelRun>(scene, ro);
+    } else if (row.engine == "lancer") {
+      std::unique_ptr<PreparedRun>& p = prepared[ro.precision];
+      if (!p) p = std::make_unique<PreparedRun>(scene, ro);
+    }
     const peer::EmbreeScene* embree = row_setup[k] >= 0 ? embrees[row_setup[k]].get() : nullptr;
-    run.push_back([&scene, embree, &row, &out, ro, kernel = kernels[k].get()]() -> double {
+    const PreparedRun* lancer_run =
+        row.engine == "lancer" && row.mode != "kernel" ? prepared[ro.precision].get() : nullptr;
+    run.push_back([embree, &row, &out, lancer_run, kernel = kernels[k].get()]() -> double {
       if (embree) {
         if (row.mode == "primary") {
           const PrimaryResult p = embree->primary(row.width, row.threads);
@@ -115,11 +123,11 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
         return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
       }
       if (row.mode == "primary") {
-        const PrimaryResult p = render_primary(scene, ro);
+        const PrimaryResult p = lancer_run->primary(row.width, row.threads);
         out.structure = p.structure;
         return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
       }
-      const RenderResult f = render(scene, ro);
+      const RenderResult f = lancer_run->render(row.width, row.threads);
       out.structure = f.structure;
       return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
     });

@@ -201,48 +201,11 @@ Rows<double> double_rows(int width) {
   return {width == 1 ? nullptr : packet::double_kernels(width)};
 }
 
-// Resolves auto precision and the width; fills the result's description fields.
-template <class Result>
-void resolve(const Scene& scene, const RenderOptions& opt, Result& res, Precision& precision,
-             std::string* reason) {
-  precision = opt.precision;
-  if (precision == Precision::automatic) {
-    const PrecisionChoice c = choose_precision(scene);
-    precision = c.precision;
-    if (reason) *reason = c.reason;
-  }
-  res.width = resolve_width(opt.width, precision);
-  res.threads = resolve_threads(opt.threads);
-}
-
 template <class Fn>
 double timed(Fn fn) {
   const auto start = Clock::now();
   fn();
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-PrimaryResult primary_impl(const Scene& scene, const RenderOptions& opt, bool ids) {
-  PrimaryResult res;
-  Precision precision;
-  resolve(scene, opt, res, precision, nullptr);
-  const std::size_t pixels = std::size_t(scene.camera.nx) * scene.camera.ny;
-  res.t.assign(pixels, 0.0f);
-  if (ids) res.id.assign(pixels, -1);
-  std::int32_t* id = ids ? res.id.data() : nullptr;
-  auto run = [&](const auto& prepared, const auto& rows) {
-    res.structure = structure_of(prepared);
-    res.seconds = timed([&] {
-      res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
-        rows.primary(prepared, res.t.data(), id, r0, r1, c);
-      });
-    });
-  };
-  if (precision == Precision::dbl)
-    run(prepare_for<double>(scene, opt), double_rows(res.width));
-  else
-    run(prepare_for<float>(scene, opt), float_rows(res.width, precision));
-  return res;
 }
 
 }  // namespace
@@ -261,32 +224,95 @@ StructureInfo structure_of(const PreparedScene<T>& p) {
 template StructureInfo structure_of(const PreparedScene<float>&);
 template StructureInfo structure_of(const PreparedScene<double>&);
 
-RenderResult render(const Scene& scene, const RenderOptions& opt) {
+struct PreparedRun::State {
+  RenderOptions opt;  // accel, model_everything and on_progress of every run
+  Precision precision = Precision::exact;
+  std::string reason;
+  int nx = 0, ny = 0;
+  std::unique_ptr<PreparedScene<float>> f;
+  std::unique_ptr<PreparedScene<double>> d;
+};
+
+PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
+    : state_(std::make_unique<State>()) {
+  State& st = *state_;
+  st.opt = opt;
+  st.precision = opt.precision;
+  if (st.precision == Precision::automatic) {
+    const PrecisionChoice c = choose_precision(scene);
+    st.precision = c.precision;
+    st.reason = c.reason;
+  }
+  // Bad options fail before the work of preparing.
+  resolve_width(opt.width, st.precision);
+  resolve_threads(opt.threads);
+  st.nx = scene.camera.nx, st.ny = scene.camera.ny;
+  if (st.precision == Precision::dbl)
+    st.d = std::make_unique<PreparedScene<double>>(prepare_for<double>(scene, opt));
+  else
+    st.f = std::make_unique<PreparedScene<float>>(prepare_for<float>(scene, opt));
+}
+
+PreparedRun::~PreparedRun() = default;
+
+RenderResult PreparedRun::render(int width, int threads) const {
+  const State& st = *state_;
   RenderResult res;
-  resolve(scene, opt, res, res.precision, &res.precision_reason);
+  res.precision = st.precision;
+  res.precision_reason = st.reason;
+  res.width = resolve_width(width, st.precision);
+  res.threads = resolve_threads(threads);
   res.isa = packet::isa_name(res.width, res.precision);
-  res.image = Image(scene.camera.nx, scene.camera.ny);
+  res.image = Image(st.nx, st.ny);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
     res.seconds = timed([&] {
-      res.rays = run_tiles(scene.camera.ny, res.threads, opt, [&](int r0, int r1, RayCounts& c) {
+      res.rays = run_tiles(st.ny, res.threads, st.opt, [&](int r0, int r1, RayCounts& c) {
         rows.render(prepared, res.image, r0, r1, c);
       });
     });
   };
-  if (res.precision == Precision::dbl)
-    run(prepare_for<double>(scene, opt), double_rows(res.width));
+  if (st.d)
+    run(*st.d, double_rows(res.width));
   else
-    run(prepare_for<float>(scene, opt), float_rows(res.width, res.precision));
+    run(*st.f, float_rows(res.width, res.precision));
   return res;
 }
 
+PrimaryResult PreparedRun::primary(int width, int threads, bool ids) const {
+  const State& st = *state_;
+  PrimaryResult res;
+  res.width = resolve_width(width, st.precision);
+  res.threads = resolve_threads(threads);
+  const std::size_t pixels = std::size_t(st.nx) * st.ny;
+  res.t.assign(pixels, 0.0f);
+  if (ids) res.id.assign(pixels, -1);
+  std::int32_t* id = ids ? res.id.data() : nullptr;
+  auto run = [&](const auto& prepared, const auto& rows) {
+    res.structure = structure_of(prepared);
+    res.seconds = timed([&] {
+      res.rays = run_tiles(st.ny, res.threads, st.opt, [&](int r0, int r1, RayCounts& c) {
+        rows.primary(prepared, res.t.data(), id, r0, r1, c);
+      });
+    });
+  };
+  if (st.d)
+    run(*st.d, double_rows(res.width));
+  else
+    run(*st.f, float_rows(res.width, st.precision));
+  return res;
+}
+
+RenderResult render(const Scene& scene, const RenderOptions& opt) {
+  return PreparedRun(scene, opt).render(opt.width, opt.threads);
+}
+
 PrimaryResult render_primary(const Scene& scene, const RenderOptions& opt) {
-  return primary_impl(scene, opt, false);
+  return PreparedRun(scene, opt).primary(opt.width, opt.threads, false);
 }
 
 PrimaryResult render_primary_with_ids(const Scene& scene, const RenderOptions& opt) {
-  return primary_impl(scene, opt, true);
+  return PreparedRun(scene, opt).primary(opt.width, opt.threads, true);
 }
 
 struct PrimaryKernelRun::State {

@@ -250,6 +250,41 @@ TEST(Bvh, SquarePrimaryPacketsMatchThePlainLoop) {
     }
 }
 
+// lancer bench prepares a scene once and times many frames of it (PreparedRun): each frame, at
+// any width, is the image and the hits of a render that prepares for itself, and frames do not
+// change one another (the prepared scene is only read).
+TEST(Bvh, PreparedRunFramesMatchOneShotRenders) {
+  CloudOptions o;
+  o.spheres = 3000;
+  o.duplicates = 0.2;
+  const Scene s = cloud(33, o);
+  for (Precision p : {Precision::exact, Precision::dbl}) {
+    SCOPED_TRACE(to_string(p));
+    RenderOptions opt;
+    opt.precision = p, opt.accel = Accel::bvh, opt.threads = 2;
+    const PreparedRun prepared(s, opt);
+    std::vector<int> widths = testing::packet_widths(p);
+    widths.insert(widths.begin(), 1);  // the reference
+    for (int w : widths) {
+      opt.width = w;
+      const RenderResult one = render(s, opt);
+      const RenderResult first = prepared.render(w, 2), second = prepared.render(w, 2);
+      expect_same(one, first, "first frame, width " + std::to_string(w));
+      expect_same(one, second, "second frame, width " + std::to_string(w));
+      EXPECT_EQ(first.width, w);
+      EXPECT_EQ(first.structure.kind, "bvh");
+      const PrimaryResult hits = render_primary_with_ids(s, opt);
+      const PrimaryResult frame = prepared.primary(w, 2, true);
+      EXPECT_EQ(hits.t, frame.t) << "width " << w;
+      EXPECT_EQ(hits.id, frame.id) << "width " << w;
+      EXPECT_TRUE(prepared.primary(w, 2).id.empty());
+    }
+  }
+  RenderOptions bad;
+  bad.width = 3;
+  EXPECT_THROW(PreparedRun(s, bad), InputError);
+}
+
 // The build runs large subtrees as parallel tasks: the same bytes on one thread as on two.
 TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
   CloudOptions o;

@@ -84,8 +84,8 @@ struct Traversal {
 
   // The lanes of `active` whose ray meets child k's box within [0, tmax]; tnear: where it enters.
   template <Slab kSlab>
-  static M child_hit(const Node& n, int k, const Ray& r, const M& active, const B& tmax,
-                     B& tnear) noexcept {
+  [[gnu::always_inline]] static M child_hit(const Node& n, int k, const Ray& r, const M& active,
+                                            const B& tmax, B& tnear) noexcept {
     B nx, ny, nz, fx, fy, fz;
     if constexpr (kSlab == Slab::signed_) {
       const char* base = reinterpret_cast<const char*>(&n) + std::size_t(k) * sizeof(T);
@@ -149,8 +149,9 @@ struct Traversal {
   // Branches rather than masks: coherent packets meet the same children from node to node, and
   // a predicted branch lets the next node's load start before these tests end.
   template <Slab kSlab>
-  static bool descend(const Node& n, unsigned order, const Ray& r, M& mask, const B& tmax,
-                      Stack& st, std::int32_t& child, std::int32_t& count) noexcept {
+  [[gnu::always_inline]] static bool descend(const Node& n, unsigned order, const Ray& r, M& mask,
+                                             const B& tmax, Stack& st, std::int32_t& child,
+                                             std::int32_t& count) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
     M m[kW];
     B tn[kW];
