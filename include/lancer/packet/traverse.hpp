@@ -148,10 +148,16 @@ struct Traversal {
   // others go onto the stack, the last first, so that they pop in order. False when none is met.
   // Branches rather than masks: coherent packets meet the same children from node to node, and
   // a predicted branch lets the next node's load start before these tests end.
+  //
+  // Inlined into the closest-hit walk (its ray then stays in registers from node to node: 3.7%
+  // more camera rays per second at 65536 spheres, median of 20 alternated runs); out of line
+  // (descend) for the any-hit walk, which `occluded` inlines into every render's shading loop,
+  // where inlining it too added 2-3% instructions to the course scenes at width 8.
   template <Slab kSlab>
-  [[gnu::always_inline]] static bool descend(const Node& n, unsigned order, const Ray& r, M& mask,
-                                             const B& tmax, Stack& st, std::int32_t& child,
-                                             std::int32_t& count) noexcept {
+  [[gnu::always_inline]] static bool descend_inline(const Node& n, unsigned order, const Ray& r,
+                                                    M& mask, const B& tmax, Stack& st,
+                                                    std::int32_t& child,
+                                                    std::int32_t& count) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
     M m[kW];
     B tn[kW];
@@ -177,6 +183,12 @@ struct Traversal {
       return true;
     }
     return false;
+  }
+  template <Slab kSlab>
+  [[gnu::noinline]] static bool descend(const Node& n, unsigned order, const Ray& r, M& mask,
+                                        const B& tmax, Stack& st, std::int32_t& child,
+                                        std::int32_t& count) noexcept {
+    return descend_inline<kSlab>(n, order, r, mask, tmax, st, child, count);
   }
 
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
@@ -221,7 +233,8 @@ struct Traversal {
     for (;;) {
       if (count < 0) {
         const Node& n = h.nodes[std::size_t(child)];
-        if (descend<kSlab>(n, unsigned(n.order[code]), r, mask, best_t, st, child, count)) continue;
+        if (descend_inline<kSlab>(n, unsigned(n.order[code]), r, mask, best_t, st, child, count))
+          continue;
       } else {
         leaf(child, count, mask);
       }
