@@ -1,6 +1,10 @@
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 
 #include "lancer/formulas.hpp"
 #include "lancer/prepared.hpp"
@@ -81,23 +85,25 @@ void add_bvh(PreparedScene<T>& p) {
   h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order,
                 p.frame.depth);
   const bool eye = !p.eye.c.empty();
-  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->reserve(order.size());
+  const std::size_t n = order.size();
+  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->resize(n);
   if (eye)
-    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) v->reserve(order.size());
+    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) v->resize(n);
   h.id = order;
-  for (std::int32_t i : order) {
-    const std::size_t k = std::size_t(i);
-    h.cx.push_back(p.sphere_cx[k]);
-    h.cy.push_back(p.sphere_cy[k]);
-    h.cz.push_back(p.sphere_cz[k]);
-    h.r2.push_back(p.sphere_r2[k]);
-    if (eye) {
-      h.eye_fx.push_back(p.eye.fx[k]);
-      h.eye_fy.push_back(p.eye.fy[k]);
-      h.eye_fz.push_back(p.eye.fz[k]);
-      h.eye_c.push_back(p.eye.c[k]);
-    }
-  }
+  // A gather: each entry written once from its own sphere, so any split over threads gives the
+  // same arrays. In parallel, as the build: at 2^20 spheres its random reads were a tenth of it.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t j = r.begin(); j < r.end(); ++j) {
+                        const std::size_t k = std::size_t(order[j]);
+                        h.cx[j] = p.sphere_cx[k], h.cy[j] = p.sphere_cy[k];
+                        h.cz[j] = p.sphere_cz[k], h.r2[j] = p.sphere_r2[k];
+                        if (eye) {
+                          h.eye_fx[j] = p.eye.fx[k], h.eye_fy[j] = p.eye.fy[k];
+                          h.eye_fz[j] = p.eye.fz[k], h.eye_c[j] = p.eye.c[k];
+                        }
+                      }
+                    });
   // The build time covers the copy too: the structure is not usable before it.
   h.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
