@@ -14,6 +14,11 @@ namespace lancer::packet {
 
 template <class Arch>
 inline constexpr bool kAvx512 = std::is_same_v<Arch, xsimd::avx512f>;
+// The AVX2 path runs only where the CPU has FMA too (src/dispatch.cpp) and is built with -mfma;
+// its exact mode keeps multiplications and additions apart in every pixel formula, and only the
+// traversal's slab test (a conservative cull, not a pixel value) uses fmsub on it.
+template <class Arch>
+inline constexpr bool kAvx2 = std::is_same_v<Arch, xsimd::avx2>;
 
 // a * b + c
 template <class T, class Arch>
@@ -36,6 +41,10 @@ xsimd::batch<T, Arch> fmsub(const xsimd::batch<T, Arch>& a, const xsimd::batch<T
     return _mm512_fmsub_ps(a, b, c);
   else if constexpr (kAvx512<Arch>)
     return _mm512_fmsub_pd(a, b, c);
+  else if constexpr (kAvx2<Arch> && std::is_same_v<T, float>)
+    return _mm256_fmsub_ps(a, b, c);
+  else if constexpr (kAvx2<Arch>)
+    return _mm256_fmsub_pd(a, b, c);
   else
     return xsimd::fms(a, b, c);
 }
