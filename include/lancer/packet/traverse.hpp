@@ -150,9 +150,10 @@ struct Traversal {
   // a predicted branch lets the next node's load start before these tests end.
   //
   // Inlined into the closest-hit walk (its ray then stays in registers from node to node: 3.7%
-  // more camera rays per second at 65536 spheres, median of 20 alternated runs); out of line
-  // (descend) for the any-hit walk, which `occluded` inlines into every render's shading loop,
-  // where inlining it too added 2-3% instructions to the course scenes at width 8.
+  // more camera rays per second at 65536 spheres, median of 20 alternated runs). The any-hit walk
+  // calls descend(), inlined or not as GCC chooses: `occluded` inlines that walk into every
+  // render's shading loop, and forcing descend in there added 2-3% instructions to the course
+  // scenes at width 8 (forcing it out, 0.6%); left to GCC, their counts are as before.
   template <Slab kSlab>
   [[gnu::always_inline]] static bool descend_inline(const Node& n, unsigned order, const Ray& r,
                                                     M& mask, const B& tmax, Stack& st,
@@ -185,9 +186,8 @@ struct Traversal {
     return false;
   }
   template <Slab kSlab>
-  [[gnu::noinline]] static bool descend(const Node& n, unsigned order, const Ray& r, M& mask,
-                                        const B& tmax, Stack& st, std::int32_t& child,
-                                        std::int32_t& count) noexcept {
+  static bool descend(const Node& n, unsigned order, const Ray& r, M& mask, const B& tmax,
+                      Stack& st, std::int32_t& child, std::int32_t& count) noexcept {
     return descend_inline<kSlab>(n, order, r, mask, tmax, st, child, count);
   }
 
