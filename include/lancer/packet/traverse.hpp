@@ -150,10 +150,11 @@ struct Traversal {
   // a predicted branch lets the next node's load start before these tests end.
   //
   // Inlined into the closest-hit walk (its ray then stays in registers from node to node: 3.7%
-  // more camera rays per second at 65536 spheres, median of 20 alternated runs). The any-hit walk
-  // calls descend(), inlined or not as GCC chooses: `occluded` inlines that walk into every
-  // render's shading loop, and forcing descend in there added 2-3% instructions to the course
-  // scenes at width 8 (forcing it out, 0.6%); left to GCC, their counts are as before.
+  // more camera rays per second at 65536 spheres, median of 20 alternated runs). Out of line
+  // (descend) for the any-hit walk, which `occluded` inlines into every render's shading loop:
+  // inlined there too, it added 2-3% instructions to the course scenes at width 8 (out of line,
+  // 0.6%). Left to GCC's choice, the counts were as before, but that code tripped qemu 7.2's AVX2
+  // emulation (random scene 109 of PacketIdentity.RandomScenes under .ci/qemu.sh).
   template <Slab kSlab>
   [[gnu::always_inline]] static bool descend_inline(const Node& n, unsigned order, const Ray& r,
                                                     M& mask, const B& tmax, Stack& st,
@@ -186,8 +187,9 @@ struct Traversal {
     return false;
   }
   template <Slab kSlab>
-  static bool descend(const Node& n, unsigned order, const Ray& r, M& mask, const B& tmax,
-                      Stack& st, std::int32_t& child, std::int32_t& count) noexcept {
+  [[gnu::noinline]] static bool descend(const Node& n, unsigned order, const Ray& r, M& mask,
+                                        const B& tmax, Stack& st, std::int32_t& child,
+                                        std::int32_t& count) noexcept {
     return descend_inline<kSlab>(n, order, r, mask, tmax, st, child, count);
   }
 
