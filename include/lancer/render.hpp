@@ -82,8 +82,8 @@ PrimaryResult render_primary(const Scene& scene, const RenderOptions& options);
 // for its camera rays' closest hits, as often as asked, at any width and thread count of that
 // precision. lancer bench times frames so, as it times the Embree peer's over a scene it built
 // once: a frame that follows its own build runs beside the build's parallel workers and in the
-// caches it left (measured: primary Mrays/s 11% lower at 65536 spheres on 2 vCPUs; docs/accel.md). The
-// build is reported apart (StructureInfo::build_seconds). render(), render_primary() and
+// caches it left (measured: primary Mrays/s 11% lower at 65536 spheres on 2 vCPUs; docs/accel.md).
+// The build is reported apart (StructureInfo::build_seconds). render(), render_primary() and
 // render_primary_with_ids() each make one for one frame.
 class PreparedRun {
  public:
