@@ -99,15 +99,15 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     ro.threads = row.threads;
     ro.precision = row_precision[k];
     ro.accel = opt.accel;
+    const PreparedRun* lancer_run = nullptr;
     if (row.engine == "lancer" && row.mode == "kernel") {
       kernels[k] = std::make_unique<PrimaryKernelRun>(scene, ro);
     } else if (row.engine == "lancer") {
       std::unique_ptr<PreparedRun>& p = prepared[ro.precision];
       if (!p) p = std::make_unique<PreparedRun>(scene, ro);
+      lancer_run = p.get();
     }
     const peer::EmbreeScene* embree = row_setup[k] >= 0 ? embrees[row_setup[k]].get() : nullptr;
-    const PreparedRun* lancer_run =
-        row.engine == "lancer" && row.mode != "kernel" ? prepared[ro.precision].get() : nullptr;
     run.push_back([embree, &row, &out, lancer_run, kernel = kernels[k].get()]() -> double {
       if (embree) {
         if (row.mode == "primary") {

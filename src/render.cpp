@@ -255,51 +255,51 @@ PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
 
 PreparedRun::~PreparedRun() = default;
 
-RenderResult PreparedRun::render(int width, int threads) const {
+// One timed frame: body(prepared, rows, r0, r1, counts) over the image's row tiles at the
+// resolved width and thread count; fills res's width, threads, structure, seconds and rays.
+template <class Result, class Body>
+void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   const State& st = *state_;
-  RenderResult res;
-  res.precision = st.precision;
-  res.precision_reason = st.reason;
   res.width = resolve_width(width, st.precision);
   res.threads = resolve_threads(threads);
-  res.isa = packet::isa_name(res.width, res.precision);
-  res.image = Image(st.nx, st.ny);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
     res.seconds = timed([&] {
-      res.rays = run_tiles(st.ny, res.threads, st.opt, [&](int r0, int r1, RayCounts& c) {
-        rows.render(prepared, res.image, r0, r1, c);
-      });
-    });
-  };
-  if (st.d)
-    run(*st.d, double_rows(res.width));
-  else
-    run(*st.f, float_rows(res.width, res.precision));
-  return res;
-}
-
-PrimaryResult PreparedRun::primary(int width, int threads, bool ids) const {
-  const State& st = *state_;
-  PrimaryResult res;
-  res.width = resolve_width(width, st.precision);
-  res.threads = resolve_threads(threads);
-  const std::size_t pixels = std::size_t(st.nx) * st.ny;
-  res.t.assign(pixels, 0.0f);
-  if (ids) res.id.assign(pixels, -1);
-  std::int32_t* id = ids ? res.id.data() : nullptr;
-  auto run = [&](const auto& prepared, const auto& rows) {
-    res.structure = structure_of(prepared);
-    res.seconds = timed([&] {
-      res.rays = run_tiles(st.ny, res.threads, st.opt, [&](int r0, int r1, RayCounts& c) {
-        rows.primary(prepared, res.t.data(), id, r0, r1, c);
-      });
+      res.rays = run_tiles(st.ny, res.threads, st.opt,
+                           [&](int r0, int r1, RayCounts& c) { body(prepared, rows, r0, r1, c); });
     });
   };
   if (st.d)
     run(*st.d, double_rows(res.width));
   else
     run(*st.f, float_rows(res.width, st.precision));
+}
+
+RenderResult PreparedRun::render(int width, int threads) const {
+  const State& st = *state_;
+  RenderResult res;
+  res.precision = st.precision;
+  res.precision_reason = st.reason;
+  res.image = Image(st.nx, st.ny);
+  frame(res, width, threads,
+        [&](const auto& prepared, const auto& rows, int r0, int r1, RayCounts& c) {
+          rows.render(prepared, res.image, r0, r1, c);
+        });
+  res.isa = packet::isa_name(res.width, res.precision);
+  return res;
+}
+
+PrimaryResult PreparedRun::primary(int width, int threads, bool ids) const {
+  const State& st = *state_;
+  PrimaryResult res;
+  const std::size_t pixels = std::size_t(st.nx) * st.ny;
+  res.t.assign(pixels, 0.0f);
+  if (ids) res.id.assign(pixels, -1);
+  std::int32_t* id = ids ? res.id.data() : nullptr;
+  frame(res, width, threads,
+        [&](const auto& prepared, const auto& rows, int r0, int r1, RayCounts& c) {
+          rows.primary(prepared, res.t.data(), id, r0, r1, c);
+        });
   return res;
 }
 

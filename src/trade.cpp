@@ -41,8 +41,11 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
     std::unique_ptr<PreparedRun>& p = prepared[ro.precision];
     if (!p) p = std::make_unique<PreparedRun>(scene, ro);
   }
+  auto run_of = [&](std::size_t k) -> const PreparedRun& {
+    return *prepared[configs[k].precision];
+  };
   auto frame = [&](std::size_t k) {
-    return prepared[configs[k].precision]->render(configs[k].width, configs[k].threads);
+    return run_of(k).render(configs[k].width, configs[k].threads);
   };
 
   // Errors: one render of each.
@@ -54,7 +57,7 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
     rows[k].psnr_db = shown.psnr_db;
     rows[k].off_pixel_frac = shown.off_fraction;
     const std::vector<std::int32_t> ids =
-        prepared[configs[k].precision]->primary(configs[k].width, configs[k].threads, true).id;
+        run_of(k).primary(configs[k].width, configs[k].threads, true).id;
     std::size_t mismatched = 0;
     for (std::size_t i = 0; i < ids.size(); ++i) mismatched += ids[i] != truth_ids[i];
     rows[k].hit_mismatch_frac = ids.empty() ? 0 : double(mismatched) / double(ids.size());

@@ -101,6 +101,8 @@ class PreparedRun {
  private:
   struct State;
   std::unique_ptr<State> state_;
+  template <class Result, class Body>
+  void frame(Result& res, int width, int threads, Body body) const;  // render.cpp only
 };
 
 // The primary intersection kernel alone (lancer bench --mode kernel): the camera rays of every
