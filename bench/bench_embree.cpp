@@ -40,6 +40,7 @@ std::string slug(const peer::EmbreeConfig& how) {
   std::string s = how.user_spheres ? "user-spheres" : "sphere-points";
   if (how.high_quality) s += "-high";
   if (how.tiles) s += "-tiles";
+  if (how.streams) s += "-streams";
   if (how.compact) s += "-compact";
   return s;
 }
@@ -81,11 +82,11 @@ void register_embree_benchmarks(const std::string& scene_path) {
     EmbreeCase* c = cases.back().get();
     for (int width : peer::embree_widths(packet::supported_widths())) {
       const std::string w = "/w" + std::to_string(width);
-      if (how.tiles && width != 16) continue;  // 4x4 packets: width 16 only
+      if (how.tiles && width == 1) continue;  // square packets: widths 4, 8 and 16
       const std::string tail = "/embree/" + slug(how);
       benchmark::RegisterBenchmark(("primary/" + name + w + tail).c_str(), embree_primary, c, width)
           ->Unit(benchmark::kMillisecond);
-      if (how.tiles) continue;  // 4x4 packets are for camera rays only
+      if (how.tiles || how.streams) continue;  // camera rays only
       benchmark::RegisterBenchmark(("full/" + name + w + tail).c_str(), embree_full, c, width)
           ->Unit(benchmark::kMillisecond);
     }

@@ -70,8 +70,13 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
             r.precision = "float";  // Embree's own single-precision arithmetic
             for (std::size_t e = 0; e < embrees.size(); ++e) {
               const peer::EmbreeConfig& how = embrees[e]->config();
-              // 4x4 packets exist for width-16 camera rays only: elsewhere a duplicate.
-              if (how.tiles && (width != 16 || mode != "primary") && embrees.size() > 1) continue;
+              // Square packets and streams exist for camera rays only (square packets from width
+              // 4 up): elsewhere they would run the rows of another setup under their name.
+              const bool tiles_here = mode == "primary" && width > 1;
+              const bool streams_here = mode == "primary";
+              if (((how.tiles && !tiles_here) || (how.streams && !streams_here)) &&
+                  embrees.size() > 1)
+                continue;
               r.config = how.name();
               r.build_seconds = embrees[e]->build_seconds();
               rows.push_back(r);

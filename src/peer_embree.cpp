@@ -473,41 +473,44 @@ struct EmbreeScene::Impl {
     }
   }
 
-  // Width 16 as 4x4-pixel packets (rows r0..r1 come in tiles of 4 rows): rays of a square
-  // diverge less than those of a row, so Embree's packet traversal keeps more lanes together.
-  void primary_tiles16(float* t_out, int r0, int r1, RayCounts& counts) const {
+  // Packets of W as squares, as lancer's camera packets (16: 4x4, 8: 4x2, 4: 2x2 pixels; rows
+  // r0..r1 come in tiles of 4 rows): rays of a square diverge less than those of a row, so
+  // Embree's packet traversal keeps more lanes together.
+  template <int W>
+  void primary_tiles(float* t_out, int r0, int r1, RayCounts& counts) const {
+    constexpr int kTw = W >= 8 ? 4 : 2, kTh = W / kTw;
     const PreparedCamera<float>& cam = s.camera;
-    alignas(64) RTCRayHit16 rh;
-    alignas(64) int valid[16];
+    alignas(64) typename Api<W>::RayHit rh;
+    alignas(64) int valid[W];
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTCRayHitN* rhn = reinterpret_cast<RTCRayHitN*>(&rh);
-    RTCRayN* ray = RTCRayHitN_RayN(rhn, 16);
-    RTCHitN* hit = RTCRayHitN_HitN(rhn, 16);
-    float sum[16];
-    for (int j0 = r0; j0 < r1; j0 += 4)
-      for (int i0 = 0; i0 < cam.nx; i0 += 4) {
+    RTCRayN* ray = RTCRayHitN_RayN(rhn, W);
+    RTCHitN* hit = RTCRayHitN_HitN(rhn, W);
+    float sum[W];
+    for (int j0 = r0; j0 < r1; j0 += kTh)
+      for (int i0 = 0; i0 < cam.nx; i0 += kTw) {
         for (float& v : sum) v = 0.0f;
         for (int b = 0; b < cam.samples; ++b)
           for (int a = 0; a < cam.samples; ++a) {
             Vec3<float> o, d, o0, d0;
             int lanes = 0;
-            for (int k = 0; k < 16; ++k) {
-              const int i = i0 + k % 4, j = j0 + k / 4;
+            for (int k = 0; k < W; ++k) {
+              const int i = i0 + k % kTw, j = j0 + k / kTw;
               const bool in = i < cam.nx && j < r1;
               if (in) camera_ray_of(i, j, a, b, o, d), ++lanes;
               if (k == 0) o0 = o, d0 = d;
               valid[k] = in ? -1 : 0;
-              set_ray<16>(ray, k, in ? o : o0, in ? d : d0, s.epsilon, kInf);
-              clear_hit<16>(hit, k);
+              set_ray<W>(ray, k, in ? o : o0, in ? d : d0, s.epsilon, kInf);
+              clear_hit<W>(hit, k);
             }
             counts.camera += lanes;
-            rtcIntersect16(valid, scene, &ctx, &rh);
-            for (int k = 0; k < 16; ++k) sum[k] = sum[k] + RTCRayN_tfar(ray, 16, k);
+            Api<W>::intersect(valid, scene, &ctx, rh);
+            for (int k = 0; k < W; ++k) sum[k] = sum[k] + RTCRayN_tfar(ray, W, k);
           }
-        for (int k = 0; k < 16; ++k) {
-          const int i = i0 + k % 4, j = j0 + k / 4;
+        for (int k = 0; k < W; ++k) {
+          const int i = i0 + k % kTw, j = j0 + k / kTw;
           if (i < cam.nx && j < r1) t_out[std::size_t(j) * cam.nx + i] = sum[k];
         }
       }
@@ -678,21 +681,27 @@ PrimaryResult EmbreeScene::primary(int width, int threads) const {
   res.t.assign(std::size_t(im.s.camera.nx) * im.s.camera.ny, 0.0f);
   const auto start = Clock::now();
   res.rays = embree_tiles(im.s.camera.ny, res.threads, [&](int r0, int r1, RayCounts& c) {
+    // Streams are Embree's own regrouping, whatever the width asked for; tiles are packets.
+    if (im.config.streams) return im.primary_streams(res.t.data(), r0, r1, c);
     switch (width) {
       case 1:
         im.primary_rows<1>(res.t.data(), r0, r1, c);
         break;
       case 4:
-        im.primary_rows<4>(res.t.data(), r0, r1, c);
+        if (im.config.tiles)
+          im.primary_tiles<4>(res.t.data(), r0, r1, c);
+        else
+          im.primary_rows<4>(res.t.data(), r0, r1, c);
         break;
       case 8:
-        im.primary_rows<8>(res.t.data(), r0, r1, c);
+        if (im.config.tiles)
+          im.primary_tiles<8>(res.t.data(), r0, r1, c);
+        else
+          im.primary_rows<8>(res.t.data(), r0, r1, c);
         break;
       default:
-        if (im.config.streams)
-          im.primary_streams(res.t.data(), r0, r1, c);
-        else if (im.config.tiles)
-          im.primary_tiles16(res.t.data(), r0, r1, c);
+        if (im.config.tiles)
+          im.primary_tiles<16>(res.t.data(), r0, r1, c);
         else
           im.primary_rows<16>(res.t.data(), r0, r1, c);
         break;
@@ -834,7 +843,7 @@ std::string EmbreeConfig::name() const {
   if (streams)
     n += ", 1M streams";
   else if (tiles)
-    n += ", 4x4 packets";
+    n += ", square packets";
   if (compact) n += ", compact";
   return n;
 }

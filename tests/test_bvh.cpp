@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <array>
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -27,6 +29,8 @@ struct CloudOptions {
   bool eye_inside = false;   // the camera inside the cloud
   int nx = 48, ny = 32;
   int max_depth = 3;
+  double scale = 1;                                      // every length times this
+  std::array<double, 3> direction = {0.1, -0.05, -1.0};  // the camera's
 };
 
 // N random spheres in a box before the camera, a ground plane far below (so reflections hit it
@@ -37,6 +41,7 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
     return lo + (hi - lo) * (double(rng() >> 11) * 0x1.0p-53);
   };
   const double side = 2.0 * std::cbrt(double(o.spheres));
+  const double k = o.scale;
   json objects = json::array();
   std::vector<json> made;
   for (int i = 0; i < o.spheres; ++i) {
@@ -46,9 +51,9 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
     } else {
       s = {{"type", "sphere"},
            {"center",
-            {uniform(-side / 2, side / 2), uniform(-side / 2, side / 2),
-             uniform(-side - (o.eye_inside ? 0 : 5), o.eye_inside ? side / 2 : -5.0)}},
-           {"radius", uniform(0.2, 0.6)}};
+            {k * uniform(-side / 2, side / 2), k * uniform(-side / 2, side / 2),
+             k * uniform(-side - (o.eye_inside ? 0 : 5), o.eye_inside ? side / 2 : -5.0)}},
+           {"radius", k * uniform(0.2, 0.6)}};
     }
     // Each copy its own colour: a tie won by the wrong id shows in the image.
     s["material"] = {{"color", {uniform(0.1, 1), uniform(0.1, 1), uniform(0.1, 1)}},
@@ -61,20 +66,21 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
     objects.push_back(s);
   }
   objects.push_back({{"type", "plane"},
-                     {"point", {0, -side / 2 - 1, 0}},
+                     {"point", {0, k * (-side / 2 - 1), 0}},
                      {"normal", {0, 1, 0}},
                      {"material", {{"color", {0.8, 0.8, 0.8}}, {"kd", 0.8}, {"reflect", 0.3}}}});
-  const json j{{"camera",
-                {{"type", "pinhole"},
-                 {"position", {0, 0, 0}},
-                 {"direction", {0.1, -0.05, -1}},
-                 {"distance", 5},
-                 {"resolution", {o.nx, o.ny}},
-                 {"bounds", {-3, 3, -2, 2}}}},
-               {"background", {0.1, 0.1, 0.2}},
-               {"max_depth", o.max_depth},
-               {"lights", {{{"position", {side, side, 5}}, {"intensity", 1}, {"ambient", 0.2}}}},
-               {"objects", objects}};
+  const json j{
+      {"camera",
+       {{"type", "pinhole"},
+        {"position", {0, 0, 0}},
+        {"direction", o.direction},
+        {"distance", 5 * k},
+        {"resolution", {o.nx, o.ny}},
+        {"bounds", {-3 * k, 3 * k, -2 * k, 2 * k}}}},
+      {"background", {0.1, 0.1, 0.2}},
+      {"max_depth", o.max_depth},
+      {"lights", {{{"position", {k * side, k * side, k * 5}}, {"intensity", 1}, {"ambient", 0.2}}}},
+      {"objects", objects}};
   return parse_scene(j.dump(), "cloud.json");
 }
 
@@ -248,6 +254,42 @@ TEST(Bvh, SquarePrimaryPacketsMatchThePlainLoop) {
         EXPECT_EQ(plain.id, tree.id) << "width " << w;
       }
     }
+}
+
+// Pinhole camera packets walk the hierarchy in groups of tiles as one interval ray (Traversal::
+// closest_frustum), whose bounds must hold for every lane's rounded slab values. Each pixel's t
+// and id as the plain loop's, at every width, at log-uniform scales (1e-4 to 1e6: the slab
+// products' magnitudes) and view directions whose tiles agree in sign on every axis or straddle
+// one (a direction component 0: the 2^-64 reciprocal clamp), with duplicate spheres (ties).
+TEST(Bvh, CameraGroupsMatchThePlainLoopAtAnyScale) {
+  std::mt19937_64 rng(2026);
+  const std::array<std::array<double, 3>, 4> directions = {
+      {{0.1, -0.05, -1.0}, {0.0, 0.0, -1.0}, {0.7, 0.6, -0.4}, {-0.3, 0.0, -1.0}}};
+  for (int round = 0; round < 6; ++round) {
+    CloudOptions o;
+    o.spheres = 1500;
+    o.duplicates = 0.2;
+    o.nx = 45, o.ny = 22;
+    o.scale = std::pow(10.0, -4.0 + 10.0 * double(rng() >> 11) * 0x1.0p-53);
+    o.direction = directions[std::size_t(round) % directions.size()];
+    const Scene s = cloud(100 + std::uint64_t(round), o);
+    SCOPED_TRACE("scale " + std::to_string(o.scale) + ", direction " +
+                 std::to_string(o.direction[0]) + " " + std::to_string(o.direction[1]) + " " +
+                 std::to_string(o.direction[2]));
+    RenderOptions po;
+    po.threads = 2;
+    po.width = 1, po.accel = Accel::none;
+    const PrimaryResult plain = render_primary_with_ids(s, po);
+    int hits = 0;
+    for (float id : plain.id) hits += id >= 0 && id < 1500;
+    EXPECT_GT(hits, 50);  // the spheres are in view
+    for (int w : testing::packet_widths(Precision::exact)) {
+      po.width = w, po.accel = Accel::bvh;
+      const PrimaryResult tree = render_primary_with_ids(s, po);
+      EXPECT_EQ(plain.t, tree.t) << "width " << w;
+      EXPECT_EQ(plain.id, tree.id) << "width " << w;
+    }
+  }
 }
 
 // lancer bench prepares a scene once and times many frames of it (PreparedRun): each frame, at

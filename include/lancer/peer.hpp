@@ -62,23 +62,25 @@ struct PeerHit {
 // How the peer builds and traces, to find Embree's fastest setup on these rays (issue 12):
 // spheres as RTC_GEOMETRY_TYPE_SPHERE_POINT (Embree 3.13 tests their leaves one lane at a
 // time) or as a user geometry whose callback takes a whole packet; build quality MEDIUM
-// (Embree's default) or HIGH (spatial splits: a better tree, a slower build); width-16 camera
-// packets as a row's 16 columns or 4x4-pixel squares, or rtcIntersect1M streams of 64 camera
-// rays (four 4x4 squares) that Embree regroups itself; RTC_SCENE_FLAG_COMPACT.
+// (Embree's default) or HIGH (spatial splits: a better tree, a slower build); camera packets
+// of W as a row's W columns or as squares (4x4, 4x2, 2x2 pixels, as lancer's), or, at any
+// width, rtcIntersect1M streams of 64 camera rays (four 4x4 squares) that Embree regroups
+// itself; RTC_SCENE_FLAG_COMPACT.
 struct EmbreeConfig {
   bool user_spheres = false;
   bool high_quality = false;
   bool tiles = false;
   bool compact = false;
   bool streams = false;
-  std::string name() const;  // "user spheres, build high, 4x4 packets"
+  std::string name() const;  // "user spheres, build high, square packets"
 };
 // From LANCER_EMBREE_SETUP, comma-separated words: user-spheres, high, tiles, compact, streams
 // (unset: the defaults). Throws InputError on an unknown word.
 EmbreeConfig embree_config_from_env();
 // The setups lancer bench tries, each a row of its own, keeping the fastest per row: only
 // LANCER_EMBREE_SETUP's when it is set, else sphere points and user spheres, each at build
-// quality MEDIUM and HIGH, and user spheres with 4x4 packets and with streams.
+// quality MEDIUM and HIGH, and user spheres with square packets (4x4, 4x2, 2x2 pixels) and with
+// streams.
 std::vector<EmbreeConfig> embree_setups();
 
 class EmbreeScene {

@@ -20,6 +20,14 @@ inline constexpr bool kAvx512 = std::is_same_v<Arch, xsimd::avx512f>;
 template <class Arch>
 inline constexpr bool kAvx2 = std::is_same_v<Arch, xsimd::avx2>;
 
+template <class Arch>
+struct IsFma3 : std::false_type {};
+template <class Arch>
+struct IsFma3<xsimd::fma3<Arch>> : std::true_type {};
+// Whether fmsub below rounds once on this arch (interval bounds must round as the lanes do).
+template <class Arch>
+inline constexpr bool kFusedFmsub = kAvx512<Arch> || kAvx2<Arch> || IsFma3<Arch>::value;
+
 // a * b + c
 template <class T, class Arch>
 xsimd::batch<T, Arch> fmadd(const xsimd::batch<T, Arch>& a, const xsimd::batch<T, Arch>& b,

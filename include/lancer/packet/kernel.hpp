@@ -408,20 +408,41 @@ struct Kernel {
       }
     }
 
-    if (s.features.planes) {
-      const B eps(s.epsilon);
-      for (int k = 0; k < s.num_planes; ++k) {
-        tests(counts, valid, false);
-        const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
-        const B denom = Mth::dot(d, n);
-        const B t = Mth::div(
-            Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n), denom);
-        const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
-        best_t = xsimd::select(m, t, best_t);
-        best_id = xsimd::select(to_mi(m), I(Id(s.num_spheres + k)), best_id);
-      }
-    }
+    if (s.features.planes) planes_closest(s, valid, o, d, best_t, best_id, counts);
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
+  }
+
+  // The planes' part of closest_hit: after the spheres, in id order (their ids are higher).
+  [[gnu::always_inline]] static void planes_closest(const Scene& s, const M& valid, const V& o,
+                                                    const V& d, B& best_t, I& best_id,
+                                                    RayCounts& counts) noexcept {
+    const B eps(s.epsilon);
+    for (int k = 0; k < s.num_planes; ++k) {
+      tests(counts, valid, false);
+      const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
+      const B denom = Mth::dot(d, n);
+      const B t =
+          Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n), denom);
+      const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
+      best_t = xsimd::select(m, t, best_t);
+      best_id = xsimd::select(to_mi(m), I(Id(s.num_spheres + k)), best_id);
+    }
+  }
+
+  // The spheres of kN pinhole camera packets through the hierarchy at once
+  // (Traversal::closest_coherent): one walk for tiles side by side.
+  template <int kN>
+  [[gnu::noinline]] static void closest_group_in_hierarchy(const Scene& s, const M* valid,
+                                                           const V* o, const V* d, B* best_t,
+                                                           I* best_id, RayCounts& counts) noexcept {
+    const Spheres sp = leaf_spheres(s);
+    const I none(Id(-1));
+    auto leaf = [&](int i, int first, int n, const M& m) {
+      leaf_visit(counts, m);
+      spheres_closest<true, false>(s, sp, first, first + n, m, o[i], d[i], best_t[i], best_id[i],
+                                   counts, none);
+    };
+    Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf);
   }
 
   // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)
@@ -1023,10 +1044,15 @@ struct Kernel {
   static constexpr int kTileH = W / kTileW;
 
   // Lanes k = p[k % kTileW] (columns) and p[k / kTileW] (rows), from kTileW (kTileH) readable
-  // values. AVX-512 float: one 128-bit load, broadcast or permuted; else through memory.
+  // values. Float: one load, broadcast or permuted (lanes filled one by one through memory cost
+  // a failed store forwarding per packet); double through memory.
   static B tile_columns(const T* p) noexcept {
     if constexpr (std::is_same_v<T, float> && W == 16) {
       return _mm512_broadcast_f32x4(_mm_loadu_ps(p));
+    } else if constexpr (std::is_same_v<T, float> && W == 8) {
+      return _mm256_broadcast_ps(reinterpret_cast<const __m128*>(p));
+    } else if constexpr (std::is_same_v<T, float> && W == 4) {
+      return _mm_castpd_ps(_mm_load1_pd(reinterpret_cast<const double*>(p)));
     } else {
       alignas(64) T v[W];
       for (int k = 0; k < W; ++k) v[k] = p[k % kTileW];
@@ -1037,12 +1063,26 @@ struct Kernel {
     if constexpr (std::is_same_v<T, float> && W == 16) {
       const __m512i quarter = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
       return _mm512_permutexvar_ps(quarter, _mm512_castps128_ps512(_mm_loadu_ps(p)));
+    } else if constexpr (std::is_same_v<T, float> && W == 8) {
+      return _mm256_set_m128(_mm_set1_ps(p[1]), _mm_set1_ps(p[0]));
+    } else if constexpr (std::is_same_v<T, float> && W == 4) {
+      const __m128 two = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(p)));
+      return _mm_unpacklo_ps(two, two);
     } else {
       alignas(64) T v[W];
       for (int k = 0; k < W; ++k) v[k] = p[k / kTileW];
       return B::load_aligned(v);
     }
   }
+
+  // Pinhole cameras (float): kGroup tiles side by side (a block kGroupPx wide, kBlockRows high)
+  // walk the hierarchy together (closest_group_in_hierarchy), each tile's rays tested at the
+  // leaves as its own packet. Measured at 65536 spheres: docs/accel.md.
+  static constexpr int kGroupPx = std::is_same_v<T, float> ? (W >= 16 ? 16 : 8) : kTileW;
+  static constexpr int kGroupX = kGroupPx / kTileW;
+  static constexpr int kBlockRows = 4;  // the row tiles of run_tiles (tiles.hpp kTileRows)
+  static constexpr int kGroupY = std::is_same_v<T, float> ? kBlockRows / kTileH : 1;
+  static constexpr int kGroup = kGroupX * kGroupY;
 
   static void primary_tiles(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
                             int row_end, RayCounts& counts) noexcept {
@@ -1052,41 +1092,76 @@ struct Kernel {
     const B col = B::load_aligned(col_of), row = B::load_aligned(row_of);
     alignas(64) T out[W], edge_x[kTileW], edge_y[kTileH];
     alignas(64) Id ids[W];
-    for (int j0 = row_begin; j0 < row_end; j0 += kTileH) {
-      const int rows = std::min(kTileH, row_end - j0);
-      for (int i0 = 0; i0 < cam.nx; i0 += kTileW) {
-        const int cols = std::min(kTileW, cam.nx - i0);
-        const M valid = (col < B(T(cols))) & (row < B(T(rows)));
-        B sum(0);
-        I first_id(Id(-1));
+    const bool group = kGroup > 1 && !cam.orthographic && s.features.spheres;
+    const int gy = group ? kGroupY : 1, gx = group ? kGroupX : 1;
+    for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy) {
+      for (int i0 = 0; i0 < cam.nx; i0 += kTileW * gx) {
+        // Tile g of the block: columns ti[g] .., rows tj[g] ..; cols or rows 0: outside.
+        int ti[kGroup], tj[kGroup], cols[kGroup], rows[kGroup];
+        M valid[kGroup];
+        B sum[kGroup];
+        I first_id[kGroup];
+        const int n = gx * gy;
+        for (int g = 0; g < n; ++g) {
+          ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
+          cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
+          rows[g] = std::max(0, std::min(kTileH, row_end - tj[g]));
+          valid[g] = (col < B(T(cols[g]))) & (row < B(T(rows[g])));
+          sum[g] = B(0), first_id[g] = I(Id(-1));
+        }
         for (int b = 0; b < cam.samples; ++b) {
-          // A tile at the image's edge repeats its last live row or column in its dead lanes.
-          const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + j0];
-          if (rows < kTileH) {
-            for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows - 1)];
-            ys = edge_y;
-          }
-          const B y = tile_rows(ys);
           for (int a = 0; a < cam.samples; ++a) {
-            const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + i0];
-            if (cols < kTileW) {
-              for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols - 1)];
-              xs = edge_x;
+            V o[kGroup], d[kGroup];
+            for (int g = 0; g < n; ++g) {
+              if (cols[g] == 0 || rows[g] == 0) {  // no live lane: tile 0's rays, unused
+                o[g] = o[0], d[g] = d[0];
+                continue;
+              }
+              // A tile at the image's edge repeats its last live row or column in its dead lanes.
+              const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + tj[g]];
+              if (rows[g] < kTileH) {
+                for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
+                ys = edge_y;
+              }
+              const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + ti[g]];
+              if (cols[g] < kTileW) {
+                for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
+                xs = edge_x;
+              }
+              camera_ray<Mth>(cam, tile_columns(xs), tile_rows(ys), o[g], d[g]);
+              counts.camera += std::uint64_t(cols[g] * rows[g]);
             }
-            V o, d;
-            camera_ray<Mth>(cam, tile_columns(xs), y, o, d);
-            counts.camera += std::uint64_t(cols * rows);
-            primary_hit(s, valid, o, d, sum, first_id, a == 0 && b == 0, counts);
+            const bool first = a == 0 && b == 0;
+            if (!group) {
+              primary_hit(s, valid[0], o[0], d[0], sum[0], first_id[0], first, counts);
+              continue;
+            }
+            B t[kGroup];
+            I id[kGroup];
+            for (int g = 0; g < kGroup; ++g)
+              t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
+            closest_group_in_hierarchy<kGroup>(s, valid, o, d, t, id, counts);
+            for (int g = 0; g < n; ++g) {
+              if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
+              sum[g] = sum[g] + t[g];
+              if (first) first_id[g] = id[g];
+            }
           }
         }
-        sum.store_aligned(out);
-        if (id_out) first_id.store_aligned(ids);
-        for (int r = 0; r < rows; ++r) {
-          const std::size_t at = std::size_t(j0 + r) * cam.nx + i0;
-          for (int c = 0; c < cols; ++c) t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
-          if (id_out)
-            for (int c = 0; c < cols; ++c)
-              id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
+        for (int g = 0; g < n; ++g) {
+          sum[g].store_aligned(out);
+          if (id_out) first_id[g].store_aligned(ids);
+          for (int r = 0; r < rows[g]; ++r) {
+            const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
+            if (std::is_same_v<T, float> && cols[g] == kTileW)  // one move per row
+              std::memcpy(t_out + at, &out[r * kTileW], sizeof(float) * kTileW);
+            else
+              for (int c = 0; c < cols[g]; ++c)
+                t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
+            if (id_out)
+              for (int c = 0; c < cols[g]; ++c)
+                id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
+          }
         }
       }
     }

@@ -6,6 +6,8 @@
 // collapsed from, the nearer side first by its summed direction's sign on each split's axis, and
 // re-culls popped subtrees against the lanes' best t. The result does not depend on the order:
 // the leaf functor keeps the lexicographic minimum of (t, object id).
+// Camera blocks (closest_coherent): several tiles' packets walk the inner nodes as one interval
+// ray, and each tile tests each leaf's box with its own lanes; the same rule makes it exact.
 // Any hit: children in their FIXED slot order, depth first, for every packet and ray,
 // so each lane meets the objects along its segment in one order on every path (a product of
 // transmittances over them is then the same bits everywhere). Stops once no lane is pending.
@@ -13,6 +15,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <type_traits>
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/bvh.hpp"
@@ -20,6 +24,36 @@
 #include "lancer/vec3.hpp"
 
 namespace lancer::packet {
+
+// pshufb controls for pushing a 4-wide node's met children as one vector (closest_frustum).
+struct PushTables {
+  alignas(16) std::uint8_t reverse[256][16];  // per order byte: lane i = the slot visited 4th-i
+  alignas(16) std::uint8_t compress[16][16];  // per 4-bit mask: its set lanes first, in order
+  alignas(16) std::int32_t arity[5][4];       // lanes < arity set
+  std::int8_t count[16];                      // set bits of a 4-bit mask
+};
+constexpr PushTables push_tables() {
+  PushTables t{};
+  for (int o = 0; o < 256; ++o)
+    for (int i = 0; i < 4; ++i)
+      for (int b = 0; b < 4; ++b)
+        t.reverse[o][4 * i + b] = std::uint8_t(4 * ((o >> (2 * (3 - i))) & 3) + b);
+  for (int m = 0; m < 16; ++m) {
+    int n = 0;
+    for (int i = 0; i < 4; ++i)
+      if (m >> i & 1) {
+        for (int b = 0; b < 4; ++b) t.compress[m][4 * n + b] = std::uint8_t(4 * i + b);
+        ++n;
+      }
+    for (int i = n; i < 4; ++i)
+      for (int b = 0; b < 4; ++b) t.compress[m][4 * i + b] = 0x80;  // zero
+    t.count[m] = std::int8_t(n);
+  }
+  for (int a = 0; a <= 4; ++a)
+    for (int i = 0; i < 4; ++i) t.arity[a][i] = i < a ? -1 : 0;
+  return t;
+}
+inline constexpr PushTables kPush = push_tables();
 
 template <class Arch, class T>
 struct Traversal {
@@ -39,18 +73,23 @@ struct Traversal {
     bool neg[3];
     std::size_t near[3], far[3];  // signed: byte offsets in a Node of each axis' lo or hi array
   };
-  static Ray slab_ray(const V& o, const V& d) noexcept {
+  // Sets r's slab form of the ray (o, d), and its pad if kPad (only padded traversals read it;
+  // the per-packet walks compute it anyway: without it GCC's any-hit code for width 8 changed
+  // and tripped qemu 7.2's AVX2 emulation on random scene 109 of .ci/qemu.sh, as noted in
+  // docs/precision.md).
+  template <bool kPad>
+  static void slab_ray(Ray& r, const V& o, const V& d) noexcept {
     const B tiny(T(0x1p-64));
     auto rcp = [&](const B& x) { return B(T(1)) / xsimd::select(xsimd::abs(x) < tiny, tiny, x); };
-    Ray r;
     r.inv = V{rcp(d.x), rcp(d.y), rcp(d.z)};
     r.oi = V{o.x * r.inv.x, o.y * r.inv.y, o.z * r.inv.z};
-    // Rays from beyond the origin limit (hits on a far plane): the sphere test's rounding
-    // grows with |origin|, so the boxes grow by Bvh::kOriginPad |origin| for them.
-    const B far = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z)) *
-                  B(T(Bvh<T>::kOriginPad));
-    r.pad = V{far * xsimd::abs(r.inv.x), far * xsimd::abs(r.inv.y), far * xsimd::abs(r.inv.z)};
-    return r;
+    if constexpr (kPad) {
+      // Rays from beyond the origin limit (hits on a far plane): the sphere test's rounding
+      // grows with |origin|, so the boxes grow by Bvh::kOriginPad |origin| for them.
+      const B far = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z)) *
+                    B(T(Bvh<T>::kOriginPad));
+      r.pad = V{far * xsimd::abs(r.inv.x), far * xsimd::abs(r.inv.y), far * xsimd::abs(r.inv.z)};
+    }
   }
 
   // Whether the live lanes' reciprocals agree in sign on every axis (coherent packets: camera
@@ -198,7 +237,8 @@ struct Traversal {
   template <bool kPadded, class Leaf>
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
                       Leaf&& leaf) noexcept {
-    Ray r = slab_ray(o, d);
+    Ray r;
+    slab_ray<true>(r, o, d);
     if constexpr (kPadded)
       closest_with<Slab::padded>(h, valid, r, d, best_t, leaf);
     else if (same_signs(r, valid))
@@ -207,12 +247,49 @@ struct Traversal {
       closest_with<Slab::generic>(h, valid, r, d, best_t, leaf);
   }
 
+  // kN camera packets at once (tiles side by side): leaf(i, first, count, mask) tests leaf-order
+  // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i]. Where
+  // every live lane of every packet agrees in sign on every axis, the packets walk the hierarchy
+  // as ONE interval ray (closest_frustum): a node costs one test for all kN * W rays; else each
+  // packet walks alone. Packets without live lanes take no part.
+  template <int kN, class Leaf>
+  static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d, B* best_t,
+                               Leaf&& leaf) noexcept {
+    Ray r[kN];
+    bool live[kN];
+    bool together = std::is_same_v<T, float>;
+    int first = -1;
+    for (int i = 0; i < kN; ++i) {
+      live[i] = xsimd::any(valid[i]);
+      if (!live[i]) continue;
+      slab_ray<false>(r[i], o[i], d[i]);
+      if (!same_signs(r[i], valid[i]))
+        together = false;
+      else if (first < 0)
+        first = i;
+      else
+        for (int a = 0; a < 3; ++a) together = together && r[i].neg[a] == r[first].neg[a];
+    }
+    if constexpr (std::is_same_v<T, float>) {
+      if (together && first >= 0) return closest_frustum<kN>(h, valid, r, live, best_t, leaf);
+    }
+    for (int i = 0; i < kN; ++i) {
+      if (!live[i]) continue;
+      auto one = [&](std::int32_t f, std::int32_t c, const M& m) { leaf(i, f, c, m); };
+      if (same_signs(r[i], valid[i]))
+        closest_with<Slab::signed_>(h, valid[i], r[i], d[i], best_t[i], one);
+      else
+        closest_with<Slab::generic>(h, valid[i], r[i], d[i], best_t[i], one);
+    }
+  }
+
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
   // others). Returns the lanes of `valid` still pending at the end.
   template <bool kPadded, class Leaf>
   static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax,
                Leaf&& leaf) noexcept {
-    Ray r = slab_ray(o, d);
+    Ray r;
+    slab_ray<true>(r, o, d);
     if constexpr (kPadded)
       return any_with<Slab::padded>(h, valid, r, tmax, leaf);
     else if (same_signs(r, valid))
@@ -222,6 +299,168 @@ struct Traversal {
   }
 
  private:
+  // ---- coherent packets: one interval test per node (Wald et al.'s interval culling) -------
+  // Per axis, the bounds of the live lanes' reciprocals and o * inv. A lane's slab value
+  // fmsub(p, inv, oi) lies between fmsub(p, inv_lo or inv_hi, oi_hi) and fmsub(p, inv_lo or
+  // inv_hi, oi_lo) exactly; rounding is monotonic, and the bounds round the way the lanes do
+  // (fused where they are fused), so the computed bounds hold for the computed lane values: a
+  // node's child that some lane meets within its best t passes the interval test. The walk may
+  // visit more leaves than the lanes' own tests would; it never skips one a lane needs, and the
+  // leaf functor's lexicographic minimum makes the extra visits harmless.
+  using F4 = __m128;
+  struct Frustum {
+    F4 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
+    std::size_t near[3], far[3];
+  };
+  static F4 fmsub4(F4 a, F4 b, F4 c) noexcept {
+    if constexpr (kAvx512<Arch>)      // AVX-512F alone has no 128-bit FMA: a zmm whose upper lanes
+      return _mm512_castps512_ps128(  // are zero
+          _mm512_fmsub_ps(_mm512_zextps128_ps512(a), _mm512_zextps128_ps512(b),
+                          _mm512_zextps128_ps512(c)));
+    else if constexpr (kFusedFmsub<Arch>)
+      return _mm_fmsub_ps(a, b, c);  // the lanes' fmsub is fused on these paths (fused.hpp)
+    else
+      return _mm_sub_ps(_mm_mul_ps(a, b), c);
+  }
+  // The least (kMax: greatest) of get(i)'s lanes over the live lanes of kN packets, in every
+  // lane of a 4-float register: the packets folded lane by lane, then the register's halves,
+  // then two shuffles (once per block, and after each leaf).
+  template <bool kMax, int kN, class Get>
+  static F4 lane_bound(const M* valid, const bool* live, Get get) noexcept {
+    constexpr T fill =
+        kMax ? -std::numeric_limits<T>::infinity() : std::numeric_limits<T>::infinity();
+    B v(fill);
+    for (int i = 0; i < kN; ++i) {
+      if (!live[i]) continue;
+      const B x = xsimd::select(valid[i], get(i), B(fill));
+      v = kMax ? xsimd::max(v, x) : xsimd::min(v, x);
+    }
+    auto op = [](F4 a, F4 b) { return kMax ? _mm_max_ps(a, b) : _mm_min_ps(a, b); };
+    F4 m;
+    if constexpr (B::size == 16) {
+      const __m512 z = v;
+      const __m256 lo = _mm512_castps512_ps256(z);
+      const __m256 hi = _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(z), 1));
+      m = op(op(_mm256_castps256_ps128(lo), _mm256_extractf128_ps(lo, 1)),
+             op(_mm256_castps256_ps128(hi), _mm256_extractf128_ps(hi, 1)));
+    } else if constexpr (B::size == 8) {
+      const __m256 y = v;
+      m = op(_mm256_castps256_ps128(y), _mm256_extractf128_ps(y, 1));
+    } else {
+      m = v;
+    }
+    m = op(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+    return op(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+  }
+  template <int kN>
+  static void frustum(Frustum& f, const Ray* r, const M* valid, const bool* live,
+                      int first) noexcept {
+    for (int a = 0; a < 3; ++a) {
+      auto inv = [&](int i) -> const B& {
+        return a == 0 ? r[i].inv.x : a == 1 ? r[i].inv.y : r[i].inv.z;
+      };
+      auto oi = [&](int i) -> const B& {
+        return a == 0 ? r[i].oi.x : a == 1 ? r[i].oi.y : r[i].oi.z;
+      };
+      f.inv_lo[a] = lane_bound<false, kN>(valid, live, inv);
+      f.inv_hi[a] = lane_bound<true, kN>(valid, live, inv);
+      f.oi_lo[a] = lane_bound<false, kN>(valid, live, oi);
+      f.oi_hi[a] = lane_bound<true, kN>(valid, live, oi);
+      f.near[a] = r[first].near[a], f.far[a] = r[first].far[a];
+    }
+  }
+  // The greatest best t of the live lanes of kN packets.
+  template <int kN>
+  static F4 far_bound(const M* valid, const bool* live, const B* best_t) noexcept {
+    return lane_bound<true, kN>(valid, live, [&](int i) -> const B& { return best_t[i]; });
+  }
+
+  // The children of n the interval ray meets within [0, tmax], as a lane mask (slots < arity);
+  // tnear: where it may enter each (a lower bound over the lanes).
+  [[gnu::always_inline]] static F4 frustum_hit4(const Node& n, const Frustum& f, F4 tmax,
+                                                F4& tnear) noexcept {
+    static_assert(Bvh<T>::kWidth == 4);
+    const char* base = reinterpret_cast<const char*>(&n);
+    F4 lo = _mm_setzero_ps(), hi = tmax;
+    for (int a = 0; a < 3; ++a) {
+      const F4 pn = _mm_load_ps(reinterpret_cast<const float*>(base + f.near[a]));
+      const F4 pf = _mm_load_ps(reinterpret_cast<const float*>(base + f.far[a]));
+      lo = _mm_max_ps(
+          lo, _mm_min_ps(fmsub4(pn, f.inv_lo[a], f.oi_hi[a]), fmsub4(pn, f.inv_hi[a], f.oi_hi[a])));
+      hi = _mm_min_ps(
+          hi, _mm_max_ps(fmsub4(pf, f.inv_lo[a], f.oi_lo[a]), fmsub4(pf, f.inv_hi[a], f.oi_lo[a])));
+    }
+    tnear = lo;
+    return _mm_and_ps(
+        _mm_cmple_ps(lo, hi),
+        _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))));
+  }
+
+  // Inner nodes by the interval test; a leaf by each lane's own test of its box, so the spheres
+  // see only the lanes that meet it. The stack holds boxes (node index * kWidth + slot: the
+  // child's reference and box are read from its parent when popped) and where the packet may
+  // enter them. Without branches on which children were met: a node's children go onto the stack
+  // as one shuffled, compacted vector (PushTables), last in order first, the stack growing by the
+  // met ones only; which children a packet meets is what a branch predictor cannot learn (at
+  // 65536 spheres mispredictions, not instructions, grew most with the scene).
+  template <int kN, class Leaf>
+  static void closest_frustum(const Bvh<T>& h, const M* valid, const Ray* r, const bool* live,
+                              const B* best_t, Leaf&& leaf) noexcept {
+    constexpr int kW = Bvh<T>::kWidth;
+    static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
+    int first = 0;
+    while (!live[first]) ++first;
+    Frustum f;
+    frustum<kN>(f, r, valid, live, first);
+    const unsigned code = unsigned(!r[first].neg[0]) | unsigned(!r[first].neg[1]) << 1 |
+                          unsigned(!r[first].neg[2]) << 2;
+    constexpr int kSize = Bvh<T>::kStack + kW;  // + kW: a full vector stored at the top
+    alignas(16) std::int32_t box[kSize];
+    alignas(16) T tnear[kSize];
+    int sp = 0;
+    F4 tmax = far_bound<kN>(valid, live, best_t);
+    const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
+    std::int32_t node = 0;
+    for (;;) {
+      const Node& n = h.nodes[std::size_t(node)];
+      F4 tn4;
+      const F4 met = frustum_hit4(n, f, tmax, tn4);
+      const __m128i order =
+          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[n.order[code]]));
+      const int m =
+          _mm_movemask_ps(_mm_castsi128_ps(_mm_shuffle_epi8(_mm_castps_si128(met), order)));
+      const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
+      const __m128i boxes = _mm_add_epi32(_mm_set1_epi32(node * kW), iota);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp),
+                       _mm_shuffle_epi8(_mm_shuffle_epi8(boxes, order), pack));
+      _mm_storeu_ps(tnear + sp, _mm_castsi128_ps(_mm_shuffle_epi8(
+                                    _mm_shuffle_epi8(_mm_castps_si128(tn4), order), pack)));
+      sp += kPush.count[m];
+      for (;;) {  // the next subtree some lane may still find a nearer hit in
+        if (sp == 0) return;
+        --sp;
+        if (tnear[sp] > _mm_cvtss_f32(tmax)) continue;
+        const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
+        const int k = int(unsigned(box[sp]) % kW);
+        if (parent.count[k] < 0) {
+          node = parent.child[k];
+          break;
+        }
+        bool tested = false;
+        for (int i = 0; i < kN; ++i) {
+          if (!live[i]) continue;
+          B tn_leaf;
+          const M lanes = child_hit<Slab::signed_>(parent, k, r[i], valid[i], best_t[i], tn_leaf);
+          if (xsimd::any(lanes)) {
+            leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
+            tested = true;
+          }
+        }
+        if (tested) tmax = far_bound<kN>(valid, live, best_t);
+      }
+    }
+  }
+
   template <Slab kSlab, class Leaf>
   static void closest_with(const Bvh<T>& h, const M& valid, const Ray& r, const V& d,
                            const B& best_t, Leaf& leaf) noexcept {
