@@ -412,6 +412,15 @@ struct Kernel {
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
   }
 
+  // Where the ray (o, d) meets plane k; denom: d . n (0: parallel, no hit).
+  [[gnu::always_inline]] static B plane_t(const Scene& s, int k, const V& o, const V& d,
+                                          B& denom) noexcept {
+    const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
+    denom = Mth::dot(d, n);
+    return Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n),
+                    denom);
+  }
+
   // The planes' part of closest_hit: after the spheres, in id order (their ids are higher).
   [[gnu::always_inline]] static void planes_closest(const Scene& s, const M& valid, const V& o,
                                                     const V& d, B& best_t, I& best_id,
@@ -419,10 +428,8 @@ struct Kernel {
     const B eps(s.epsilon);
     for (int k = 0; k < s.num_planes; ++k) {
       tests(counts, valid, false);
-      const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
-      const B denom = Mth::dot(d, n);
-      const B t =
-          Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n), denom);
+      B denom;
+      const B t = plane_t(s, k, o, d, denom);
       const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
       best_t = xsimd::select(m, t, best_t);
       best_id = xsimd::select(to_mi(m), I(Id(s.num_spheres + k)), best_id);
@@ -490,10 +497,8 @@ struct Kernel {
     }
     for (int k = 0; k < s.num_planes; ++k) {
       tests(counts, pending, false);
-      const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
-      const B denom = Mth::dot(l, n);
-      const B t =
-          Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - p, n), denom);
+      B denom;
+      const B t = plane_t(s, k, p, l, denom);
       const M m = pending & (denom != B(0)) & (t > eps) & (t < dist);
       if (!xsimd::any(m)) continue;
       pending = step(Id(s.num_spheres + k), m, pending);
