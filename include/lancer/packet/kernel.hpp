@@ -1057,7 +1057,8 @@ struct Kernel {
     } else if constexpr (std::is_same_v<T, float> && W == 8) {
       return _mm256_broadcast_ps(reinterpret_cast<const __m128*>(p));
     } else if constexpr (std::is_same_v<T, float> && W == 4) {
-      return _mm_castpd_ps(_mm_load1_pd(reinterpret_cast<const double*>(p)));
+      const __m128i two = _mm_loadl_epi64(reinterpret_cast<const __m128i_u*>(p));  // p0 p1
+      return _mm_castpd_ps(_mm_movedup_pd(_mm_castsi128_pd(two)));
     } else {
       alignas(64) T v[W];
       for (int k = 0; k < W; ++k) v[k] = p[k % kTileW];
@@ -1071,7 +1072,7 @@ struct Kernel {
     } else if constexpr (std::is_same_v<T, float> && W == 8) {
       return _mm256_set_m128(_mm_set1_ps(p[1]), _mm_set1_ps(p[0]));
     } else if constexpr (std::is_same_v<T, float> && W == 4) {
-      const __m128 two = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(p)));
+      const __m128 two = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i_u*>(p)));
       return _mm_unpacklo_ps(two, two);
     } else {
       alignas(64) T v[W];
