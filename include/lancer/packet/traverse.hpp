@@ -27,7 +27,7 @@ namespace lancer::packet {
 
 // pshufb controls for pushing a 4-wide node's met children as one vector (closest_frustum).
 struct PushTables {
-  alignas(16) std::uint8_t reverse[256][16];  // per order byte: lane i = the slot visited 4th-i
+  alignas(16) std::uint8_t reverse[256][16];  // per order byte: lane i = slot visited (3-i)th
   alignas(16) std::uint8_t compress[16][16];  // per 4-bit mask: its set lanes first, in order
   alignas(16) std::int32_t arity[5][4];       // lanes < arity set
   std::int8_t count[16];                      // set bits of a 4-bit mask
@@ -253,8 +253,8 @@ struct Traversal {
   // as ONE interval ray (closest_frustum): a node costs one test for all kN * W rays; else each
   // packet walks alone. Packets without live lanes take no part.
   template <int kN, class Leaf>
-  static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d, B* best_t,
-                               Leaf&& leaf) noexcept {
+  static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
+                               const B* best_t, Leaf&& leaf) noexcept {
     Ray r[kN];
     bool live[kN];
     bool together = std::is_same_v<T, float>;
