@@ -18,6 +18,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "lancer/formulas.hpp"
 #include "lancer/prepared.hpp"
@@ -683,28 +684,22 @@ PrimaryResult EmbreeScene::primary(int width, int threads) const {
   res.rays = embree_tiles(im.s.camera.ny, res.threads, [&](int r0, int r1, RayCounts& c) {
     // Streams are Embree's own regrouping, whatever the width asked for; tiles are packets.
     if (im.config.streams) return im.primary_streams(res.t.data(), r0, r1, c);
+    auto packets = [&](auto w) {
+      constexpr int W = decltype(w)::value;
+      if constexpr (W > 1) {
+        if (im.config.tiles) return im.template primary_tiles<W>(res.t.data(), r0, r1, c);
+      }
+      im.template primary_rows<W>(res.t.data(), r0, r1, c);
+    };
     switch (width) {
       case 1:
-        im.primary_rows<1>(res.t.data(), r0, r1, c);
-        break;
+        return packets(std::integral_constant<int, 1>{});
       case 4:
-        if (im.config.tiles)
-          im.primary_tiles<4>(res.t.data(), r0, r1, c);
-        else
-          im.primary_rows<4>(res.t.data(), r0, r1, c);
-        break;
+        return packets(std::integral_constant<int, 4>{});
       case 8:
-        if (im.config.tiles)
-          im.primary_tiles<8>(res.t.data(), r0, r1, c);
-        else
-          im.primary_rows<8>(res.t.data(), r0, r1, c);
-        break;
+        return packets(std::integral_constant<int, 8>{});
       default:
-        if (im.config.tiles)
-          im.primary_tiles<16>(res.t.data(), r0, r1, c);
-        else
-          im.primary_rows<16>(res.t.data(), r0, r1, c);
-        break;
+        return packets(std::integral_constant<int, 16>{});
     }
   });
   res.seconds = std::chrono::duration<double>(Clock::now() - start).count();

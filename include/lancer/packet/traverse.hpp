@@ -256,14 +256,15 @@ struct Traversal {
   static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
                                const B* best_t, Leaf&& leaf) noexcept {
     Ray r[kN];
-    bool live[kN];
+    bool live[kN], signed_[kN];
     bool together = std::is_same_v<T, float>;
     int first = -1;
     for (int i = 0; i < kN; ++i) {
       live[i] = xsimd::any(valid[i]);
       if (!live[i]) continue;
       slab_ray<false>(r[i], o[i], d[i]);
-      if (!same_signs(r[i], valid[i]))
+      signed_[i] = same_signs(r[i], valid[i]);
+      if (!signed_[i])
         together = false;
       else if (first < 0)
         first = i;
@@ -276,7 +277,7 @@ struct Traversal {
     for (int i = 0; i < kN; ++i) {
       if (!live[i]) continue;
       auto one = [&](std::int32_t f, std::int32_t c, const M& m) { leaf(i, f, c, m); };
-      if (same_signs(r[i], valid[i]))
+      if (signed_[i])
         closest_with<Slab::signed_>(h, valid[i], r[i], d[i], best_t[i], one);
       else
         closest_with<Slab::generic>(h, valid[i], r[i], d[i], best_t[i], one);
