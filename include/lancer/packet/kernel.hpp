@@ -8,7 +8,7 @@
 // same order, so every lane computes the reference's bits.
 #pragma once
 
-#include <immintrin.h>  // every ISA's register types, for bits()
+#include <immintrin.h>
 
 #include <algorithm>
 #include <array>
@@ -22,6 +22,7 @@
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/packet/fused.hpp"
+#include "lancer/packet/lanes.hpp"
 #include "lancer/packet/traverse.hpp"
 #include "lancer/profile.hpp"
 
@@ -161,23 +162,8 @@ struct Kernel {
     return B::load_aligned(v);
   }
 
-  // The mask as one bit per lane. xsimd 8.1 has no mask(), so per ISA: AVX-512 masks already
-  // are bits; SSE and AVX masks are vectors whose sign bits movemask collects.
-  static unsigned bits(const M& m) noexcept {
-    using R = typename M::register_type;
-    const R r = static_cast<R>(m);
-    constexpr bool kFloat = std::is_same_v<T, float>;
-    // By the batch's size, not R's type: naming a vector type as a template argument drops its
-    // attributes (-Wignored-attributes).
-    if constexpr (sizeof(B) == 64)  // AVX-512: masks are __mmask16 / __mmask8
-      return static_cast<unsigned>(r);
-    else if constexpr (sizeof(B) == 16)
-      return static_cast<unsigned>(kFloat ? _mm_movemask_ps(__m128(r))
-                                          : _mm_movemask_pd(__m128d(r)));
-    else
-      return static_cast<unsigned>(kFloat ? _mm256_movemask_ps(__m256(r))
-                                          : _mm256_movemask_pd(__m256d(r)));
-  }
+  // The mask as one bit per lane (lanes.hpp).
+  static unsigned bits(const M& m) noexcept { return lane_bits(m); }
 
   // A mask between Real's and the id's lanes (same count, same bits: xsimd 8.1 has no cast).
   static MI to_mi(const M& m) noexcept {
@@ -1092,22 +1078,31 @@ struct Kernel {
 
   static void primary_tiles(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
                             int row_end, RayCounts& counts) noexcept {
+    if (kGroup > 1 && !s.camera.orthographic && s.features.spheres)
+      primary_blocks<kGroupX, kGroupY>(s, t_out, id_out, row_begin, row_end, counts);
+    else
+      primary_blocks<1, 1>(s, t_out, id_out, row_begin, row_end, counts);
+  }
+  // Blocks of gx x gy tiles (the block's shape fixed at compile time: its loops unroll).
+  template <int gx, int gy>
+  static void primary_blocks(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
+                             int row_end, RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     alignas(64) T col_of[W], row_of[W];
     for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
     const B col = B::load_aligned(col_of), row = B::load_aligned(row_of);
     alignas(64) T out[W], edge_x[kTileW], edge_y[kTileH];
     alignas(64) Id ids[W];
-    const bool group = kGroup > 1 && !cam.orthographic && s.features.spheres;
-    const int gy = group ? kGroupY : 1, gx = group ? kGroupX : 1;
+    constexpr int n = gx * gy;
     for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy) {
       for (int i0 = 0; i0 < cam.nx; i0 += kTileW * gx) {
         // Tile g of the block: columns ti[g] .., rows tj[g] ..; cols or rows 0: outside.
-        int ti[kGroup], tj[kGroup], cols[kGroup], rows[kGroup];
-        M valid[kGroup];
-        B sum[kGroup];
-        I first_id[kGroup];
-        const int n = gx * gy;
+        int ti[n], tj[n], cols[n], rows[n];
+        M valid[n];
+        B sum[n];
+        I first_id[n];
+        // Every tile whole (all but the image's last columns and rows): no edge cases below.
+        const bool whole = i0 + kTileW * gx <= cam.nx && j0 + kTileH * gy <= row_end;
         for (int g = 0; g < n; ++g) {
           ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
           cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
@@ -1117,56 +1112,67 @@ struct Kernel {
         }
         for (int b = 0; b < cam.samples; ++b) {
           for (int a = 0; a < cam.samples; ++a) {
-            V o[kGroup], d[kGroup];
+            V o[n], d[n];
             for (int g = 0; g < n; ++g) {
-              if (cols[g] == 0 || rows[g] == 0) {  // no live lane: tile 0's rays, unused
-                o[g] = o[0], d[g] = d[0];
-                continue;
-              }
-              // A tile at the image's edge repeats its last live row or column in its dead lanes.
               const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + tj[g]];
-              if (rows[g] < kTileH) {
-                for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
-                ys = edge_y;
-              }
               const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + ti[g]];
-              if (cols[g] < kTileW) {
-                for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
-                xs = edge_x;
+              if (!whole) {
+                if (cols[g] == 0 || rows[g] == 0) {  // no live lane: tile 0's rays, unused
+                  o[g] = o[0], d[g] = d[0];
+                  continue;
+                }
+                // A tile at the image's edge repeats its last live row or column in its dead
+                // lanes.
+                if (rows[g] < kTileH) {
+                  for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
+                  ys = edge_y;
+                }
+                if (cols[g] < kTileW) {
+                  for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
+                  xs = edge_x;
+                }
               }
               camera_ray<Mth>(cam, tile_columns(xs), tile_rows(ys), o[g], d[g]);
-              counts.camera += std::uint64_t(cols[g] * rows[g]);
+            }
+            if (whole) {
+              counts.camera += std::uint64_t(n * W);
+            } else {
+              for (int g = 0; g < n; ++g) counts.camera += std::uint64_t(cols[g] * rows[g]);
             }
             const bool first = a == 0 && b == 0;
-            if (!group) {
+            if constexpr (n == 1) {
               primary_hit(s, valid[0], o[0], d[0], sum[0], first_id[0], first, counts);
-              continue;
-            }
-            B t[kGroup];
-            I id[kGroup];
-            for (int g = 0; g < kGroup; ++g)
-              t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
-            closest_group_in_hierarchy<kGroup>(s, valid, o, d, t, id, counts);
-            for (int g = 0; g < n; ++g) {
-              if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
-              sum[g] = sum[g] + t[g];
-              if (first) first_id[g] = id[g];
+            } else {
+              B t[n];
+              I id[n];
+              for (int g = 0; g < n; ++g)
+                t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
+              closest_group_in_hierarchy<n>(s, valid, o, d, t, id, counts);
+              for (int g = 0; g < n; ++g) {
+                if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
+                sum[g] = sum[g] + t[g];
+                if (first) first_id[g] = id[g];
+              }
             }
           }
         }
         for (int g = 0; g < n; ++g) {
           sum[g].store_aligned(out);
           if (id_out) first_id[g].store_aligned(ids);
+          if (std::is_same_v<T, float> && sizeof(Id) == sizeof(std::int32_t) && whole) {
+            for (int r = 0; r < kTileH; ++r) {  // one move per row
+              const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
+              std::memcpy(t_out + at, &out[r * kTileW], sizeof(float) * kTileW);
+              if (id_out) std::memcpy(id_out + at, &ids[r * kTileW], sizeof(std::int32_t) * kTileW);
+            }
+            continue;
+          }
           for (int r = 0; r < rows[g]; ++r) {
             const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
-            if (std::is_same_v<T, float> && cols[g] == kTileW)  // one move per row
-              std::memcpy(t_out + at, &out[r * kTileW], sizeof(float) * kTileW);
-            else
-              for (int c = 0; c < cols[g]; ++c)
-                t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
-            if (id_out)
-              for (int c = 0; c < cols[g]; ++c)
-                id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
+            for (int c = 0; c < cols[g]; ++c) {
+              t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
+              if (id_out) id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
+            }
           }
         }
       }

@@ -21,6 +21,7 @@
 
 #include "lancer/bvh.hpp"
 #include "lancer/packet/fused.hpp"
+#include "lancer/packet/lanes.hpp"
 #include "lancer/vec3.hpp"
 
 namespace lancer::packet {
@@ -106,13 +107,26 @@ struct Traversal {
       else
         return false;
     }
+    set_planes(r);
+    return true;
+  }
+  // r.near and r.far from r.neg.
+  static void set_planes(Ray& r) noexcept {
     const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
     const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
     for (int a = 0; a < 3; ++a) {
       r.near[a] = r.neg[a] ? hi[a] : lo[a];
       r.far[a] = r.neg[a] ? lo[a] : hi[a];
     }
-    return true;
+  }
+  // same_signs' test over several packets: per axis a, neg[a] collects (as lane bits) the live
+  // lanes whose reciprocal is negative, pos[a] those whose is not.
+  static void add_signs(const Ray& r, unsigned live, unsigned* neg, unsigned* pos) noexcept {
+    const B zero(T(0));
+    const unsigned x = lane_bits(r.inv.x < zero), y = lane_bits(r.inv.y < zero),
+                   z = lane_bits(r.inv.z < zero);
+    neg[0] |= x & live, neg[1] |= y & live, neg[2] |= z & live;
+    pos[0] |= ~x & live, pos[1] |= ~y & live, pos[2] |= ~z & live;
   }
 
   // How a traversal tests boxes: padded for rays from beyond the origin limit; signed where
@@ -256,28 +270,40 @@ struct Traversal {
   static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
                                const B* best_t, Leaf&& leaf) noexcept {
     Ray r[kN];
-    bool live[kN], signed_[kN];
-    bool together = std::is_same_v<T, float>;
+    unsigned live[kN], neg[3] = {}, pos[3] = {};
     int first = -1;
     for (int i = 0; i < kN; ++i) {
-      live[i] = xsimd::any(valid[i]);
+      live[i] = lane_bits(valid[i]);
       if (!live[i]) continue;
+      if (first < 0) first = i;
       slab_ray<false>(r[i], o[i], d[i]);
-      signed_[i] = same_signs(r[i], valid[i]);
-      if (!signed_[i])
-        together = false;
-      else if (first < 0)
-        first = i;
-      else
-        for (int a = 0; a < 3; ++a) together = together && r[i].neg[a] == r[first].neg[a];
+      add_signs(r[i], live[i], neg, pos);
     }
+    if (first < 0) return;
     if constexpr (std::is_same_v<T, float>) {
-      if (together && first >= 0) return closest_frustum<kN>(h, valid, r, live, best_t, leaf);
+      if (!((neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2]))) {
+        // One sign per axis over the block: one slab form for every packet. A packet without
+        // live lanes takes the first one's ray: its lanes, all outside `valid`, then take part
+        // in no bound and no leaf (closest_frustum does not branch on liveness).
+        for (int a = 0; a < 3; ++a) r[first].neg[a] = neg[a] != 0;
+        set_planes(r[first]);
+        for (int i = 0; i < kN; ++i) {
+          if (i == first) continue;
+          if (!live[i]) {
+            r[i] = r[first];
+            continue;
+          }
+          for (int a = 0; a < 3; ++a)
+            r[i].neg[a] = r[first].neg[a], r[i].near[a] = r[first].near[a],
+            r[i].far[a] = r[first].far[a];
+        }
+        return closest_frustum<kN>(h, valid, r, first, best_t, leaf);
+      }
     }
     for (int i = 0; i < kN; ++i) {
       if (!live[i]) continue;
       auto one = [&](std::int32_t f, std::int32_t c, const M& m) { leaf(i, f, c, m); };
-      if (signed_[i])
+      if (same_signs(r[i], valid[i]))
         closest_with<Slab::signed_>(h, valid[i], r[i], d[i], best_t[i], one);
       else
         closest_with<Slab::generic>(h, valid[i], r[i], d[i], best_t[i], one);
@@ -327,15 +353,19 @@ struct Traversal {
   // lane of a 4-float register: the packets folded lane by lane, then the register's halves,
   // then two shuffles (once per block, and after each leaf).
   template <bool kMax, int kN, class Get>
-  static F4 lane_bound(const M* valid, const bool* live, Get get) noexcept {
+  static F4 lane_bound(const M* valid, Get get) noexcept {
     constexpr T fill =
         kMax ? -std::numeric_limits<T>::infinity() : std::numeric_limits<T>::infinity();
     B v(fill);
     for (int i = 0; i < kN; ++i) {
-      if (!live[i]) continue;
       const B x = xsimd::select(valid[i], get(i), B(fill));
       v = kMax ? xsimd::max(v, x) : xsimd::min(v, x);
     }
+    return reduce<kMax>(v);
+  }
+  // The least (kMax: greatest) of v's lanes, in every lane of a 4-float register.
+  template <bool kMax>
+  static F4 reduce(const B& v) noexcept {
     auto op = [](F4 a, F4 b) { return kMax ? _mm_max_ps(a, b) : _mm_min_ps(a, b); };
     F4 m;
     if constexpr (B::size == 16) {
@@ -353,27 +383,42 @@ struct Traversal {
     m = op(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
     return op(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
   }
-  template <int kN>
-  static void frustum(Frustum& f, const Ray* r, const M* valid, const bool* live,
-                      int first) noexcept {
-    for (int a = 0; a < 3; ++a) {
-      auto inv = [&](int i) -> const B& {
-        return a == 0 ? r[i].inv.x : a == 1 ? r[i].inv.y : r[i].inv.z;
-      };
-      auto oi = [&](int i) -> const B& {
-        return a == 0 ? r[i].oi.x : a == 1 ? r[i].oi.y : r[i].oi.z;
-      };
-      f.inv_lo[a] = lane_bound<false, kN>(valid, live, inv);
-      f.inv_hi[a] = lane_bound<true, kN>(valid, live, inv);
-      f.oi_lo[a] = lane_bound<false, kN>(valid, live, oi);
-      f.oi_hi[a] = lane_bound<true, kN>(valid, live, oi);
-      f.near[a] = r[first].near[a], f.far[a] = r[first].far[a];
+  template <int kA>
+  static const B& axis(const V& v) noexcept {
+    if constexpr (kA == 0)
+      return v.x;
+    else if constexpr (kA == 1)
+      return v.y;
+    else
+      return v.z;
+  }
+  template <int kN, int kA>
+  static void frustum_axis(Frustum& f, const Ray* r, const M* valid, int first) noexcept {
+    // lane_bound's folds, the four in one pass over the packets.
+    const B inf(std::numeric_limits<T>::infinity()), ninf(-std::numeric_limits<T>::infinity());
+    B inv_lo = inf, inv_hi = ninf, oi_lo = inf, oi_hi = ninf;
+    for (int i = 0; i < kN; ++i) {
+      const B& inv = axis<kA>(r[i].inv);
+      const B& oi = axis<kA>(r[i].oi);
+      inv_lo = xsimd::min(inv_lo, xsimd::select(valid[i], inv, inf));
+      inv_hi = xsimd::max(inv_hi, xsimd::select(valid[i], inv, ninf));
+      oi_lo = xsimd::min(oi_lo, xsimd::select(valid[i], oi, inf));
+      oi_hi = xsimd::max(oi_hi, xsimd::select(valid[i], oi, ninf));
     }
+    f.inv_lo[kA] = reduce<false>(inv_lo), f.inv_hi[kA] = reduce<true>(inv_hi);
+    f.oi_lo[kA] = reduce<false>(oi_lo), f.oi_hi[kA] = reduce<true>(oi_hi);
+    f.near[kA] = r[first].near[kA], f.far[kA] = r[first].far[kA];
+  }
+  template <int kN>
+  static void frustum(Frustum& f, const Ray* r, const M* valid, int first) noexcept {
+    frustum_axis<kN, 0>(f, r, valid, first);
+    frustum_axis<kN, 1>(f, r, valid, first);
+    frustum_axis<kN, 2>(f, r, valid, first);
   }
   // The greatest best t of the live lanes of kN packets.
   template <int kN>
-  static F4 far_bound(const M* valid, const bool* live, const B* best_t) noexcept {
-    return lane_bound<true, kN>(valid, live, [&](int i) -> const B& { return best_t[i]; });
+  static F4 far_bound(const M* valid, const B* best_t) noexcept {
+    return lane_bound<true, kN>(valid, [&](int i) -> const B& { return best_t[i]; });
   }
 
   // The children of n the interval ray meets within [0, tmax], as a lane mask (slots < arity);
@@ -405,21 +450,19 @@ struct Traversal {
   // met ones only; which children a packet meets is what a branch predictor cannot learn (at
   // 65536 spheres mispredictions, not instructions, grew most with the scene).
   template <int kN, class Leaf>
-  static void closest_frustum(const Bvh<T>& h, const M* valid, const Ray* r, const bool* live,
+  static void closest_frustum(const Bvh<T>& h, const M* valid, const Ray* r, int first,
                               const B* best_t, Leaf&& leaf) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
     static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
-    int first = 0;
-    while (!live[first]) ++first;
     Frustum f;
-    frustum<kN>(f, r, valid, live, first);
+    frustum<kN>(f, r, valid, first);
     const unsigned code = unsigned(!r[first].neg[0]) | unsigned(!r[first].neg[1]) << 1 |
                           unsigned(!r[first].neg[2]) << 2;
     constexpr int kSize = Bvh<T>::kStack + kW;  // + kW: a full vector stored at the top
     alignas(16) std::int32_t box[kSize];
     alignas(16) T tnear[kSize];
     int sp = 0;
-    F4 tmax = far_bound<kN>(valid, live, best_t);
+    F4 tmax = far_bound<kN>(valid, best_t);
     const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
     std::int32_t node = 0;
     for (;;) {
@@ -449,7 +492,6 @@ struct Traversal {
         }
         bool tested = false;
         for (int i = 0; i < kN; ++i) {
-          if (!live[i]) continue;
           B tn_leaf;
           const M lanes = child_hit<Slab::signed_>(parent, k, r[i], valid[i], best_t[i], tn_leaf);
           if (xsimd::any(lanes)) {
@@ -457,7 +499,7 @@ struct Traversal {
             tested = true;
           }
         }
-        if (tested) tmax = far_bound<kN>(valid, live, best_t);
+        if (tested) tmax = far_bound<kN>(valid, best_t);
       }
     }
   }
