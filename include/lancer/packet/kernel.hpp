@@ -1087,92 +1087,97 @@ struct Kernel {
   template <int gx, int gy>
   static void primary_blocks(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
                              int row_end, RayCounts& counts) noexcept {
+    const int nx = s.camera.nx;
+    for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy)
+      for (int i0 = 0; i0 < nx; i0 += kTileW * gx) {
+        // Every tile whole (all but the image's last columns and rows): no edge cases.
+        if (i0 + kTileW * gx <= nx && j0 + kTileH * gy <= row_end)
+          primary_block<gx, gy, true>(s, i0, j0, row_end, t_out, id_out, counts);
+        else
+          primary_block<gx, gy, false>(s, i0, j0, row_end, t_out, id_out, counts);
+      }
+  }
+  template <int gx, int gy, bool kWhole>
+  [[gnu::always_inline]] static void primary_block(const Scene& s, int i0, int j0, int row_end,
+                                                   float* t_out, std::int32_t* id_out,
+                                                   RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
-    alignas(64) T col_of[W], row_of[W];
-    for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
-    const B col = B::load_aligned(col_of), row = B::load_aligned(row_of);
-    alignas(64) T out[W], edge_x[kTileW], edge_y[kTileH];
-    alignas(64) Id ids[W];
     constexpr int n = gx * gy;
-    for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy) {
-      for (int i0 = 0; i0 < cam.nx; i0 += kTileW * gx) {
-        // Tile g of the block: columns ti[g] .., rows tj[g] ..; cols or rows 0: outside.
-        int ti[n], tj[n], cols[n], rows[n];
-        M valid[n];
-        B sum[n];
-        I first_id[n];
-        // Every tile whole (all but the image's last columns and rows): no edge cases below.
-        const bool whole = i0 + kTileW * gx <= cam.nx && j0 + kTileH * gy <= row_end;
+    // Tile g of the block: columns ti[g] .., rows tj[g] ..; cols or rows 0: outside.
+    int ti[n], tj[n], cols[n], rows[n];
+    M valid[n];
+    B sum[n];
+    I first_id[n];
+    for (int g = 0; g < n; ++g) {
+      ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
+      if constexpr (kWhole) {
+        cols[g] = kTileW, rows[g] = kTileH, valid[g] = M(true);
+      } else {
+        alignas(64) T col_of[W], row_of[W];
+        for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
+        cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
+        rows[g] = std::max(0, std::min(kTileH, row_end - tj[g]));
+        valid[g] = (B::load_aligned(col_of) < B(T(cols[g]))) &
+                   (B::load_aligned(row_of) < B(T(rows[g])));
+      }
+      sum[g] = B(0), first_id[g] = I(Id(-1));
+    }
+    for (int b = 0; b < cam.samples; ++b) {
+      for (int a = 0; a < cam.samples; ++a) {
+        V o[n], d[n];
         for (int g = 0; g < n; ++g) {
-          ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
-          cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
-          rows[g] = std::max(0, std::min(kTileH, row_end - tj[g]));
-          valid[g] = (col < B(T(cols[g]))) & (row < B(T(rows[g])));
-          sum[g] = B(0), first_id[g] = I(Id(-1));
-        }
-        for (int b = 0; b < cam.samples; ++b) {
-          for (int a = 0; a < cam.samples; ++a) {
-            V o[n], d[n];
-            for (int g = 0; g < n; ++g) {
-              const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + tj[g]];
-              const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + ti[g]];
-              if (!whole) {
-                if (cols[g] == 0 || rows[g] == 0) {  // no live lane: tile 0's rays, unused
-                  o[g] = o[0], d[g] = d[0];
-                  continue;
-                }
-                // A tile at the image's edge repeats its last live row or column in its dead
-                // lanes.
-                if (rows[g] < kTileH) {
-                  for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
-                  ys = edge_y;
-                }
-                if (cols[g] < kTileW) {
-                  for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
-                  xs = edge_x;
-                }
-              }
-              camera_ray<Mth>(cam, tile_columns(xs), tile_rows(ys), o[g], d[g]);
+          const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + tj[g]];
+          const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + ti[g]];
+          alignas(64) T edge_x[kTileW], edge_y[kTileH];
+          if constexpr (!kWhole) {
+            if (cols[g] == 0 || rows[g] == 0) {  // no live lane: tile 0's rays, unused
+              o[g] = o[0], d[g] = d[0];
+              continue;
             }
-            if (whole) {
-              counts.camera += std::uint64_t(n * W);
-            } else {
-              for (int g = 0; g < n; ++g) counts.camera += std::uint64_t(cols[g] * rows[g]);
+            // A tile at the image's edge repeats its last live row or column in its dead lanes.
+            if (rows[g] < kTileH) {
+              for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
+              ys = edge_y;
             }
-            const bool first = a == 0 && b == 0;
-            if constexpr (n == 1) {
-              primary_hit(s, valid[0], o[0], d[0], sum[0], first_id[0], first, counts);
-            } else {
-              B t[n];
-              I id[n];
-              for (int g = 0; g < n; ++g)
-                t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
-              closest_group_in_hierarchy<n>(s, valid, o, d, t, id, counts);
-              for (int g = 0; g < n; ++g) {
-                if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
-                sum[g] = sum[g] + t[g];
-                if (first) first_id[g] = id[g];
-              }
+            if (cols[g] < kTileW) {
+              for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
+              xs = edge_x;
             }
           }
+          camera_ray<Mth>(cam, tile_columns(xs), tile_rows(ys), o[g], d[g]);
+          counts.camera += std::uint64_t(cols[g] * rows[g]);
         }
-        for (int g = 0; g < n; ++g) {
-          sum[g].store_aligned(out);
-          if (id_out) first_id[g].store_aligned(ids);
-          if (std::is_same_v<T, float> && sizeof(Id) == sizeof(std::int32_t) && whole) {
-            for (int r = 0; r < kTileH; ++r) {  // one move per row
-              const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
-              std::memcpy(t_out + at, &out[r * kTileW], sizeof(float) * kTileW);
-              if (id_out) std::memcpy(id_out + at, &ids[r * kTileW], sizeof(std::int32_t) * kTileW);
-            }
-            continue;
+        const bool first = a == 0 && b == 0;
+        if constexpr (n == 1) {
+          primary_hit(s, valid[0], o[0], d[0], sum[0], first_id[0], first, counts);
+        } else {
+          B t[n];
+          I id[n];
+          for (int g = 0; g < n; ++g)
+            t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
+          closest_group_in_hierarchy<n>(s, valid, o, d, t, id, counts);
+          for (int g = 0; g < n; ++g) {
+            if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
+            sum[g] = sum[g] + t[g];
+            if (first) first_id[g] = id[g];
           }
-          for (int r = 0; r < rows[g]; ++r) {
-            const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
-            for (int c = 0; c < cols[g]; ++c) {
-              t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
-              if (id_out) id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
-            }
+        }
+      }
+    }
+    for (int g = 0; g < n; ++g) {
+      alignas(64) T out[W];
+      alignas(64) Id ids[W];
+      sum[g].store_aligned(out);
+      if (id_out) first_id[g].store_aligned(ids);
+      for (int r = 0; r < rows[g]; ++r) {
+        const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
+        if constexpr (kWhole && std::is_same_v<T, float> && sizeof(Id) == sizeof(std::int32_t)) {
+          std::memcpy(t_out + at, &out[r * kTileW], sizeof(float) * kTileW);  // one move a row
+          if (id_out) std::memcpy(id_out + at, &ids[r * kTileW], sizeof(std::int32_t) * kTileW);
+        } else {
+          for (int c = 0; c < cols[g]; ++c) {
+            t_out[at + c] = static_cast<float>(out[r * kTileW + c]);
+            if (id_out) id_out[at + c] = static_cast<std::int32_t>(ids[r * kTileW + c]);
           }
         }
       }

@@ -139,29 +139,40 @@ struct Traversal {
   template <Slab kSlab>
   [[gnu::always_inline]] static M child_hit(const Node& n, int k, const Ray& r, const M& active,
                                             const B& tmax, B& tnear) noexcept {
-    B nx, ny, nz, fx, fy, fz;
-    if constexpr (kSlab == Slab::signed_) {
-      const char* base = reinterpret_cast<const char*>(&n) + std::size_t(k) * sizeof(T);
-      auto plane = [&](std::size_t off) { return B(*reinterpret_cast<const T*>(base + off)); };
-      nx = fmsub(plane(r.near[0]), r.inv.x, r.oi.x), fx = fmsub(plane(r.far[0]), r.inv.x, r.oi.x);
-      ny = fmsub(plane(r.near[1]), r.inv.y, r.oi.y), fy = fmsub(plane(r.far[1]), r.inv.y, r.oi.y);
-      nz = fmsub(plane(r.near[2]), r.inv.z, r.oi.z), fz = fmsub(plane(r.far[2]), r.inv.z, r.oi.z);
-    } else {
-      const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
-      const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
-      const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
-      nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
-      fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
-    }
+    if constexpr (kSlab == Slab::signed_)
+      return signed_hit(n, k, r.near, r.far, r, active, tmax, tnear);
+    const B x0 = fmsub(B(n.lo_x[k]), r.inv.x, r.oi.x), x1 = fmsub(B(n.hi_x[k]), r.inv.x, r.oi.x);
+    const B y0 = fmsub(B(n.lo_y[k]), r.inv.y, r.oi.y), y1 = fmsub(B(n.hi_y[k]), r.inv.y, r.oi.y);
+    const B z0 = fmsub(B(n.lo_z[k]), r.inv.z, r.oi.z), z1 = fmsub(B(n.hi_z[k]), r.inv.z, r.oi.z);
+    B nx = xsimd::min(x0, x1), ny = xsimd::min(y0, y1), nz = xsimd::min(z0, z1);
+    B fx = xsimd::max(x0, x1), fy = xsimd::max(y0, y1), fz = xsimd::max(z0, z1);
     if constexpr (kSlab == Slab::padded) {
       nx = nx - r.pad.x, ny = ny - r.pad.y, nz = nz - r.pad.z;
       fx = fx + r.pad.x, fy = fy + r.pad.y, fz = fz + r.pad.z;
     }
+    return overlap(nx, ny, nz, fx, fy, fz, active, tmax, tnear);
+  }
+  // child_hit's signed form, the planes at byte offsets near and far in a Node (a Ray's, or one
+  // set for every packet of a camera block).
+  [[gnu::always_inline]] static M signed_hit(const Node& n, int k, const std::size_t* near,
+                                             const std::size_t* far, const Ray& r, const M& active,
+                                             const B& tmax, B& tnear) noexcept {
+    const char* base = reinterpret_cast<const char*>(&n) + std::size_t(k) * sizeof(T);
+    auto plane = [&](std::size_t off) { return B(*reinterpret_cast<const T*>(base + off)); };
+    const B nx = fmsub(plane(near[0]), r.inv.x, r.oi.x), fx = fmsub(plane(far[0]), r.inv.x, r.oi.x);
+    const B ny = fmsub(plane(near[1]), r.inv.y, r.oi.y), fy = fmsub(plane(far[1]), r.inv.y, r.oi.y);
+    const B nz = fmsub(plane(near[2]), r.inv.z, r.oi.z), fz = fmsub(plane(far[2]), r.inv.z, r.oi.z);
+    return overlap(nx, ny, nz, fx, fy, fz, active, tmax, tnear);
+  }
+  // The lanes of `active` whose slabs (entered at n*, left at f*) overlap within [0, tmax];
+  // tnear: where they enter.
+  [[gnu::always_inline]] static M overlap(const B& nx, const B& ny, const B& nz, const B& fx,
+                                          const B& fy, const B& fz, const M& active, const B& tmax,
+                                          B& tnear) noexcept {
     tnear = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, B(T(0))));
     const B tfar = xsimd::min(xsimd::min(fx, fy), xsimd::min(fz, tmax));
     return active & (tnear <= tfar);
   }
-
   // How a packet from origins o traverses: 0 as built, 1 with boxes padded per lane, 2 not at
   // all (some lane beyond Bvh::kFarLimit, where the slab products could overflow: the caller
   // loops over all spheres instead).
@@ -286,17 +297,9 @@ struct Traversal {
         // live lanes takes the first one's ray: its lanes, all outside `valid`, then take part
         // in no bound and no leaf (closest_frustum does not branch on liveness).
         for (int a = 0; a < 3; ++a) r[first].neg[a] = neg[a] != 0;
-        set_planes(r[first]);
-        for (int i = 0; i < kN; ++i) {
-          if (i == first) continue;
-          if (!live[i]) {
-            r[i] = r[first];
-            continue;
-          }
-          for (int a = 0; a < 3; ++a)
-            r[i].neg[a] = r[first].neg[a], r[i].near[a] = r[first].near[a],
-            r[i].far[a] = r[first].far[a];
-        }
+        set_planes(r[first]);  // every packet's (closest_frustum reads only the first's)
+        for (int i = 0; i < kN; ++i)
+          if (!live[i]) r[i] = r[first];
         return closest_frustum<kN>(h, valid, r, first, best_t, leaf);
       }
     }
@@ -468,7 +471,11 @@ struct Traversal {
     for (;;) {
       const Node& n = h.nodes[std::size_t(node)];
       F4 tn4;
-      const F4 met = frustum_hit4(n, f, tmax, tn4);
+      // The frustum read from memory at each node (its loads fold into the fused operations):
+      // hoisted into registers, GCC spilled and reloaded all of it around every leaf call.
+      const Frustum* fp = &f;
+      asm("" : "+r"(fp));
+      const F4 met = frustum_hit4(n, *fp, tmax, tn4);
       const __m128i order =
           _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[n.order[code]]));
       const int m =
@@ -493,7 +500,7 @@ struct Traversal {
         bool tested = false;
         for (int i = 0; i < kN; ++i) {
           B tn_leaf;
-          const M lanes = child_hit<Slab::signed_>(parent, k, r[i], valid[i], best_t[i], tn_leaf);
+          const M lanes = signed_hit(parent, k, f.near, f.far, r[i], valid[i], best_t[i], tn_leaf);
           if (xsimd::any(lanes)) {
             leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
             tested = true;
