@@ -434,10 +434,11 @@ struct Traversal {
     for (int a = 0; a < 3; ++a) {
       const F4 pn = _mm_load_ps(reinterpret_cast<const float*>(base + f.near[a]));
       const F4 pf = _mm_load_ps(reinterpret_cast<const float*>(base + f.far[a]));
-      lo = _mm_max_ps(
-          lo, _mm_min_ps(fmsub4(pn, f.inv_lo[a], f.oi_hi[a]), fmsub4(pn, f.inv_hi[a], f.oi_hi[a])));
-      hi = _mm_min_ps(
-          hi, _mm_max_ps(fmsub4(pf, f.inv_lo[a], f.oi_lo[a]), fmsub4(pf, f.inv_hi[a], f.oi_lo[a])));
+      // The least of pn * inv over [inv_lo, inv_hi] is at inv_lo where pn >= 0, at inv_hi where
+      // pn < 0 (the sign bit picks; at -0 both products are zeros); the greatest of pf * inv
+      // the other way round. One fused operation each, then, rather than both and a min or max.
+      lo = _mm_max_ps(lo, fmsub4(pn, _mm_blendv_ps(f.inv_lo[a], f.inv_hi[a], pn), f.oi_hi[a]));
+      hi = _mm_min_ps(hi, fmsub4(pf, _mm_blendv_ps(f.inv_hi[a], f.inv_lo[a], pf), f.oi_lo[a]));
     }
     tnear = lo;
     return _mm_and_ps(
