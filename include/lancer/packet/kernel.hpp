@@ -1108,17 +1108,18 @@ struct Kernel {
     M valid[n];
     B sum[n];
     I first_id[n];
+    alignas(64) T col_of[W], row_of[W];  // each lane's column and row in its tile (edge blocks)
+    if constexpr (!kWhole)
+      for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
     for (int g = 0; g < n; ++g) {
       ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
       if constexpr (kWhole) {
         cols[g] = kTileW, rows[g] = kTileH, valid[g] = M(true);
       } else {
-        alignas(64) T col_of[W], row_of[W];
-        for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
         cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
         rows[g] = std::max(0, std::min(kTileH, row_end - tj[g]));
-        valid[g] = (B::load_aligned(col_of) < B(T(cols[g]))) &
-                   (B::load_aligned(row_of) < B(T(rows[g])));
+        valid[g] =
+            (B::load_aligned(col_of) < B(T(cols[g]))) & (B::load_aligned(row_of) < B(T(rows[g])));
       }
       sum[g] = B(0), first_id[g] = I(Id(-1));
     }
