@@ -95,9 +95,12 @@ expect_failure "generate under mpirun" 2 "only render and bench are distributed"
 
 # A killed rank: SIGKILL rank 1 mid-render; mpirun ends the job (SIGTERM to the others), rank 0
 # says so in one line and writes no file.
-# Long enough (seconds, with the BVH, on an idle machine) that rank 1 dies mid-render.
-big=(--resolution 2400x1800 --supersample 8 --threads 1)
-timeout --kill-after=10 120 "${mpirun[@]}" -np 3 "$lancer" render scenes/many-spheres.json \
+# Long enough that rank 1 dies mid-render: about 14 s in one process on a fast core (AMD Zen 5;
+# scenes/many-spheres.json at 2400x1800, 8x8 samples had finished within the second before the
+# kill there), 20000 reflective spheres, 3x3 samples.
+"$lancer" generate --spheres 20000 --reflect 0.5 --seed 3 -o "$out/killed.json" >/dev/null
+big=(--resolution 2400x1800 --supersample 3 --threads 1)
+timeout --kill-after=10 120 "${mpirun[@]}" -np 3 "$lancer" render "$out/killed.json" \
   -o "$out/dir/killed.png" "${big[@]}" >"$out/stdout" 2>"$out/stderr" &
 job=$!
 victim=""

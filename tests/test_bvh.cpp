@@ -292,6 +292,37 @@ TEST(Bvh, CameraGroupsMatchThePlainLoopAtAnyScale) {
   }
 }
 
+// Camera blocks (32x8 pixels at width 16, in two registers of four 4x4 tiles; 8x8 at widths 8
+// and 4) cut by the image's edges and by threads' row ranges anywhere: a register whose four
+// tiles all lie outside the image (13 columns), single rows of tiles, blocks cut on both
+// sides. Each pixel's t and id as the plain loop's.
+TEST(Bvh, CameraBlocksCutAnywhereMatchThePlainLoop) {
+  const std::array<std::array<int, 2>, 5> sizes = {{{13, 9}, {17, 3}, {33, 17}, {64, 16}, {5, 30}}};
+  for (const auto& [nx, ny] : sizes)
+    for (int threads : {1, 2}) {
+      CloudOptions o;
+      o.spheres = 1200;
+      o.duplicates = 0.2;
+      o.nx = nx, o.ny = ny;
+      const Scene s = cloud(300 + std::uint64_t(nx), o);
+      SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(ny) + ", " + std::to_string(threads) +
+                   " threads");
+      RenderOptions po;
+      po.threads = threads;
+      po.width = 1, po.accel = Accel::none;
+      const PrimaryResult plain = render_primary_with_ids(s, po);
+      int hits = 0;
+      for (float id : plain.id) hits += id >= 0 && id < 1200;
+      EXPECT_GT(hits, 0);
+      for (int w : testing::packet_widths(Precision::exact)) {
+        po.width = w, po.accel = Accel::bvh;
+        const PrimaryResult tree = render_primary_with_ids(s, po);
+        EXPECT_EQ(plain.t, tree.t) << "width " << w;
+        EXPECT_EQ(plain.id, tree.id) << "width " << w;
+      }
+    }
+}
+
 // lancer bench prepares a scene once and times many frames of it (PreparedRun): each frame, at
 // any width, is the image and the hits of a render that prepares for itself, and frames do not
 // change one another (the prepared scene is only read).

@@ -16,8 +16,9 @@
 
 namespace lancer {
 
-// Small tiles balance rows of different cost; four rows keep packets busy.
-inline constexpr int kTileRows = 4;
+// Small tiles balance rows of different cost; eight rows: the camera blocks' height
+// (packet/kernel.hpp kBlockRows).
+inline constexpr int kTileRows = 8;
 
 // One arena per thread count, kept for the process: a render (a benchmark repeats them by the
 // thousand) then finds its worker threads already made, not started for it. Never destroyed:

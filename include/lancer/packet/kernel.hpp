@@ -1070,9 +1070,9 @@ struct Kernel {
   // Pinhole cameras (float): kGroup tiles side by side (a block kGroupPx wide, kBlockRows high)
   // walk the hierarchy together (closest_group_in_hierarchy), each tile's rays tested at the
   // leaves as its own packet. Measured at 65536 spheres: docs/accel.md.
-  static constexpr int kGroupPx = std::is_same_v<T, float> ? (W >= 16 ? 16 : 8) : kTileW;
+  static constexpr int kGroupPx = std::is_same_v<T, float> ? (W >= 16 ? 32 : 8) : kTileW;
   static constexpr int kGroupX = kGroupPx / kTileW;
-  static constexpr int kBlockRows = 4;  // the row tiles of run_tiles (tiles.hpp kTileRows)
+  static constexpr int kBlockRows = 8;  // within run_tiles' rows (tiles.hpp kTileRows)
   static constexpr int kGroupY = std::is_same_v<T, float> ? kBlockRows / kTileH : 1;
   static constexpr int kGroup = kGroupX * kGroupY;
 

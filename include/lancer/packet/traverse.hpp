@@ -31,7 +31,8 @@ struct PushTables {
   alignas(16) std::uint8_t reverse[256][16];  // per order byte: lane i = slot visited (3-i)th
   alignas(16) std::uint8_t compress[16][16];  // per 4-bit mask: its set lanes first, in order
   alignas(16) std::int32_t arity[5][4];       // lanes < arity set
-  std::int8_t count[16];                      // set bits of a 4-bit mask
+  std::uint8_t reorder[256][16];  // per order byte and 4-bit mask by slot: that mask by lane
+  std::int8_t count[16];          // set bits of a 4-bit mask
 };
 constexpr PushTables push_tables() {
   PushTables t{};
@@ -52,6 +53,10 @@ constexpr PushTables push_tables() {
   }
   for (int a = 0; a <= 4; ++a)
     for (int i = 0; i < 4; ++i) t.arity[a][i] = i < a ? -1 : 0;
+  for (int o = 0; o < 256; ++o)
+    for (int m = 0; m < 16; ++m)
+      for (int i = 0; i < 4; ++i)
+        t.reorder[o][m] |= std::uint8_t((m >> ((o >> (2 * (3 - i))) & 3) & 1) << i);
   return t;
 }
 inline constexpr PushTables kPush = push_tables();
@@ -300,6 +305,15 @@ struct Traversal {
         set_planes(r[first]);  // every packet's (closest_frustum reads only the first's)
         for (int i = 0; i < kN; ++i)
           if (!live[i]) r[i] = r[first];
+        if constexpr (kAvx512<Arch> && kN % 4 == 0) {
+          unsigned packets = 0;
+          bool full = true;
+          for (int i = 0; i < kN; ++i)
+            packets |= unsigned(live[i] != 0) << i, full = full && live[i] == 0xFFFFu;
+          if (full)
+            return closest_frustum16<kN / 4, true>(h, valid, r, first, packets, best_t, leaf);
+          return closest_frustum16<kN / 4, false>(h, valid, r, first, packets, best_t, leaf);
+        }
         return closest_frustum<kN>(h, valid, r, first, best_t, leaf);
       }
     }
@@ -508,6 +522,186 @@ struct Traversal {
           }
         }
         if (tested) tmax = far_bound<kN>(valid, best_t);
+      }
+    }
+  }
+
+  // ---- width 16: each packet's own interval, the four of a block in one register ----------
+  // Lane 4p + k of a zmm: packet p against child slot k. A node's four boxes are tested against
+  // the four packets' intervals at once (closest_frustum's bounds, per packet rather than per
+  // block: tighter), for the same instructions as one block interval in an xmm. A child goes
+  // onto the stack with the packets that meet it; below it only they are tested, and at a leaf
+  // only they run their per-lane box test. Each packet culls with its own greatest best t.
+  using F16 = __m512;
+  struct Frustum16 {
+    F16 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
+    std::size_t near[3], far[3];
+  };
+  // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction (the
+  // halves of two packets folded in one operation, then their quarters, then within quarters).
+  template <bool kMax>
+  static F16 reduce16(const F16* x) noexcept {
+    auto op = [](F16 a, F16 b) { return kMax ? _mm512_max_ps(a, b) : _mm512_min_ps(a, b); };
+    const F16 a = op(_mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(1, 0, 1, 0)),
+                     _mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(3, 2, 3, 2)));
+    const F16 b = op(_mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(1, 0, 1, 0)),
+                     _mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(3, 2, 3, 2)));
+    F16 u = op(_mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(2, 0, 2, 0)),
+               _mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(3, 1, 3, 1)));
+    u = op(u, _mm512_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
+    return op(u, _mm512_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
+  }
+  // Per packet, the least (kMax: greatest) of get(p)'s live lanes (reduce16's layout); kFull:
+  // every lane of every packet is live (all but the image's edge blocks).
+  template <bool kMax, bool kFull, class Get>
+  static F16 packet_bound16(const M* valid, Get get) noexcept {
+    const B fill(kMax ? -std::numeric_limits<T>::infinity() : std::numeric_limits<T>::infinity());
+    F16 x[4];
+    for (int p = 0; p < 4; ++p) x[p] = kFull ? get(p) : xsimd::select(valid[p], get(p), fill);
+    return reduce16<kMax>(x);
+  }
+  template <bool kFull>
+  static void frustum16(Frustum16& f, const Ray* r, const M* valid, int first) noexcept {
+    for (int a = 0; a < 3; ++a) {
+      auto inv = [&](int p) -> const B& {
+        return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
+      };
+      auto oi = [&](int p) -> const B& {
+        return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
+      };
+      f.inv_lo[a] = packet_bound16<false, kFull>(valid, inv);
+      f.inv_hi[a] = packet_bound16<true, kFull>(valid, inv);
+      f.oi_lo[a] = packet_bound16<false, kFull>(valid, oi);
+      f.oi_hi[a] = packet_bound16<true, kFull>(valid, oi);
+      f.near[a] = r[first].near[a], f.far[a] = r[first].far[a];
+    }
+  }
+  // The (packet, child) pairs of `active` whose interval meets the child's box within the
+  // packet's [0, tmax]; tnear: where the packet may enter it. frustum_hit4's bounds, per packet.
+  [[gnu::always_inline]] static __mmask16 frustum_hit16(const Node& n, const Frustum16& f, F16 tmax,
+                                                        __mmask16 active, F16& tnear) noexcept {
+    const char* base = reinterpret_cast<const char*>(&n);
+    const __m512i zero = _mm512_setzero_si512();
+    F16 lo = _mm512_setzero_ps(), hi = tmax;
+    for (int a = 0; a < 3; ++a) {
+      const F16 pn =
+          _mm512_broadcast_f32x4(_mm_load_ps(reinterpret_cast<const float*>(base + f.near[a])));
+      const F16 pf =
+          _mm512_broadcast_f32x4(_mm_load_ps(reinterpret_cast<const float*>(base + f.far[a])));
+      // By the plane's sign bit, as frustum_hit4's blendv.
+      const __mmask16 nneg = _mm512_cmplt_epi32_mask(_mm512_castps_si512(pn), zero);
+      const __mmask16 fneg = _mm512_cmplt_epi32_mask(_mm512_castps_si512(pf), zero);
+      lo = _mm512_max_ps(
+          lo,
+          _mm512_fmsub_ps(pn, _mm512_mask_blend_ps(nneg, f.inv_lo[a], f.inv_hi[a]), f.oi_hi[a]));
+      hi = _mm512_min_ps(
+          hi,
+          _mm512_fmsub_ps(pf, _mm512_mask_blend_ps(fneg, f.inv_hi[a], f.inv_lo[a]), f.oi_lo[a]));
+    }
+    tnear = lo;
+    return _mm512_mask_cmp_ps_mask(active, lo, hi, _CMP_LE_OQ);
+  }
+  // Packets (bits p) as lanes 4p to 4p + 3 of a zmm mask.
+  static constexpr std::uint16_t kPacketLanes[16] = {0x0000, 0x000F, 0x00F0, 0x00FF, 0x0F00, 0x0F0F,
+                                                     0x0FF0, 0x0FFF, 0xF000, 0xF00F, 0xF0F0, 0xF0FF,
+                                                     0xFF00, 0xFF0F, 0xFFF0, 0xFFFF};
+  // The greatest of tmax's lanes (reduce16's layout: each packet's four lanes are equal).
+  static float greatest16(F16 tmax) noexcept {
+    const F16 m = _mm512_max_ps(tmax, _mm512_shuffle_f32x4(tmax, tmax, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm512_cvtss_f32(_mm512_max_ps(m, _mm512_shuffle_f32x4(m, m, _MM_SHUFFLE(2, 3, 0, 1))));
+  }
+
+  // closest_frustum with frustum_hit16's test, kG registers of four packets each: the stack
+  // holds, beside each box and its entry bound, the packets that meet it (bit p: packet p).
+  template <int kG, bool kFull, class Leaf>
+  static void closest_frustum16(const Bvh<T>& h, const M* valid, const Ray* r, int first,
+                                unsigned packets, const B* best_t, Leaf&& leaf) noexcept {
+    constexpr int kW = Bvh<T>::kWidth;
+    static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1 && B::size == 16);
+    Frustum16 f[kG];
+    for (int g = 0; g < kG; ++g) frustum16<kFull>(f[g], r + 4 * g, valid + 4 * g, first - 4 * g);
+    const unsigned code = unsigned(!r[first].neg[0]) | unsigned(!r[first].neg[1]) << 1 |
+                          unsigned(!r[first].neg[2]) << 2;
+    constexpr int kSize = Bvh<T>::kStack + kW;  // + kW: a full vector stored at the top
+    alignas(16) std::int32_t box[kSize], who[kSize];
+    alignas(16) T tnear[kSize];
+    int sp = 0;
+    F16 tmax[kG];
+    float tmax_all = 0;
+    auto bounds = [&] {
+      tmax_all = 0;
+      for (int g = 0; g < kG; ++g) {
+        auto bound = [&](int p) -> const B& { return best_t[4 * g + p]; };
+        tmax[g] = packet_bound16<true, kFull>(valid + 4 * g, bound);
+        tmax_all = std::max(tmax_all, greatest16(tmax[g]));
+      }
+    };
+    bounds();
+    const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
+    // Lane 4p + k: bit p (which packet of its register a lane of the node test is).
+    const __m512i packet_bit = _mm512_setr_epi32(1, 1, 1, 1, 2, 2, 2, 2, 4, 4, 4, 4, 8, 8, 8, 8);
+    const F16 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
+    std::int32_t node = 0;
+    unsigned in = packets;  // the packets that met the node's box
+    for (;;) {
+      const Node& n = h.nodes[std::size_t(node)];
+      const Frustum16* fp = f;  // from memory at each node, as in closest_frustum
+      asm("" : "+r"(fp));
+      const unsigned slots = 0x1111u * ((1u << n.arity) - 1);
+      unsigned met = 0;
+      __m512i who16 = _mm512_setzero_si512();
+      F16 tn16 = inf;
+      for (int g = 0; g < kG; ++g) {
+        F16 lo;
+        const __mmask16 m16 = frustum_hit16(
+            n, fp[g], tmax[g], __mmask16(kPacketLanes[in >> (4 * g) & 0xF] & slots), lo);
+        met |= m16;
+        who16 = _mm512_or_si512(
+            who16, _mm512_maskz_mov_epi32(m16, _mm512_slli_epi32(packet_bit, unsigned(4 * g))));
+        tn16 = _mm512_min_ps(tn16, _mm512_mask_mov_ps(inf, m16, lo));
+      }
+      // Per child k (lane k): the packets that meet it, and the least entry bound of those.
+      who16 = _mm512_or_si512(who16, _mm512_shuffle_i32x4(who16, who16, _MM_SHUFFLE(1, 0, 3, 2)));
+      who16 = _mm512_or_si512(who16, _mm512_shuffle_i32x4(who16, who16, _MM_SHUFFLE(2, 3, 0, 1)));
+      tn16 = _mm512_min_ps(tn16, _mm512_shuffle_f32x4(tn16, tn16, _MM_SHUFFLE(1, 0, 3, 2)));
+      tn16 = _mm512_min_ps(tn16, _mm512_shuffle_f32x4(tn16, tn16, _MM_SHUFFLE(2, 3, 0, 1)));
+      const __m128i order =
+          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[n.order[code]]));
+      // The children met, by slot, then in the order's lanes: from the masks (a shorter chain
+      // to the next node's address than through who16).
+      met |= met >> 8, met |= met >> 4;
+      const int m = kPush.reorder[n.order[code]][met & 0xF];
+      const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
+      auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
+      const __m128i boxes = _mm_add_epi32(_mm_set1_epi32(node * kW), iota);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp), push(boxes));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(who + sp), push(_mm512_castsi512_si128(who16)));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp),
+                       push(_mm_castps_si128(_mm512_castps512_ps128(tn16))));
+      sp += kPush.count[m];
+      for (;;) {  // the next subtree some lane may still find a nearer hit in
+        if (sp == 0) return;
+        --sp;
+        if (tnear[sp] > tmax_all) continue;
+        const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
+        const int k = int(unsigned(box[sp]) % kW);
+        in = unsigned(who[sp]);
+        if (parent.count[k] < 0) {
+          node = parent.child[k];
+          break;
+        }
+        bool tested = false;
+        for (unsigned ps = in; ps; ps &= ps - 1) {
+          const int i = __builtin_ctz(ps);
+          B tn_leaf;
+          const M lanes =
+              signed_hit(parent, k, f[0].near, f[0].far, r[i], valid[i], best_t[i], tn_leaf);
+          if (xsimd::any(lanes)) {
+            leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
+            tested = true;
+          }
+        }
+        if (tested) bounds();
       }
     }
   }
