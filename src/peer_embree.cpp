@@ -475,7 +475,7 @@ struct EmbreeScene::Impl {
   }
 
   // Packets of W as squares, as lancer's camera packets (16: 4x4, 8: 4x2, 4: 2x2 pixels; rows
-  // r0..r1 come in tiles of 4 rows): rays of a square diverge less than those of a row, so
+  // r0..r1 come in tiles of 8 rows): rays of a square diverge less than those of a row, so
   // Embree's packet traversal keeps more lanes together.
   template <int W>
   void primary_tiles(float* t_out, int r0, int r1, RayCounts& counts) const {

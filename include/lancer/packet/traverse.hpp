@@ -305,14 +305,17 @@ struct Traversal {
         set_planes(r[first]);  // every packet's (closest_frustum reads only the first's)
         for (int i = 0; i < kN; ++i)
           if (!live[i]) r[i] = r[first];
-        if constexpr (kAvx512<Arch> && kN % 4 == 0) {
+        // Widths 16 and 8: several tiles' intervals in one register (closest_tiles).
+        constexpr bool k16 = kAvx512<Arch> && kN % 4 == 0, k8 = kAvx2<Arch> && kN % 2 == 0;
+        if constexpr (k16 || k8) {
           unsigned packets = 0;
           bool full = true;
           for (int i = 0; i < kN; ++i)
-            packets |= unsigned(live[i] != 0) << i, full = full && live[i] == 0xFFFFu;
-          if (full)
-            return closest_frustum16<kN / 4, true>(h, valid, r, first, packets, best_t, leaf);
-          return closest_frustum16<kN / 4, false>(h, valid, r, first, packets, best_t, leaf);
+            packets |= unsigned(live[i] != 0) << i, full = full && live[i] == (1u << B::size) - 1;
+          using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
+          using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
+          if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf);
+          return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf);
         }
         return closest_frustum<kN>(h, valid, r, first, best_t, leaf);
       }
@@ -526,163 +529,249 @@ struct Traversal {
     }
   }
 
-  // ---- width 16: each packet's own interval, the four of a block in one register ----------
-  // Lane 4p + k of a zmm: packet p against child slot k. A node's four boxes are tested against
-  // the four packets' intervals at once (closest_frustum's bounds, per packet rather than per
-  // block: tighter), for the same instructions as one block interval in an xmm. A child goes
-  // onto the stack with the packets that meet it; below it only they are tested, and at a leaf
-  // only they run their per-lane box test. Each packet culls with its own greatest best t.
-  using F16 = __m512;
-  struct Frustum16 {
-    F16 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
-    std::size_t near[3], far[3];
-  };
-  // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction (the
-  // halves of two packets folded in one operation, then their quarters, then within quarters).
-  template <bool kMax>
-  static F16 reduce16(const F16* x) noexcept {
-    auto op = [](F16 a, F16 b) { return kMax ? _mm512_max_ps(a, b) : _mm512_min_ps(a, b); };
-    const F16 a = op(_mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(1, 0, 1, 0)),
-                     _mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(3, 2, 3, 2)));
-    const F16 b = op(_mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(1, 0, 1, 0)),
-                     _mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(3, 2, 3, 2)));
-    F16 u = op(_mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(2, 0, 2, 0)),
-               _mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(3, 1, 3, 1)));
-    u = op(u, _mm512_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
-    return op(u, _mm512_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
-  }
-  // Per packet, the least (kMax: greatest) of get(p)'s live lanes (reduce16's layout); kFull:
-  // every lane of every packet is live (all but the image's edge blocks).
+  // ---- each tile's own interval, several tiles in one register ------------------------------
+  // Wald et al.'s interval culling per camera tile rather than per block: a node's four boxes
+  // against several tiles' intervals at once, lane 4q + k of a register holding tile q against
+  // child slot k. A tile's interval bounds its 16 or 8 rays (closest_frustum's bounds over
+  // fewer rays: tighter) for the instructions of one block interval in an xmm. A child goes
+  // onto the stack with the tiles that meet it; below it only they are tested, and at a leaf
+  // only they run the per-lane box test. Each tile culls with its own greatest best t.
+  // Width 16 (Tiles16): four 4x4 tiles a zmm; width 8 (Tiles8, AVX2): two 4x2 tiles a ymm.
+
+  // Packet p's rays' get(p), its dead lanes as +inf (kMax: -inf) so that they bound nothing;
+  // kFull: every lane of every packet live.
   template <bool kMax, bool kFull, class Get>
-  static F16 packet_bound16(const M* valid, Get get) noexcept {
+  static B live_lanes(const M* valid, int p, Get get) noexcept {
+    if constexpr (kFull) return get(p);
     const B fill(kMax ? -std::numeric_limits<T>::infinity() : std::numeric_limits<T>::infinity());
-    F16 x[4];
-    for (int p = 0; p < 4; ++p) x[p] = kFull ? get(p) : xsimd::select(valid[p], get(p), fill);
-    return reduce16<kMax>(x);
-  }
-  template <bool kFull>
-  static void frustum16(Frustum16& f, const Ray* r, const M* valid, int first) noexcept {
-    for (int a = 0; a < 3; ++a) {
-      auto inv = [&](int p) -> const B& {
-        return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
-      };
-      auto oi = [&](int p) -> const B& {
-        return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
-      };
-      f.inv_lo[a] = packet_bound16<false, kFull>(valid, inv);
-      f.inv_hi[a] = packet_bound16<true, kFull>(valid, inv);
-      f.oi_lo[a] = packet_bound16<false, kFull>(valid, oi);
-      f.oi_hi[a] = packet_bound16<true, kFull>(valid, oi);
-      f.near[a] = r[first].near[a], f.far[a] = r[first].far[a];
-    }
-  }
-  // The (packet, child) pairs of `active` whose interval meets the child's box within the
-  // packet's [0, tmax]; tnear: where the packet may enter it. frustum_hit4's bounds, per packet.
-  [[gnu::always_inline]] static __mmask16 frustum_hit16(const Node& n, const Frustum16& f, F16 tmax,
-                                                        __mmask16 active, F16& tnear) noexcept {
-    const char* base = reinterpret_cast<const char*>(&n);
-    const __m512i zero = _mm512_setzero_si512();
-    F16 lo = _mm512_setzero_ps(), hi = tmax;
-    for (int a = 0; a < 3; ++a) {
-      const F16 pn =
-          _mm512_broadcast_f32x4(_mm_load_ps(reinterpret_cast<const float*>(base + f.near[a])));
-      const F16 pf =
-          _mm512_broadcast_f32x4(_mm_load_ps(reinterpret_cast<const float*>(base + f.far[a])));
-      // By the plane's sign bit, as frustum_hit4's blendv.
-      const __mmask16 nneg = _mm512_cmplt_epi32_mask(_mm512_castps_si512(pn), zero);
-      const __mmask16 fneg = _mm512_cmplt_epi32_mask(_mm512_castps_si512(pf), zero);
-      lo = _mm512_max_ps(
-          lo,
-          _mm512_fmsub_ps(pn, _mm512_mask_blend_ps(nneg, f.inv_lo[a], f.inv_hi[a]), f.oi_hi[a]));
-      hi = _mm512_min_ps(
-          hi,
-          _mm512_fmsub_ps(pf, _mm512_mask_blend_ps(fneg, f.inv_hi[a], f.inv_lo[a]), f.oi_lo[a]));
-    }
-    tnear = lo;
-    return _mm512_mask_cmp_ps_mask(active, lo, hi, _CMP_LE_OQ);
-  }
-  // Packets (bits p) as lanes 4p to 4p + 3 of a zmm mask.
-  static constexpr std::uint16_t kPacketLanes[16] = {0x0000, 0x000F, 0x00F0, 0x00FF, 0x0F00, 0x0F0F,
-                                                     0x0FF0, 0x0FFF, 0xF000, 0xF00F, 0xF0F0, 0xF0FF,
-                                                     0xFF00, 0xFF0F, 0xFFF0, 0xFFFF};
-  // The greatest of tmax's lanes (reduce16's layout: each packet's four lanes are equal).
-  static float greatest16(F16 tmax) noexcept {
-    const F16 m = _mm512_max_ps(tmax, _mm512_shuffle_f32x4(tmax, tmax, _MM_SHUFFLE(1, 0, 3, 2)));
-    return _mm512_cvtss_f32(_mm512_max_ps(m, _mm512_shuffle_f32x4(m, m, _MM_SHUFFLE(2, 3, 0, 1))));
+    return xsimd::select(valid[p], get(p), fill);
   }
 
-  // closest_frustum with frustum_hit16's test, kG registers of four packets each: the stack
-  // holds, beside each box and its entry bound, the packets that meet it (bit p: packet p).
-  template <int kG, bool kFull, class Leaf>
-  static void closest_frustum16(const Bvh<T>& h, const M* valid, const Ray* r, int first,
-                                unsigned packets, const B* best_t, Leaf&& leaf) noexcept {
+  // Width 16: kG zmm of four 4x4 tiles each.
+  template <int kG, bool kFull>
+  struct Tiles16 {
+    using F16 = __m512;
+    struct Axes {
+      F16 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
+    } f[kG];
+    F16 tmax[kG];
+    float tmax_all;
+    // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction
+    // (two packets' halves folded in one operation, then their quarters, then within quarters).
+    template <bool kMax>
+    static F16 reduce(const F16* x) noexcept {
+      auto op = [](F16 a, F16 b) { return kMax ? _mm512_max_ps(a, b) : _mm512_min_ps(a, b); };
+      const F16 a = op(_mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(1, 0, 1, 0)),
+                       _mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(3, 2, 3, 2)));
+      const F16 b = op(_mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(1, 0, 1, 0)),
+                       _mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(3, 2, 3, 2)));
+      F16 u = op(_mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(2, 0, 2, 0)),
+                 _mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(3, 1, 3, 1)));
+      u = op(u, _mm512_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
+      return op(u, _mm512_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
+    }
+    template <bool kMax, class Get>
+    static F16 bound(const M* valid, int g, Get get) noexcept {
+      F16 x[4];
+      for (int p = 0; p < 4; ++p) x[p] = live_lanes<kMax, kFull>(valid, 4 * g + p, get);
+      return reduce<kMax>(x);
+    }
+    Tiles16(const Ray* r, const M* valid) noexcept {
+      for (int g = 0; g < kG; ++g)
+        for (int a = 0; a < 3; ++a) {
+          auto inv = [&](int p) -> const B& {
+            return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
+          };
+          auto oi = [&](int p) -> const B& {
+            return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
+          };
+          f[g].inv_lo[a] = bound<false>(valid, g, inv), f[g].inv_hi[a] = bound<true>(valid, g, inv);
+          f[g].oi_lo[a] = bound<false>(valid, g, oi), f[g].oi_hi[a] = bound<true>(valid, g, oi);
+        }
+    }
+    void bounds(const M* valid, const B* best_t) noexcept {
+      tmax_all = 0;  // (entry bounds are >= 0)
+      for (int g = 0; g < kG; ++g) {
+        tmax[g] = bound<true>(valid, g, [&](int p) -> const B& { return best_t[p]; });
+        // Each tile's four lanes are equal: the greatest of lanes 0, 4, 8 and 12.
+        const F16 m =
+            _mm512_max_ps(tmax[g], _mm512_shuffle_f32x4(tmax[g], tmax[g], _MM_SHUFFLE(1, 0, 3, 2)));
+        tmax_all = std::max(tmax_all, _mm512_cvtss_f32(_mm512_max_ps(
+                                          m, _mm512_shuffle_f32x4(m, m, _MM_SHUFFLE(2, 3, 0, 1)))));
+      }
+    }
+    // The children (bits by slot) some tile of `in` meets within its t; per child (lane k) the
+    // tiles that meet it and the least entry bound of those.
+    [[gnu::always_inline]] unsigned test(const Node& n, const std::size_t* near,
+                                         const std::size_t* far, unsigned in, __m128i& who4,
+                                         F4& tn4) const noexcept {
+      static constexpr std::uint16_t kLanes[16] = {0x0000, 0x000F, 0x00F0, 0x00FF, 0x0F00, 0x0F0F,
+                                                   0x0FF0, 0x0FFF, 0xF000, 0xF00F, 0xF0F0, 0xF0FF,
+                                                   0xFF00, 0xFF0F, 0xFFF0, 0xFFFF};
+      const char* base = reinterpret_cast<const char*>(&n);
+      const unsigned slots = 0x1111u * ((1u << n.arity) - 1);
+      const __m512i zero = _mm512_setzero_si512();
+      const __m512i bit = _mm512_setr_epi32(1, 1, 1, 1, 2, 2, 2, 2, 4, 4, 4, 4, 8, 8, 8, 8);
+      const F16 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
+      unsigned met = 0;
+      __m512i who = _mm512_setzero_si512();
+      F16 tn = inf;
+      for (int g = 0; g < kG; ++g) {
+        F16 lo = _mm512_setzero_ps(), hi = tmax[g];
+        for (int a = 0; a < 3; ++a) {
+          const F16 pn =
+              _mm512_broadcast_f32x4(_mm_load_ps(reinterpret_cast<const float*>(base + near[a])));
+          const F16 pf =
+              _mm512_broadcast_f32x4(_mm_load_ps(reinterpret_cast<const float*>(base + far[a])));
+          // The bound the plane's sign bit picks, as frustum_hit4's blendv.
+          const __mmask16 nneg = _mm512_cmplt_epi32_mask(_mm512_castps_si512(pn), zero);
+          const __mmask16 fneg = _mm512_cmplt_epi32_mask(_mm512_castps_si512(pf), zero);
+          lo = _mm512_max_ps(
+              lo, _mm512_fmsub_ps(pn, _mm512_mask_blend_ps(nneg, f[g].inv_lo[a], f[g].inv_hi[a]),
+                                  f[g].oi_hi[a]));
+          hi = _mm512_min_ps(
+              hi, _mm512_fmsub_ps(pf, _mm512_mask_blend_ps(fneg, f[g].inv_hi[a], f[g].inv_lo[a]),
+                                  f[g].oi_lo[a]));
+        }
+        const __mmask16 m = _mm512_mask_cmp_ps_mask(__mmask16(kLanes[in >> (4 * g) & 0xF] & slots),
+                                                    lo, hi, _CMP_LE_OQ);
+        met |= m;
+        who = _mm512_or_si512(who,
+                              _mm512_maskz_mov_epi32(m, _mm512_slli_epi32(bit, unsigned(4 * g))));
+        tn = _mm512_min_ps(tn, _mm512_mask_mov_ps(inf, m, lo));
+      }
+      who = _mm512_or_si512(who, _mm512_shuffle_i32x4(who, who, _MM_SHUFFLE(1, 0, 3, 2)));
+      who = _mm512_or_si512(who, _mm512_shuffle_i32x4(who, who, _MM_SHUFFLE(2, 3, 0, 1)));
+      tn = _mm512_min_ps(tn, _mm512_shuffle_f32x4(tn, tn, _MM_SHUFFLE(1, 0, 3, 2)));
+      tn = _mm512_min_ps(tn, _mm512_shuffle_f32x4(tn, tn, _MM_SHUFFLE(2, 3, 0, 1)));
+      who4 = _mm512_castsi512_si128(who), tn4 = _mm512_castps512_ps128(tn);
+      met |= met >> 8, met |= met >> 4;  // from the masks: a shorter chain than through who
+      return met & 0xF;
+    }
+  };
+
+  // Width 8 (AVX2): kG ymm of two 4x2 tiles each.
+  template <int kG, bool kFull>
+  struct Tiles8 {
+    using F8 = __m256;
+    struct Axes {
+      F8 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
+    } f[kG];
+    F8 tmax[kG];
+    float tmax_all;
+    // Of tiles 2g and 2g + 1: the least (kMax: greatest) in lanes 0-3 and 4-7.
+    template <bool kMax, class Get>
+    static F8 bound(const M* valid, int g, Get get) noexcept {
+      auto op = [](F8 a, F8 b) { return kMax ? _mm256_max_ps(a, b) : _mm256_min_ps(a, b); };
+      const F8 a = live_lanes<kMax, kFull>(valid, 2 * g, get);
+      const F8 b = live_lanes<kMax, kFull>(valid, 2 * g + 1, get);
+      F8 u = op(_mm256_permute2f128_ps(a, b, 0x20), _mm256_permute2f128_ps(a, b, 0x31));
+      u = op(u, _mm256_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
+      return op(u, _mm256_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
+    }
+    Tiles8(const Ray* r, const M* valid) noexcept {
+      for (int g = 0; g < kG; ++g)
+        for (int a = 0; a < 3; ++a) {
+          auto inv = [&](int p) -> const B& {
+            return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
+          };
+          auto oi = [&](int p) -> const B& {
+            return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
+          };
+          f[g].inv_lo[a] = bound<false>(valid, g, inv), f[g].inv_hi[a] = bound<true>(valid, g, inv);
+          f[g].oi_lo[a] = bound<false>(valid, g, oi), f[g].oi_hi[a] = bound<true>(valid, g, oi);
+        }
+    }
+    void bounds(const M* valid, const B* best_t) noexcept {
+      tmax_all = 0;  // (entry bounds are >= 0)
+      for (int g = 0; g < kG; ++g) {
+        tmax[g] = bound<true>(valid, g, [&](int p) -> const B& { return best_t[p]; });
+        tmax_all = std::max(tmax_all, _mm_cvtss_f32(_mm_max_ps(_mm256_castps256_ps128(tmax[g]),
+                                                               _mm256_extractf128_ps(tmax[g], 1))));
+      }
+    }
+    [[gnu::always_inline]] unsigned test(const Node& n, const std::size_t* near,
+                                         const std::size_t* far, unsigned in, __m128i& who4,
+                                         F4& tn4) const noexcept {
+      const char* base = reinterpret_cast<const char*>(&n);
+      const unsigned slots = 0x11u * ((1u << n.arity) - 1);
+      const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+      const F8 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+      unsigned met = 0;
+      __m128i who = _mm_setzero_si128();
+      F8 tn = inf;
+      for (int g = 0; g < kG; ++g) {
+        F8 lo = _mm256_setzero_ps(), hi = tmax[g];
+        for (int a = 0; a < 3; ++a) {
+          const F8 pn = _mm256_broadcast_ps(reinterpret_cast<const __m128*>(base + near[a]));
+          const F8 pf = _mm256_broadcast_ps(reinterpret_cast<const __m128*>(base + far[a]));
+          lo = _mm256_max_ps(
+              lo, _mm256_fmsub_ps(pn, _mm256_blendv_ps(f[g].inv_lo[a], f[g].inv_hi[a], pn),
+                                  f[g].oi_hi[a]));
+          hi = _mm256_min_ps(
+              hi, _mm256_fmsub_ps(pf, _mm256_blendv_ps(f[g].inv_hi[a], f[g].inv_lo[a], pf),
+                                  f[g].oi_lo[a]));
+        }
+        const unsigned q = in >> (2 * g);
+        const unsigned active = ((q & 1u) * 0x0Fu | (q >> 1 & 1u) * 0xF0u) & slots;
+        const F8 hit = _mm256_and_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ),
+                                     _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                                         _mm256_and_si256(_mm256_set1_epi32(int(active)), lane_bit),
+                                         _mm256_setzero_si256())));
+        met |= unsigned(_mm256_movemask_ps(hit));
+        const __m128i h0 = _mm_castps_si128(_mm256_castps256_ps128(hit));
+        const __m128i h1 = _mm_castps_si128(_mm256_extractf128_ps(hit, 1));
+        who = _mm_or_si128(who, _mm_or_si128(_mm_and_si128(h0, _mm_set1_epi32(1 << (2 * g))),
+                                             _mm_and_si128(h1, _mm_set1_epi32(2 << (2 * g)))));
+        tn = _mm256_min_ps(tn, _mm256_blendv_ps(inf, lo, hit));
+      }
+      who4 = who;
+      tn4 = _mm_min_ps(_mm256_castps256_ps128(tn), _mm256_extractf128_ps(tn, 1));
+      return (met | met >> 4) & 0xF;
+    }
+  };
+
+  // closest_frustum with a Tiles layout's test: the stack holds, beside each box and its entry
+  // bound, the tiles that meet it (bit i: packet i).
+  template <class Tiles, class Leaf>
+  static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r, int first,
+                            unsigned packets, const B* best_t, Leaf&& leaf) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
-    static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1 && B::size == 16);
-    Frustum16 f[kG];
-    for (int g = 0; g < kG; ++g) frustum16<kFull>(f[g], r + 4 * g, valid + 4 * g, first - 4 * g);
+    static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
+    Tiles tiles(r, valid);
+    tiles.bounds(valid, best_t);
+    const std::size_t* near = r[first].near;
+    const std::size_t* far = r[first].far;
     const unsigned code = unsigned(!r[first].neg[0]) | unsigned(!r[first].neg[1]) << 1 |
                           unsigned(!r[first].neg[2]) << 2;
     constexpr int kSize = Bvh<T>::kStack + kW;  // + kW: a full vector stored at the top
     alignas(16) std::int32_t box[kSize], who[kSize];
     alignas(16) T tnear[kSize];
     int sp = 0;
-    F16 tmax[kG];
-    float tmax_all = 0;
-    auto bounds = [&] {
-      tmax_all = 0;
-      for (int g = 0; g < kG; ++g) {
-        auto bound = [&](int p) -> const B& { return best_t[4 * g + p]; };
-        tmax[g] = packet_bound16<true, kFull>(valid + 4 * g, bound);
-        tmax_all = std::max(tmax_all, greatest16(tmax[g]));
-      }
-    };
-    bounds();
     const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
-    // Lane 4p + k: bit p (which packet of its register a lane of the node test is).
-    const __m512i packet_bit = _mm512_setr_epi32(1, 1, 1, 1, 2, 2, 2, 2, 4, 4, 4, 4, 8, 8, 8, 8);
-    const F16 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
     std::int32_t node = 0;
-    unsigned in = packets;  // the packets that met the node's box
+    unsigned in = packets;  // the tiles that met the node's box
     for (;;) {
       const Node& n = h.nodes[std::size_t(node)];
-      const Frustum16* fp = f;  // from memory at each node, as in closest_frustum
-      asm("" : "+r"(fp));
-      const unsigned slots = 0x1111u * ((1u << n.arity) - 1);
-      unsigned met = 0;
-      __m512i who16 = _mm512_setzero_si512();
-      F16 tn16 = inf;
-      for (int g = 0; g < kG; ++g) {
-        F16 lo;
-        const __mmask16 m16 = frustum_hit16(
-            n, fp[g], tmax[g], __mmask16(kPacketLanes[in >> (4 * g) & 0xF] & slots), lo);
-        met |= m16;
-        who16 = _mm512_or_si512(
-            who16, _mm512_maskz_mov_epi32(m16, _mm512_slli_epi32(packet_bit, unsigned(4 * g))));
-        tn16 = _mm512_min_ps(tn16, _mm512_mask_mov_ps(inf, m16, lo));
-      }
-      // Per child k (lane k): the packets that meet it, and the least entry bound of those.
-      who16 = _mm512_or_si512(who16, _mm512_shuffle_i32x4(who16, who16, _MM_SHUFFLE(1, 0, 3, 2)));
-      who16 = _mm512_or_si512(who16, _mm512_shuffle_i32x4(who16, who16, _MM_SHUFFLE(2, 3, 0, 1)));
-      tn16 = _mm512_min_ps(tn16, _mm512_shuffle_f32x4(tn16, tn16, _MM_SHUFFLE(1, 0, 3, 2)));
-      tn16 = _mm512_min_ps(tn16, _mm512_shuffle_f32x4(tn16, tn16, _MM_SHUFFLE(2, 3, 0, 1)));
+      const Tiles* tp = &tiles;  // from memory at each node, as in closest_frustum
+      asm("" : "+r"(tp));
+      __m128i who4;
+      F4 tn4;
+      const unsigned met = tp->test(n, near, far, in, who4, tn4);
       const __m128i order =
           _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[n.order[code]]));
-      // The children met, by slot, then in the order's lanes: from the masks (a shorter chain
-      // to the next node's address than through who16).
-      met |= met >> 8, met |= met >> 4;
-      const int m = kPush.reorder[n.order[code]][met & 0xF];
+      const int m = kPush.reorder[n.order[code]][met];  // the met slots in the order's lanes
       const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
       auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
       const __m128i boxes = _mm_add_epi32(_mm_set1_epi32(node * kW), iota);
       _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp), push(boxes));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(who + sp), push(_mm512_castsi512_si128(who16)));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp),
-                       push(_mm_castps_si128(_mm512_castps512_ps128(tn16))));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(who + sp), push(who4));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp), push(_mm_castps_si128(tn4)));
       sp += kPush.count[m];
       for (;;) {  // the next subtree some lane may still find a nearer hit in
         if (sp == 0) return;
         --sp;
-        if (tnear[sp] > tmax_all) continue;
+        if (tnear[sp] > tp->tmax_all) continue;
         const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
         const int k = int(unsigned(box[sp]) % kW);
         in = unsigned(who[sp]);
@@ -694,14 +783,13 @@ struct Traversal {
         for (unsigned ps = in; ps; ps &= ps - 1) {
           const int i = __builtin_ctz(ps);
           B tn_leaf;
-          const M lanes =
-              signed_hit(parent, k, f[0].near, f[0].far, r[i], valid[i], best_t[i], tn_leaf);
+          const M lanes = signed_hit(parent, k, near, far, r[i], valid[i], best_t[i], tn_leaf);
           if (xsimd::any(lanes)) {
             leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
             tested = true;
           }
         }
-        if (tested) bounds();
+        if (tested) tiles.bounds(valid, best_t);
       }
     }
   }
