@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include <tbb/parallel_for.h>
+
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/peak.hpp"
@@ -92,6 +94,9 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
   // prepared here, once per precision, untimed, then the peer's scenes. lancer's first: its
   // structure is a fraction of Embree's six, and built after them (a million spheres: some GB
   // resident) lancer's build took 2.5 times as long as in a fresh process (AMD EPYC, Zen 5).
+  // TBB's worker threads started first, so that neither engine's build (both use TBB tasks)
+  // pays for starting them.
+  tbb::parallel_for(0, 1024, [](int) {});
   std::vector<std::unique_ptr<PrimaryKernelRun>> kernels(rows.size());
   std::map<Precision, std::unique_ptr<PreparedRun>> prepared;
   std::vector<const PreparedRun*> lancer_runs(rows.size(), nullptr);
