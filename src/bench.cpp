@@ -1,5 +1,7 @@
 #include "lancer/bench.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,8 +9,6 @@
 #include <memory>
 #include <stdexcept>
 #include <tuple>
-
-#include <tbb/parallel_for.h>
 
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
