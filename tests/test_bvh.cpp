@@ -292,7 +292,7 @@ TEST(Bvh, CameraGroupsMatchThePlainLoopAtAnyScale) {
   }
 }
 
-// Camera blocks (32x8 pixels at width 16, in two registers of four 4x4 tiles; 8x8 at widths 8
+// Camera blocks (32x8 pixels at width 16, in four registers of four 4x4 tiles; 8x8 at widths 8
 // and 4) cut by the image's edges and by threads' row ranges anywhere: a register whose four
 // tiles all lie outside the image (13 columns), single rows of tiles, blocks cut on both
 // sides. Each pixel's t and id as the plain loop's.

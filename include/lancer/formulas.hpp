@@ -104,7 +104,8 @@ struct SphereDisc {
 };
 
 template <class Math = ExactMath, class T>
-inline SphereDisc<T> sphere_disc(const Vec3<T>& f, const Vec3<T>& d, const T& r2) {
+[[gnu::always_inline]] inline SphereDisc<T> sphere_disc(const Vec3<T>& f, const Vec3<T>& d,
+                                                        const T& r2) {
   const T b = Math::dot(f, d);
   const Vec3<T> perp = Math::sub_scaled(f, d, b);
   return {b, r2 - Math::dot(perp, perp)};

@@ -241,8 +241,9 @@ struct Kernel {
   // is (PreparedScene::naive_spheres_hold; docs/precision.md).
   static bool textbook(const Scene& s) noexcept { return kFast && s.naive_spheres_hold; }
   // eye_c: the eye's c of the sphere (read only for camera rays).
-  static SphereDisc<B> disc_of(const Scene& s, const V& f, const V& d, const B& r2, bool from_eye,
-                               T eye_c) noexcept {
+  [[gnu::always_inline]] static SphereDisc<B> disc_of(const Scene& s, const V& f, const V& d,
+                                                      const B& r2, bool from_eye,
+                                                      T eye_c) noexcept {
     if (textbook(s)) {
       const B b = Mth::dot(f, d);
       // c = |f|^2 - r^2 with r^2 folded into the first multiply-add.
@@ -307,7 +308,10 @@ struct Kernel {
     const T no_c(0);
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
     // where it wins.
-    auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m) {
+    // Inlined (as disc_of): left to GCC, whether it inlined them into the ray tree's loops
+    // changed with unrelated code in the same file (lorenzi-glass, width 16: 0.95x).
+    auto update = [&](int j, const V& f, const B& r2, const SphereDisc<B>& sd, M m)
+        __attribute__((always_inline)) {
       const B t = first_root(s, sd, f, r2, kFromEye, kFromEye ? sp.ec[j] : no_c, eps);
       const Id id = sp.object(j);
       if constexpr (kIdOrder)

@@ -547,15 +547,46 @@ struct Traversal {
     return xsimd::select(valid[p], get(p), fill);
   }
 
+  // What Tiles16 and Tiles8 (L) share: per register g, each tile's bounds (L::bound) of its
+  // reciprocals, its o * inv and its best t, and the greatest of the best t (L::greatest).
+  template <class L, class F, int kG>
+  struct TileBounds {
+    struct Axes {
+      F inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
+    } f[kG];
+    F tmax[kG];
+    float tmax_all;
+    TileBounds(const Ray* r, const M* valid) noexcept {
+      for (int g = 0; g < kG; ++g)
+        for (int a = 0; a < 3; ++a) {
+          auto inv = [&](int p) -> const B& {
+            return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
+          };
+          auto oi = [&](int p) -> const B& {
+            return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
+          };
+          f[g].inv_lo[a] = L::template bound<false>(valid, g, inv);
+          f[g].inv_hi[a] = L::template bound<true>(valid, g, inv);
+          f[g].oi_lo[a] = L::template bound<false>(valid, g, oi);
+          f[g].oi_hi[a] = L::template bound<true>(valid, g, oi);
+        }
+    }
+    void bounds(const M* valid, const B* best_t) noexcept {
+      tmax_all = 0;  // (entry bounds are >= 0)
+      for (int g = 0; g < kG; ++g) {
+        tmax[g] = L::template bound<true>(valid, g, [&](int p) -> const B& { return best_t[p]; });
+        tmax_all = std::max(tmax_all, L::greatest(tmax[g]));
+      }
+    }
+  };
+
   // Width 16: kG zmm of four 4x4 tiles each.
   template <int kG, bool kFull>
-  struct Tiles16 {
+  struct Tiles16 : TileBounds<Tiles16<kG, kFull>, __m512, kG> {
     using F16 = __m512;
-    struct Axes {
-      F16 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
-    } f[kG];
-    F16 tmax[kG];
-    float tmax_all;
+    using TileBounds<Tiles16, F16, kG>::TileBounds;
+    using TileBounds<Tiles16, F16, kG>::f;
+    using TileBounds<Tiles16, F16, kG>::tmax;
     // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction
     // (two packets' halves folded in one operation, then their quarters, then within quarters).
     template <bool kMax>
@@ -576,29 +607,11 @@ struct Traversal {
       for (int p = 0; p < 4; ++p) x[p] = live_lanes<kMax, kFull>(valid, 4 * g + p, get);
       return reduce<kMax>(x);
     }
-    Tiles16(const Ray* r, const M* valid) noexcept {
-      for (int g = 0; g < kG; ++g)
-        for (int a = 0; a < 3; ++a) {
-          auto inv = [&](int p) -> const B& {
-            return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
-          };
-          auto oi = [&](int p) -> const B& {
-            return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
-          };
-          f[g].inv_lo[a] = bound<false>(valid, g, inv), f[g].inv_hi[a] = bound<true>(valid, g, inv);
-          f[g].oi_lo[a] = bound<false>(valid, g, oi), f[g].oi_hi[a] = bound<true>(valid, g, oi);
-        }
-    }
-    void bounds(const M* valid, const B* best_t) noexcept {
-      tmax_all = 0;  // (entry bounds are >= 0)
-      for (int g = 0; g < kG; ++g) {
-        tmax[g] = bound<true>(valid, g, [&](int p) -> const B& { return best_t[p]; });
-        // Each tile's four lanes are equal: the greatest of lanes 0, 4, 8 and 12.
-        const F16 m =
-            _mm512_max_ps(tmax[g], _mm512_shuffle_f32x4(tmax[g], tmax[g], _MM_SHUFFLE(1, 0, 3, 2)));
-        tmax_all = std::max(tmax_all, _mm512_cvtss_f32(_mm512_max_ps(
-                                          m, _mm512_shuffle_f32x4(m, m, _MM_SHUFFLE(2, 3, 0, 1)))));
-      }
+    // Each tile's four lanes are equal: the greatest of lanes 0, 4, 8 and 12.
+    static float greatest(F16 t) noexcept {
+      const F16 m = _mm512_max_ps(t, _mm512_shuffle_f32x4(t, t, _MM_SHUFFLE(1, 0, 3, 2)));
+      return _mm512_cvtss_f32(
+          _mm512_max_ps(m, _mm512_shuffle_f32x4(m, m, _MM_SHUFFLE(2, 3, 0, 1))));
     }
     // The children (bits by slot) some tile of `in` meets within its t; per child (lane k) the
     // tiles that meet it and the least entry bound of those.
@@ -652,13 +665,11 @@ struct Traversal {
 
   // Width 8 (AVX2): kG ymm of two 4x2 tiles each.
   template <int kG, bool kFull>
-  struct Tiles8 {
+  struct Tiles8 : TileBounds<Tiles8<kG, kFull>, __m256, kG> {
     using F8 = __m256;
-    struct Axes {
-      F8 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
-    } f[kG];
-    F8 tmax[kG];
-    float tmax_all;
+    using TileBounds<Tiles8, F8, kG>::TileBounds;
+    using TileBounds<Tiles8, F8, kG>::f;
+    using TileBounds<Tiles8, F8, kG>::tmax;
     // Of tiles 2g and 2g + 1: the least (kMax: greatest) in lanes 0-3 and 4-7.
     template <bool kMax, class Get>
     static F8 bound(const M* valid, int g, Get get) noexcept {
@@ -669,26 +680,9 @@ struct Traversal {
       u = op(u, _mm256_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
       return op(u, _mm256_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
     }
-    Tiles8(const Ray* r, const M* valid) noexcept {
-      for (int g = 0; g < kG; ++g)
-        for (int a = 0; a < 3; ++a) {
-          auto inv = [&](int p) -> const B& {
-            return a == 0 ? r[p].inv.x : a == 1 ? r[p].inv.y : r[p].inv.z;
-          };
-          auto oi = [&](int p) -> const B& {
-            return a == 0 ? r[p].oi.x : a == 1 ? r[p].oi.y : r[p].oi.z;
-          };
-          f[g].inv_lo[a] = bound<false>(valid, g, inv), f[g].inv_hi[a] = bound<true>(valid, g, inv);
-          f[g].oi_lo[a] = bound<false>(valid, g, oi), f[g].oi_hi[a] = bound<true>(valid, g, oi);
-        }
-    }
-    void bounds(const M* valid, const B* best_t) noexcept {
-      tmax_all = 0;  // (entry bounds are >= 0)
-      for (int g = 0; g < kG; ++g) {
-        tmax[g] = bound<true>(valid, g, [&](int p) -> const B& { return best_t[p]; });
-        tmax_all = std::max(tmax_all, _mm_cvtss_f32(_mm_max_ps(_mm256_castps256_ps128(tmax[g]),
-                                                               _mm256_extractf128_ps(tmax[g], 1))));
-      }
+    // Each tile's lanes are equal: the greater of lanes 0 and 4.
+    static float greatest(F8 t) noexcept {
+      return _mm_cvtss_f32(_mm_max_ps(_mm256_castps256_ps128(t), _mm256_extractf128_ps(t, 1)));
     }
     [[gnu::always_inline]] unsigned test(const Node& n, const std::size_t* near,
                                          const std::size_t* far, unsigned in, __m128i& who4,
