@@ -3,6 +3,7 @@
 // the figures.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -49,7 +50,10 @@ struct Ran {
 };
 // Runs a shell command, capturing stdout and stderr.
 Ran run(const std::string& command) {
-  const std::string err_path = ::testing::TempDir() + "/flux_test_stderr.txt";
+  // Per process: ctest runs this file's tests as processes side by side, and a shared file
+  // handed one test another's stderr (RayPlane.CliRefusesWithStatus2AndNoFile, seen once).
+  const std::string err_path =
+      ::testing::TempDir() + "/flux_test_stderr_" + std::to_string(getpid()) + ".txt";
   Ran r;
   std::FILE* p = popen((command + " 2>" + err_path).c_str(), "r");
   if (!p) return r;
