@@ -26,7 +26,7 @@
 
 namespace lancer::packet {
 
-// pshufb controls for pushing a 4-wide node's met children as one vector (closest_frustum).
+// pshufb controls for pushing a 4-wide node's met children as one vector (closest_tiles).
 struct PushTables {
   alignas(16) std::uint8_t reverse[256][16];  // per order byte: lane i = slot visited (3-i)th
   alignas(16) std::uint8_t compress[16][16];  // per 4-bit mask: its set lanes first, in order
@@ -280,7 +280,7 @@ struct Traversal {
   // kN camera packets at once (tiles side by side): leaf(i, first, count, mask) tests leaf-order
   // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i]. Where
   // every live lane of every packet agrees in sign on every axis, the packets walk the hierarchy
-  // as ONE interval ray (closest_frustum): a node costs one test for all kN * W rays; else each
+  // together (closest_tiles): a node costs one interval test for several tiles; else each
   // packet walks alone. Packets without live lanes take no part.
   template <int kN, class Leaf>
   static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
@@ -300,24 +300,25 @@ struct Traversal {
       if (!((neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2]))) {
         // One sign per axis over the block: one slab form for every packet. A packet without
         // live lanes takes the first one's ray: its lanes, all outside `valid`, then take part
-        // in no bound and no leaf (closest_frustum does not branch on liveness).
+        // in no bound and no leaf (closest_tiles does not branch on liveness).
         for (int a = 0; a < 3; ++a) r[first].neg[a] = neg[a] != 0;
-        set_planes(r[first]);  // every packet's (closest_frustum reads only the first's)
+        set_planes(r[first]);  // every packet's (closest_tiles reads only the first's)
         for (int i = 0; i < kN; ++i)
           if (!live[i]) r[i] = r[first];
-        // Widths 16 and 8: several tiles' intervals in one register (closest_tiles).
-        constexpr bool k16 = kAvx512<Arch> && kN % 4 == 0, k8 = kAvx2<Arch> && kN % 2 == 0;
+        // Widths 16 and 8: each tile's interval, several in one register; width 4: the block's.
+        constexpr bool k16 = kAvx512<Arch> && kN % 4 == 0;
+        constexpr bool k8 = B::size == 8 && kFusedFmsub<Arch> && kN % 2 == 0;
+        unsigned packets = 0;
+        bool full = true;
+        for (int i = 0; i < kN; ++i)
+          packets |= unsigned(live[i] != 0) << i, full = full && live[i] == (1u << B::size) - 1;
         if constexpr (k16 || k8) {
-          unsigned packets = 0;
-          bool full = true;
-          for (int i = 0; i < kN; ++i)
-            packets |= unsigned(live[i] != 0) << i, full = full && live[i] == (1u << B::size) - 1;
           using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
           using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
           if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf);
           return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf);
         }
-        return closest_frustum<kN>(h, valid, r, first, best_t, leaf);
+        return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf);
       }
     }
     for (int i = 0; i < kN; ++i) {
@@ -357,7 +358,6 @@ struct Traversal {
   using F4 = __m128;
   struct Frustum {
     F4 inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
-    std::size_t near[3], far[3];
   };
   static F4 fmsub4(F4 a, F4 b, F4 c) noexcept {
     if constexpr (kAvx512<Arch>)      // AVX-512F alone has no 128-bit FMA: a zmm whose upper lanes
@@ -413,7 +413,7 @@ struct Traversal {
       return v.z;
   }
   template <int kN, int kA>
-  static void frustum_axis(Frustum& f, const Ray* r, const M* valid, int first) noexcept {
+  static void frustum_axis(Frustum& f, const Ray* r, const M* valid) noexcept {
     // lane_bound's folds, the four in one pass over the packets.
     const B inf(std::numeric_limits<T>::infinity()), ninf(-std::numeric_limits<T>::infinity());
     B inv_lo = inf, inv_hi = ninf, oi_lo = inf, oi_hi = ninf;
@@ -427,13 +427,6 @@ struct Traversal {
     }
     f.inv_lo[kA] = reduce<false>(inv_lo), f.inv_hi[kA] = reduce<true>(inv_hi);
     f.oi_lo[kA] = reduce<false>(oi_lo), f.oi_hi[kA] = reduce<true>(oi_hi);
-    f.near[kA] = r[first].near[kA], f.far[kA] = r[first].far[kA];
-  }
-  template <int kN>
-  static void frustum(Frustum& f, const Ray* r, const M* valid, int first) noexcept {
-    frustum_axis<kN, 0>(f, r, valid, first);
-    frustum_axis<kN, 1>(f, r, valid, first);
-    frustum_axis<kN, 2>(f, r, valid, first);
   }
   // The greatest best t of the live lanes of kN packets.
   template <int kN>
@@ -443,14 +436,15 @@ struct Traversal {
 
   // The children of n the interval ray meets within [0, tmax], as a lane mask (slots < arity);
   // tnear: where it may enter each (a lower bound over the lanes).
-  [[gnu::always_inline]] static F4 frustum_hit4(const Node& n, const Frustum& f, F4 tmax,
-                                                F4& tnear) noexcept {
+  [[gnu::always_inline]] static F4 frustum_hit4(const Node& n, const Frustum& f,
+                                                const std::size_t* near, const std::size_t* far,
+                                                F4 tmax, F4& tnear) noexcept {
     static_assert(Bvh<T>::kWidth == 4);
     const char* base = reinterpret_cast<const char*>(&n);
     F4 lo = _mm_setzero_ps(), hi = tmax;
     for (int a = 0; a < 3; ++a) {
-      const F4 pn = _mm_load_ps(reinterpret_cast<const float*>(base + f.near[a]));
-      const F4 pf = _mm_load_ps(reinterpret_cast<const float*>(base + f.far[a]));
+      const F4 pn = _mm_load_ps(reinterpret_cast<const float*>(base + near[a]));
+      const F4 pf = _mm_load_ps(reinterpret_cast<const float*>(base + far[a]));
       // The least of pn * inv over [inv_lo, inv_hi] is at inv_lo where pn >= 0, at inv_hi where
       // pn < 0 (the sign bit picks; at -0 both products are zeros); the greatest of pf * inv
       // the other way round. One fused operation each, then, rather than both and a min or max.
@@ -463,76 +457,35 @@ struct Traversal {
         _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))));
   }
 
-  // Inner nodes by the interval test; a leaf by each lane's own test of its box, so the spheres
-  // see only the lanes that meet it. The stack holds boxes (node index * kWidth + slot: the
-  // child's reference and box are read from its parent when popped) and where the packet may
-  // enter them. Without branches on which children were met: a node's children go onto the stack
-  // as one shuffled, compacted vector (PushTables), last in order first, the stack growing by the
-  // met ones only; which children a packet meets is what a branch predictor cannot learn (at
-  // 65536 spheres mispredictions, not instructions, grew most with the scene).
-  template <int kN, class Leaf>
-  static void closest_frustum(const Bvh<T>& h, const M* valid, const Ray* r, int first,
-                              const B* best_t, Leaf&& leaf) noexcept {
-    constexpr int kW = Bvh<T>::kWidth;
-    static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
+  // Width 4 (SSE4.2): the whole block's interval (frustum_hit4), one xmm; a met child goes on
+  // with every live packet (closest_tiles' layout of one part).
+  template <int kN>
+  struct Block4 {
+    static constexpr bool kPerTile = false;  // every live packet goes on with every met child
     Frustum f;
-    frustum<kN>(f, r, valid, first);
-    const unsigned code = unsigned(!r[first].neg[0]) | unsigned(!r[first].neg[1]) << 1 |
-                          unsigned(!r[first].neg[2]) << 2;
-    constexpr int kSize = Bvh<T>::kStack + kW;  // + kW: a full vector stored at the top
-    alignas(16) std::int32_t box[kSize];
-    alignas(16) T tnear[kSize];
-    int sp = 0;
-    F4 tmax = far_bound<kN>(valid, best_t);
-    const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
-    std::int32_t node = 0;
-    for (;;) {
-      const Node& n = h.nodes[std::size_t(node)];
-      F4 tn4;
-      // The frustum read from memory at each node (its loads fold into the fused operations):
-      // hoisted into registers, GCC spilled and reloaded all of it around every leaf call.
-      const Frustum* fp = &f;
-      asm("" : "+r"(fp));
-      const F4 met = frustum_hit4(n, *fp, tmax, tn4);
-      const __m128i order =
-          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[n.order[code]]));
-      const int m =
-          _mm_movemask_ps(_mm_castsi128_ps(_mm_shuffle_epi8(_mm_castps_si128(met), order)));
-      const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
-      const __m128i boxes = _mm_add_epi32(_mm_set1_epi32(node * kW), iota);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp),
-                       _mm_shuffle_epi8(_mm_shuffle_epi8(boxes, order), pack));
-      _mm_storeu_ps(tnear + sp, _mm_castsi128_ps(_mm_shuffle_epi8(
-                                    _mm_shuffle_epi8(_mm_castps_si128(tn4), order), pack)));
-      sp += kPush.count[m];
-      for (;;) {  // the next subtree some lane may still find a nearer hit in
-        if (sp == 0) return;
-        --sp;
-        if (tnear[sp] > _mm_cvtss_f32(tmax)) continue;
-        const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
-        const int k = int(unsigned(box[sp]) % kW);
-        if (parent.count[k] < 0) {
-          node = parent.child[k];
-          break;
-        }
-        bool tested = false;
-        for (int i = 0; i < kN; ++i) {
-          B tn_leaf;
-          const M lanes = signed_hit(parent, k, f.near, f.far, r[i], valid[i], best_t[i], tn_leaf);
-          if (xsimd::any(lanes)) {
-            leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
-            tested = true;
-          }
-        }
-        if (tested) tmax = far_bound<kN>(valid, best_t);
-      }
+    F4 tmax;
+    float tmax_all;
+    Block4(const Ray* r, const M* valid) noexcept {
+      frustum_axis<kN, 0>(f, r, valid);
+      frustum_axis<kN, 1>(f, r, valid);
+      frustum_axis<kN, 2>(f, r, valid);
     }
-  }
+    void bounds(const M* valid, const B* best_t) noexcept {
+      tmax = far_bound<kN>(valid, best_t);
+      tmax_all = _mm_cvtss_f32(tmax);
+    }
+    [[gnu::always_inline]] unsigned test(const Node& n, const std::size_t* near,
+                                         const std::size_t* far, unsigned in, __m128i& who4,
+                                         F4& tn4) const noexcept {
+      (void)in, (void)who4;
+      return unsigned(_mm_movemask_ps(frustum_hit4(n, f, near, far, tmax, tn4)));
+    }
+  };
 
   // ---- each tile's own interval, several tiles in one register ------------------------------
   // Wald et al.'s interval culling per camera tile rather than per block: a node's four boxes
   // against several tiles' intervals at once, lane 4q + k of a register holding tile q against
-  // child slot k. A tile's interval bounds its 16 or 8 rays (closest_frustum's bounds over
+  // child slot k. A tile's interval bounds its 16 or 8 rays (the block interval's bounds over
   // fewer rays: tighter) for the instructions of one block interval in an xmm. A child goes
   // onto the stack with the tiles that meet it; below it only they are tested, and at a leaf
   // only they run the per-lane box test. Each tile culls with its own greatest best t.
@@ -587,6 +540,7 @@ struct Traversal {
     using TileBounds<Tiles16, F16, kG>::TileBounds;
     using TileBounds<Tiles16, F16, kG>::f;
     using TileBounds<Tiles16, F16, kG>::tmax;
+    static constexpr bool kPerTile = true;  // a child goes on with the tiles that meet it
     // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction
     // (two packets' halves folded in one operation, then their quarters, then within quarters).
     template <bool kMax>
@@ -670,6 +624,7 @@ struct Traversal {
     using TileBounds<Tiles8, F8, kG>::TileBounds;
     using TileBounds<Tiles8, F8, kG>::f;
     using TileBounds<Tiles8, F8, kG>::tmax;
+    static constexpr bool kPerTile = true;
     // Of tiles 2g and 2g + 1: the least (kMax: greatest) in lanes 0-3 and 4-7.
     template <bool kMax, class Get>
     static F8 bound(const M* valid, int g, Get get) noexcept {
@@ -725,8 +680,14 @@ struct Traversal {
     }
   };
 
-  // closest_frustum with a Tiles layout's test: the stack holds, beside each box and its entry
-  // bound, the tiles that meet it (bit i: packet i).
+  // Inner nodes by the layout's interval test (Tiles16, Tiles8, Block4); a leaf by each lane's
+  // own test of its box, so the spheres see only the lanes that meet it. The stack holds boxes
+  // (node index * kWidth + slot: the child's reference and box are read from its parent when
+  // popped), where the rays may enter them and the packets that met them (bit i: packet i).
+  // Without branches on which children were met: a node's children go onto the stack as one
+  // shuffled, compacted vector (PushTables), last in order first, the stack growing by the met
+  // ones only; which children a block meets is what a branch predictor cannot learn (at 65536
+  // spheres mispredictions, not instructions, grew most with the scene).
   template <class Tiles, class Leaf>
   static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r, int first,
                             unsigned packets, const B* best_t, Leaf&& leaf) noexcept {
@@ -747,9 +708,11 @@ struct Traversal {
     unsigned in = packets;  // the tiles that met the node's box
     for (;;) {
       const Node& n = h.nodes[std::size_t(node)];
-      const Tiles* tp = &tiles;  // from memory at each node, as in closest_frustum
+      // The bounds read from memory at each node (their loads fold into the fused operations):
+      // hoisted into registers, GCC spilled and reloaded all of them around every leaf call.
+      const Tiles* tp = &tiles;
       asm("" : "+r"(tp));
-      __m128i who4;
+      __m128i who4 = _mm_setzero_si128();
       F4 tn4;
       const unsigned met = tp->test(n, near, far, in, who4, tn4);
       const __m128i order =
@@ -759,7 +722,8 @@ struct Traversal {
       auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
       const __m128i boxes = _mm_add_epi32(_mm_set1_epi32(node * kW), iota);
       _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp), push(boxes));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(who + sp), push(who4));
+      if constexpr (Tiles::kPerTile)
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(who + sp), push(who4));
       _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp), push(_mm_castps_si128(tn4)));
       sp += kPush.count[m];
       for (;;) {  // the next subtree some lane may still find a nearer hit in
@@ -768,7 +732,7 @@ struct Traversal {
         if (tnear[sp] > tp->tmax_all) continue;
         const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
         const int k = int(unsigned(box[sp]) % kW);
-        in = unsigned(who[sp]);
+        if constexpr (Tiles::kPerTile) in = unsigned(who[sp]);
         if (parent.count[k] < 0) {
           node = parent.child[k];
           break;
