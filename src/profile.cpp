@@ -61,6 +61,29 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
     row.histogram.assign(prof.histogram[st].begin(), prof.histogram[st].begin() + res.width + 1);
     res.stages.push_back(row);
   }
+
+  // Camera rays and closest hits alone, as bench --mode primary traces them: full renders take
+  // their camera rays in rows, primary mode in blocks that walk the hierarchy together.
+  StageProfile primary;
+  primary.current = kPrimaryIntersection;  // its leaf visits, if it counts any
+  RayCounts primary_counts;
+  primary_counts.profile = &primary;
+  std::vector<float> t(std::size_t(scene.camera.nx) * std::size_t(scene.camera.ny));
+  const auto p0 = std::chrono::steady_clock::now();
+  k->primary_rows(prepared, t.data(), nullptr, 0, scene.camera.ny, primary_counts);
+  ProfileResult::CameraBlocks& cb = res.camera_blocks;
+  cb.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - p0).count();
+  cb.rays = primary_counts.camera;
+  cb.totals = primary.blocks;
+  if (const double n = double(cb.totals.together); n > 0) {
+    cb.nodes = double(cb.totals.nodes) / n;
+    cb.leaf_pops = double(cb.totals.leaf_pops) / n;
+    cb.box_tests = double(cb.totals.box_tests) / n;
+    cb.leaf_calls = double(cb.totals.leaf_calls) / n;
+  }
+  if (cb.totals.leaf_calls)
+    cb.leaf_occupancy =
+        double(cb.totals.leaf_lanes) / (double(cb.totals.leaf_calls) * double(res.width));
   return res;
 }
 

@@ -2,7 +2,10 @@
 // whole render.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include "lancer/compare.hpp"
+#include "lancer/generate.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/profile.hpp"
@@ -91,6 +94,66 @@ TEST(Profile, LaneOccupancyIsFullForPrimaryRaysOfAFullRow) {
     const ProfileResult r = profile_render(s, width);
     EXPECT_DOUBLE_EQ(r.stages[kRayGeneration].lane_occupancy, 1.0);
     EXPECT_EQ(r.stages[kRayGeneration].histogram.back(), std::uint64_t(64 / width * 8));
+  }
+}
+
+// A cloud whose camera rays go through the hierarchy in camera blocks: 96x40 pixels, so the
+// last column of 32x8 blocks is cut by the image's edge.
+Scene block_cloud() {
+  generate::Options g;
+  g.spheres = 2048, g.seed = 3, g.nx = 96, g.ny = 40;
+  return parse_scene(generate::scene_json(g), "cloud");
+}
+
+// The camera blocks' counts (primary mode's path): every block once, walked together or packet
+// by packet; inside the walks, a leaf call only after a tile's box test met it, with 1 to W
+// lanes, and every block that walked together tested the root at least.
+TEST(Profile, CameraBlocksAreCountedOnTheirPath) {
+  const Scene s = block_cloud();
+  for (int width : packet_widths()) {
+    SCOPED_TRACE("width " + std::to_string(width));
+    const ProfileResult r = profile_render(s, width);
+    const auto& b = r.camera_blocks.totals;
+    ASSERT_EQ(b.block_w, width == 16 ? 32 : 8);
+    ASSERT_EQ(b.block_h, 8);
+    const std::uint64_t blocks = std::uint64_t((s.camera.nx + b.block_w - 1) / b.block_w) *
+                                 std::uint64_t((s.camera.ny + b.block_h - 1) / b.block_h);
+    EXPECT_EQ(b.together + b.alone, blocks);
+    EXPECT_GT(b.together, 0u);
+    EXPECT_GE(b.nodes, b.together);
+    EXPECT_GT(b.leaf_pops, 0u);
+    EXPECT_LE(b.leaf_calls, b.box_tests);
+    EXPECT_GE(b.leaf_lanes, b.leaf_calls);
+    EXPECT_LE(b.leaf_lanes, b.leaf_calls * std::uint64_t(width));
+    EXPECT_EQ(r.camera_blocks.rays, std::uint64_t(s.camera.nx) * std::uint64_t(s.camera.ny));
+    EXPECT_DOUBLE_EQ(r.camera_blocks.nodes, double(b.nodes) / double(b.together));
+  }
+}
+
+// Counting changes nothing: the profiled primary path's hits are the exact kernel's, bit for
+// bit; and a scene without a hierarchy has no camera blocks.
+TEST(Profile, CountedCameraBlocksFindTheSameHits) {
+  const Scene s = block_cloud();
+  const auto prepared = prepare<float>(s);
+  ASSERT_TRUE(prepared.bvh.active());
+  const std::size_t pixels = std::size_t(s.camera.nx) * std::size_t(s.camera.ny);
+  for (int width : packet_widths()) {
+    std::vector<float> ta(pixels), tb(pixels);
+    std::vector<std::int32_t> ia(pixels), ib(pixels);
+    RayCounts ca, cb;
+    StageProfile prof;
+    cb.profile = &prof;
+    packet::kernels_for(width)->primary_rows(prepared, ta.data(), ia.data(), 0, s.camera.ny, ca);
+    packet::profiled_kernels(width)->primary_rows(prepared, tb.data(), ib.data(), 0, s.camera.ny,
+                                                  cb);
+    EXPECT_EQ(0, std::memcmp(ta.data(), tb.data(), pixels * sizeof(float))) << "width " << width;
+    EXPECT_EQ(ia, ib) << "width " << width;
+    EXPECT_GT(prof.blocks.together, 0u) << "width " << width;
+  }
+  const Scene plain = load_scene(testing::source_path("scenes/lorenzi-reflections.json"));
+  for (int width : packet_widths()) {
+    const auto& b = profile_render(plain, width).camera_blocks.totals;
+    EXPECT_EQ(b.together + b.alone, 0u) << "width " << width;
   }
 }
 

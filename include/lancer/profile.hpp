@@ -38,6 +38,15 @@ struct StageProfile {
   // Hierarchy leaves visited per stage and the lanes active in them (traversal occupancy).
   std::array<std::uint64_t, kStageCount> leaf_packets{}, leaf_lanes{};
   int current = 0;  // the stage whose rays are being traced (set by Kernel::occupancy)
+  // The camera blocks' walk (primary mode's path, Traversal::closest_coherent): blocks whose
+  // tiles walked the hierarchy together or packet by packet (blocks on the image's centre
+  // lines), and in the walks together: inner nodes tested, leaves popped, tile-by-leaf box
+  // tests, leaf calls and the lanes live in them. block_w x block_h: the blocks' pixels.
+  struct Blocks {
+    std::uint64_t together = 0, alone = 0, nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0,
+                  leaf_lanes = 0;
+    int block_w = 0, block_h = 0;
+  } blocks;
 };
 
 struct ProfileResult {
@@ -56,10 +65,20 @@ struct ProfileResult {
   std::uint64_t camera_rays = 0, shadow_rays = 0, reflected_rays = 0, refracted_rays = 0;
   double tests_per_ray = 0;  // ray-object intersection tests per ray, all kinds
   std::vector<StageRow> stages;
+  // A second profiled run: camera rays and closest hits alone (bench --mode primary's path),
+  // whose camera blocks walk the hierarchy together; their counts per block walked together.
+  struct CameraBlocks {
+    double seconds = 0;  // the profiled run, counters included
+    std::uint64_t rays = 0;
+    StageProfile::Blocks totals;
+    double nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0;  // per block walked together
+    double leaf_occupancy = 0;  // live lanes / width over the leaf calls (0: none)
+  } camera_blocks;
 };
 
 // Renders once, single-threaded, with the profiled exact kernels of `width` (4, 8 or 16; 0 for
-// the widest). Throws InputError for a width this machine does not run.
+// the widest), then traces the camera rays' closest hits once more as primary mode does
+// (camera_blocks). Throws InputError for a width this machine does not run.
 ProfileResult profile_render(const Scene& scene, int width, Accel accel = Accel::automatic);
 
 }  // namespace lancer

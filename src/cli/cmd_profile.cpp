@@ -51,6 +51,27 @@ void run_profile(const ProfileArgs& a) {
            {"leaf_occupancy", st.leaves ? nlohmann::json(st.leaf_occupancy) : nlohmann::json()},
            {"lane_histogram", or_null(st.histogram)}});
     }
+    const auto& cb = r.camera_blocks;
+    const auto& bt = cb.totals;
+    out["camera_blocks"] = {
+        {"seconds", cb.seconds},
+        {"rays", cb.rays},
+        {"block",
+         bt.together + bt.alone ? nlohmann::json{bt.block_w, bt.block_h} : nlohmann::json()},
+        {"walked_together", bt.together},
+        {"walked_packet_by_packet", bt.alone},
+        {"totals",
+         {{"node_tests", bt.nodes},
+          {"leaf_pops", bt.leaf_pops},
+          {"tile_leaf_box_tests", bt.box_tests},
+          {"leaf_calls", bt.leaf_calls},
+          {"leaf_call_lanes", bt.leaf_lanes}}},
+        {"per_block", bt.together ? nlohmann::json{{"node_tests", cb.nodes},
+                                                   {"leaf_pops", cb.leaf_pops},
+                                                   {"tile_leaf_box_tests", cb.box_tests},
+                                                   {"leaf_calls", cb.leaf_calls}}
+                                  : nlohmann::json()},
+        {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()}};
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }
@@ -86,6 +107,26 @@ void run_profile(const ProfileArgs& a) {
     }
   std::printf("  %-22s %10.5f %6.1f%%   (stages add up to %.1f%% of the total)\n", "total",
               r.total_seconds, 100.0, r.total_seconds > 0 ? 100 * staged / r.total_seconds : 0);
+  // Primary mode's path: its camera blocks, which full renders (above) do not use.
+  const auto& cb = r.camera_blocks;
+  const auto& bt = cb.totals;
+  std::printf(
+      "  camera rays alone, as bench --mode primary traces them: %.5f s (profiled), %llu rays\n",
+      cb.seconds, (unsigned long long)cb.rays);
+  if (bt.together + bt.alone == 0) {
+    std::printf(
+        "    camera blocks: none (no hierarchy, or not a pinhole camera: packets one by one)\n");
+    return;
+  }
+  std::printf(
+      "    camera blocks of %dx%d pixels: %llu walked the hierarchy together, %llu packet by "
+      "packet (on the image's centre lines)\n",
+      bt.block_w, bt.block_h, (unsigned long long)bt.together, (unsigned long long)bt.alone);
+  if (bt.together)
+    std::printf(
+        "    per block walked together: %.2f node tests, %.2f leaf pops, %.2f tile-leaf box "
+        "tests, %.2f leaf calls at %.1f%% lane occupancy\n",
+        cb.nodes, cb.leaf_pops, cb.box_tests, cb.leaf_calls, 100 * cb.leaf_occupancy);
 }
 }  // namespace
 

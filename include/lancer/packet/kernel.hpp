@@ -439,8 +439,27 @@ struct Kernel {
       spheres_closest<true, false>(s, sp, first, first + n, m, o[i], d[i], best_t[i], best_id[i],
                                    counts, none);
     };
-    Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf);
+    if constexpr (kProfile)
+      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf,
+                                        WalkCount{&counts.profile->blocks});
+    else
+      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf);
   }
+  // The camera blocks' walk counted into the profile (ProfiledMode only).
+  struct WalkCount {
+    StageProfile::Blocks* b;
+    void block(bool together) const noexcept {
+      ++(together ? b->together : b->alone);
+      b->block_w = kGroupPx, b->block_h = kBlockRows;
+    }
+    void node() const noexcept { ++b->nodes; }
+    void leaf_pop() const noexcept { ++b->leaf_pops; }
+    void box_test() const noexcept { ++b->box_tests; }
+    void leaf_call(unsigned lanes) const noexcept {
+      ++b->leaf_calls;
+      b->leaf_lanes += unsigned(__builtin_popcount(lanes));
+    }
+  };
 
   // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)
   // for each object the lanes' segments meet (each object once per lane, spheres in the

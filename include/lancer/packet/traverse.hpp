@@ -61,6 +61,16 @@ constexpr PushTables push_tables() {
 }
 inline constexpr PushTables kPush = push_tables();
 
+// What the camera blocks' walk tells a counter (lancer profile's camera blocks): the default
+// counts nothing and compiles to nothing.
+struct NoWalkCount {
+  void block(bool /*together*/) const noexcept {}
+  void node() const noexcept {}
+  void leaf_pop() const noexcept {}
+  void box_test() const noexcept {}
+  void leaf_call(unsigned /*lanes*/) const noexcept {}
+};
+
 template <class Arch, class T>
 struct Traversal {
   using B = xsimd::batch<T, Arch>;
@@ -282,9 +292,11 @@ struct Traversal {
   // every live lane of every packet agrees in sign on every axis, the packets walk the hierarchy
   // together (closest_tiles): a node costs one interval test for several tiles; else each
   // packet walks alone. Packets without live lanes take no part.
-  template <int kN, class Leaf>
+  // count: a NoWalkCount's interface, told of each block, node test, leaf pop, tile-by-leaf box
+  // test and leaf call.
+  template <int kN, class Leaf, class Count = NoWalkCount>
   static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
-                               const B* best_t, Leaf&& leaf) noexcept {
+                               const B* best_t, Leaf&& leaf, Count count = {}) noexcept {
     Ray r[kN];
     unsigned live[kN], neg[3] = {}, pos[3] = {};
     int first = -1;
@@ -312,15 +324,17 @@ struct Traversal {
         bool full = true;
         for (int i = 0; i < kN; ++i)
           packets |= unsigned(live[i] != 0) << i, full = full && live[i] == (1u << B::size) - 1;
+        count.block(true);
         if constexpr (k16 || k8) {
           using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
           using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
-          if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf);
-          return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf);
+          if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf, count);
+          return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf, count);
         }
-        return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf);
+        return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf, count);
       }
     }
+    count.block(false);
     for (int i = 0; i < kN; ++i) {
       if (!live[i]) continue;
       auto one = [&](std::int32_t f, std::int32_t c, const M& m) { leaf(i, f, c, m); };
@@ -688,9 +702,11 @@ struct Traversal {
   // shuffled, compacted vector (PushTables), last in order first, the stack growing by the met
   // ones only; which children a block meets is what a branch predictor cannot learn (at 65536
   // spheres mispredictions, not instructions, grew most with the scene).
-  template <class Tiles, class Leaf>
-  static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r, int first,
-                            unsigned packets, const B* best_t, Leaf&& leaf) noexcept {
+  // Out of line, as GCC chose before the walk took a counter (which changed its choice).
+  template <class Tiles, class Leaf, class Count>
+  [[gnu::noinline]] static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r,
+                                              int first, unsigned packets, const B* best_t,
+                                              Leaf&& leaf, Count count) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
     static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
     Tiles tiles(r, valid);
@@ -707,6 +723,7 @@ struct Traversal {
     std::int32_t node = 0;
     unsigned in = packets;  // the tiles that met the node's box
     for (;;) {
+      count.node();
       const Node& n = h.nodes[std::size_t(node)];
       // The bounds read from memory at each node (their loads fold into the fused operations):
       // hoisted into registers, GCC spilled and reloaded all of them around every leaf call.
@@ -738,11 +755,14 @@ struct Traversal {
           break;
         }
         bool tested = false;
+        count.leaf_pop();
         for (unsigned ps = in; ps; ps &= ps - 1) {
           const int i = __builtin_ctz(ps);
           B tn_leaf;
+          count.box_test();
           const M lanes = signed_hit(parent, k, near, far, r[i], valid[i], best_t[i], tn_leaf);
           if (xsimd::any(lanes)) {
+            count.leaf_call(lane_bits(lanes));
             leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
             tested = true;
           }
