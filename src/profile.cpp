@@ -62,8 +62,8 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
     res.stages.push_back(row);
   }
 
-  // Camera rays and closest hits alone, as bench --mode primary traces them: full renders take
-  // their camera rays in rows, primary mode in blocks that walk the hierarchy together.
+  // Camera rays and closest hits alone, as bench --mode primary traces them (in blocks that walk
+  // the hierarchy together, as full renders now find their camera hits), counted per block.
   StageProfile primary;
   primary.current = kPrimaryIntersection;  // its leaf visits, if it counts any
   RayCounts primary_counts;

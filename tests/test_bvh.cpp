@@ -13,6 +13,7 @@
 
 #include "lancer/bvh.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
@@ -30,6 +31,7 @@ struct CloudOptions {
   int nx = 48, ny = 32;
   int max_depth = 3;
   double scale = 1;                                      // every length times this
+  double transmit = 0;                                   // the spheres' (glass: ior 1.5)
   std::array<double, 3> direction = {0.1, -0.05, -1.0};  // the camera's
 };
 
@@ -62,6 +64,7 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
                      {"ks", 0.4},
                      {"shininess", 20},
                      {"reflect", 0.4}};
+    if (o.transmit > 0) s["material"]["transmit"] = o.transmit, s["material"]["ior"] = 1.5;
     made.push_back(s);
     objects.push_back(s);
   }
@@ -319,6 +322,47 @@ TEST(Bvh, CameraBlocksCutAnywhereMatchThePlainLoop) {
         const PrimaryResult tree = render_primary_with_ids(s, po);
         EXPECT_EQ(plain.t, tree.t) << "width " << w;
         EXPECT_EQ(plain.id, tree.id) << "width " << w;
+      }
+    }
+}
+
+// Full renders take their camera rays' closest hits from the camera blocks, a band of 8 rows at
+// a time, and shade them in rows: the plain loop's image and rays at every width, with bands cut
+// by the image's edges and by row ranges that start anywhere (mid-band, single rows), in
+// reflective and in glass clouds (the ray tree's path), with ties.
+TEST(Bvh, FullRendersShadeTheCameraBlocksHits) {
+  const std::array<std::array<int, 2>, 4> sizes = {{{13, 9}, {33, 17}, {45, 22}, {70, 11}}};
+  for (const auto& [nx, ny] : sizes)
+    for (double transmit : {0.0, 0.6}) {
+      CloudOptions o;
+      o.spheres = 1200;
+      o.duplicates = 0.2;
+      o.nx = nx, o.ny = ny;
+      o.transmit = transmit;
+      const Scene s = cloud(500 + std::uint64_t(nx), o);
+      SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(ny) + ", transmit " +
+                   std::to_string(transmit));
+      const RenderResult truth = run(s, 1, Accel::none);
+      EXPECT_GT(truth.rays.reflected, 0u);
+      if (transmit > 0) EXPECT_GT(truth.rays.refracted, 0u);
+      const auto prepared = prepare<float>(s, Accel::bvh);
+      ASSERT_TRUE(prepared.bvh.active());
+      std::array<int, 6> cuts = {0, 3, 4, 13, 21, ny};  // bands from rows 0, 3, 4, 13, 21
+      for (int& c : cuts) c = std::min(c, ny);
+      for (int w : testing::packet_widths(Precision::exact)) {
+        Image img(nx, ny);
+        RayCounts total;
+        for (std::size_t c = 0; c + 1 < cuts.size(); ++c) {
+          if (cuts[c] >= cuts[c + 1]) continue;
+          RayCounts part;
+          packet::kernels_for(w)->render_rows(prepared, img, cuts[c], cuts[c + 1], part);
+          total += part;
+        }
+        const BitDiff d = bit_diff(truth.image, img);
+        EXPECT_TRUE(d.identical())
+            << "width " << w << ": " << d.differing_pixels << " pixels differ, first at ("
+            << d.first_i << ", " << d.first_j << ")";
+        EXPECT_TRUE(total == truth.rays) << "width " << w << ": other rays traced";
       }
     }
 }

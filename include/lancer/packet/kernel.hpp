@@ -215,7 +215,7 @@ struct Kernel {
       return _mm512_i64gather_pd(id, field.data(), 8);
     } else if constexpr (std::is_same_v<T, float> && W == 8) {
       if (n <= 8) return _mm256_permutevar8x32_ps(_mm256_loadu_ps(field.data()), id);
-      return _mm256_i32gather_ps(field.data(), id, 4);
+      return gather8(field.data(), id);
     } else {
       alignas(64) Id ids[W];
       alignas(64) T out[W];
@@ -223,6 +223,20 @@ struct Kernel {
       for (int k = 0; k < W; ++k) out[k] = field[static_cast<std::size_t>(ids[k])];
       return B::load_aligned(out);
     }
+  }
+  // _mm256_i32gather_ps, its index kept out of ymm4 (the asm clobbers it). qemu 7.2 (Debian
+  // 12's, which .ci/qemu.sh runs) decodes a VSIB index of ymm4 as no index at all (SIB's 100b
+  // means none for general registers only), so a gather GCC gave ymm4 read field[0] in every
+  // lane under emulation: wrong colours at width 8 there, appearing and going with unrelated
+  // changes to GCC's register choice (docs/tools.md). Hardware reads every index register.
+  static __m256 gather8(const float* base, __m256i id) noexcept {
+    __m256 out = _mm256_setzero_ps();
+    __m256 mask = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    asm("vgatherdps %[mask], (%[base],%[index],4), %[out]"
+        : [out] "+x"(out), [mask] "+x"(mask)
+        : [base] "r"(base), [index] "x"(id), "m"(*(const char(*)[])base)
+        : "xmm4");
+    return out;
   }
   // A field of every object (materials).
   [[gnu::always_inline]] static B gather(const Scene& s, const std::vector<T>& field,
@@ -621,6 +635,13 @@ struct Kernel {
     I t_leaving;
   };
 
+  // A camera packet's closest hits found before it is shaded (render_rows' camera blocks):
+  // shade() then takes them instead of tracing the packet's rays.
+  struct GivenHit {
+    B t;
+    I id;
+  };
+
   // Contract steps 4 and 5 for the lanes of `hit` over C channels of the lights (1: grey, the
   // colour then scales one sum; 3: coloured): shade[c] = (ambient + diffuse) + specular.
   // `here`: the sphere hit from outside (fast mode), which shadow rays leaving outwards skip.
@@ -716,13 +737,22 @@ struct Kernel {
   // kTree: the ray tree's levels (scenes with refraction); the chain's have no refraction code.
   template <bool kTree>
   [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, int stage, V& o, V& d,
-                                        I& leaving, Level& out, RayCounts& counts) noexcept {
-    B best_t(std::numeric_limits<T>::infinity());
+                                        I& leaving, Level& out, RayCounts& counts,
+                                        const GivenHit* given = nullptr) noexcept {
+    const B inf(std::numeric_limits<T>::infinity());
+    B best_t = inf;
     I best_id(Id(-1));
     occupancy(counts, stage, active);
-    const M hit = depth == 0 && !s.camera.orthographic
-                      ? closest_hit<true>(s, active, o, d, best_t, best_id, counts)
-                      : closest_hit(s, active, o, d, best_t, best_id, counts, leaving);
+    M hit;
+    if (given) {  // the camera blocks' hits: the same (t, id) as closest_hit<true> finds
+      best_t = xsimd::select(active, given->t, inf);
+      best_id = xsimd::select(to_mi(active), given->id, best_id);
+      hit = active & (best_t < inf);
+    } else {
+      hit = depth == 0 && !s.camera.orthographic
+                ? closest_hit<true>(s, active, o, d, best_t, best_id, counts)
+                : closest_hit(s, active, o, d, best_t, best_id, counts, leaving);
+    }
     lap(counts, stage);
     const T* miss_color = depth == 0 ? s.background : s.environment;
     out.r = B(miss_color[0]), out.g = B(miss_color[1]), out.b = B(miss_color[2]);
@@ -859,10 +889,10 @@ struct Kernel {
   // local + reflect * child, then + transmit * child: the reference's order, bottom-up.
   // Recursion is at most max_depth + 1 deep; splitting materials bound it (kMaxSplitDepth).
   [[gnu::noinline]] static void radiance_tree(const Scene& s, M active, int depth, int stage, V o,
-                                              V d, I leaving, B& r, B& g, B& b,
-                                              RayCounts& counts) noexcept {
+                                              V d, I leaving, B& r, B& g, B& b, RayCounts& counts,
+                                              const GivenHit* given = nullptr) noexcept {
     Level lv;
-    const M reflected = shade<true>(s, active, depth, stage, o, d, leaving, lv, counts);
+    const M reflected = shade<true>(s, active, depth, stage, o, d, leaving, lv, counts, given);
     r = lv.r, g = lv.g, b = lv.b;
     if (xsimd::any(reflected)) {
       B cr, cg, cb;
@@ -887,16 +917,17 @@ struct Kernel {
   // weight would not be). With refraction the rays form a tree: radiance_tree.
   [[gnu::always_inline]] static void radiance(const Scene& s, M active, V o, V d,
                                               std::vector<Level>& levels, B& r, B& g, B& b,
-                                              RayCounts& counts) noexcept {
+                                              RayCounts& counts,
+                                              const GivenHit* given = nullptr) noexcept {
     int depth = 0;
     I leaving(Id(-1));
     if (s.features.refraction) {
-      radiance_tree(s, active, 0, kPrimaryIntersection, o, d, leaving, r, g, b, counts);
+      radiance_tree(s, active, 0, kPrimaryIntersection, o, d, leaving, r, g, b, counts, given);
       return;
     }
     for (;;) {
       active = shade<false>(s, active, depth, depth == 0 ? kPrimaryIntersection : kReflection, o, d,
-                            leaving, levels[depth], counts);
+                            leaving, levels[depth], counts, depth == 0 ? given : nullptr);
       if (!xsimd::any(active)) break;
       ++depth;
     }
@@ -946,15 +977,45 @@ struct Kernel {
     }
   }
 
+  // Through a hierarchy, a pinhole camera's closest hits come first, kBlockRows rows at a time,
+  // from the camera blocks that walk it together (bench --mode primary's path), and the rows
+  // then shade them: the same (t, id) per pixel as the row packets' own walks (a lexicographic
+  // minimum over the same rays), found in about half the time (docs/accel.md). Two
+  // instantiations: the plain loop's scenes keep the rows' code as it was.
   static void render_rows(const Scene& s, Image& image, int row_begin, int row_end,
                           RayCounts& counts) noexcept {
+    const PreparedCamera<T>& cam = s.camera;
+    if (kGroup > 1 && cam.samples == 1 && !cam.orthographic && s.features.spheres && s.bvh.active())
+      render_rows_as<kGroup != 1>(s, image, row_begin, row_end, counts);
+    else
+      render_rows_as<false>(s, image, row_begin, row_end, counts);
+  }
+  template <bool kBlocks>
+  static void render_rows_as(const Scene& s, Image& image, int row_begin, int row_end,
+                             RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
     const B samples = B(T(cam.samples * cam.samples));
     std::vector<Level> levels(static_cast<std::size_t>(s.max_depth) + 1);
     alignas(64) T out[3][W];
+    std::vector<float> band_t;
+    std::vector<Id> band_id;  // Id: 32-bit, as T is float here
+    if (kBlocks) {            // W more: a row's last packet loads whole registers
+      band_t.resize(std::size_t(cam.nx) * kBlockRows + W);
+      band_id.resize(band_t.size());
+    }
     if constexpr (kProfile) counts.profile->last_tsc = __rdtsc();
     for (int j = row_begin; j < row_end; ++j) {
+      [[maybe_unused]] const int band_row = (j - row_begin) % kBlockRows;
+      if constexpr (kBlocks) {
+        if (band_row == 0) {
+          lap(counts, kOutput);
+          if constexpr (kProfile) counts.profile->current = kPrimaryIntersection;
+          primary_blocks<kGroupX, kGroupY>(s, band_t.data(), band_id.data(), j,
+                                           std::min(row_end, j + kBlockRows), j, counts);
+          lap(counts, kPrimaryIntersection);
+        }
+      }
       for (int i0 = 0; i0 < cam.nx; i0 += W) {
         const int lanes = std::min(W, cam.nx - i0);
         const M valid = lane < B(T(lanes));
@@ -964,11 +1025,17 @@ struct Kernel {
             V o, d;
             lap(counts, kOutput);
             camera_packet(s, i0, j, a, b, o, d);
-            counts.camera += lanes;
+            if (!kBlocks) counts.camera += lanes;  // else counted by the blocks
             occupancy(counts, kRayGeneration, valid);
             lap(counts, kRayGeneration);
             B r, g, bl;
-            radiance(s, valid, o, d, levels, r, g, bl, counts);
+            if constexpr (kBlocks) {
+              const std::size_t at = std::size_t(band_row) * cam.nx + i0;
+              const GivenHit hit{B::load_unaligned(&band_t[at]), I::load_unaligned(&band_id[at])};
+              radiance(s, valid, o, d, levels, r, g, bl, counts, &hit);
+            } else {
+              radiance(s, valid, o, d, levels, r, g, bl, counts);
+            }
             sr = sr + r, sg = sg + g, sb = sb + bl;
           }
         }
@@ -1102,27 +1169,28 @@ struct Kernel {
   static void primary_tiles(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
                             int row_end, RayCounts& counts) noexcept {
     if (kGroup > 1 && !s.camera.orthographic && s.features.spheres)
-      primary_blocks<kGroupX, kGroupY>(s, t_out, id_out, row_begin, row_end, counts);
+      primary_blocks<kGroupX, kGroupY>(s, t_out, id_out, row_begin, row_end, 0, counts);
     else
-      primary_blocks<1, 1>(s, t_out, id_out, row_begin, row_end, counts);
+      primary_blocks<1, 1>(s, t_out, id_out, row_begin, row_end, 0, counts);
   }
-  // Blocks of gx x gy tiles (the block's shape fixed at compile time: its loops unroll).
+  // Blocks of gx x gy tiles (the block's shape fixed at compile time: its loops unroll). Pixel
+  // (i, j) goes to t_out[(j - row_base) * nx + i].
   template <int gx, int gy>
   static void primary_blocks(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
-                             int row_end, RayCounts& counts) noexcept {
+                             int row_end, int row_base, RayCounts& counts) noexcept {
     const int nx = s.camera.nx;
     for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy)
       for (int i0 = 0; i0 < nx; i0 += kTileW * gx) {
         // Every tile whole (all but the image's last columns and rows): no edge cases.
         if (i0 + kTileW * gx <= nx && j0 + kTileH * gy <= row_end)
-          primary_block<gx, gy, true>(s, i0, j0, row_end, t_out, id_out, counts);
+          primary_block<gx, gy, true>(s, i0, j0, row_end, row_base, t_out, id_out, counts);
         else
-          primary_block<gx, gy, false>(s, i0, j0, row_end, t_out, id_out, counts);
+          primary_block<gx, gy, false>(s, i0, j0, row_end, row_base, t_out, id_out, counts);
       }
   }
   template <int gx, int gy, bool kWhole>
   [[gnu::always_inline]] static void primary_block(const Scene& s, int i0, int j0, int row_end,
-                                                   float* t_out, std::int32_t* id_out,
+                                                   int row_base, float* t_out, std::int32_t* id_out,
                                                    RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     constexpr int n = gx * gy;
@@ -1194,7 +1262,7 @@ struct Kernel {
       sum[g].store_aligned(out);
       if (id_out) first_id[g].store_aligned(ids);
       for (int r = 0; r < rows[g]; ++r) {
-        const std::size_t at = std::size_t(tj[g] + r) * cam.nx + ti[g];
+        const std::size_t at = std::size_t(tj[g] + r - row_base) * cam.nx + ti[g];
         if constexpr (kWhole && std::is_same_v<T, float> && sizeof(Id) == sizeof(std::int32_t)) {
           std::memcpy(t_out + at, &out[r * kTileW], sizeof(float) * kTileW);  // one move a row
           if (id_out) std::memcpy(id_out + at, &ids[r * kTileW], sizeof(std::int32_t) * kTileW);
