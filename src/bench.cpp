@@ -150,6 +150,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
       }
       const RenderResult f = lancer_run->render(row.width, row.threads);
       out.structure = f.structure;
+      if (f.structure.kind == "bvh") row.secondary = secondary_walk(f.structure, f.width);
       return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
     });
   }

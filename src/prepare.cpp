@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <type_traits>
 
 #include "lancer/formulas.hpp"
 #include "lancer/prepared.hpp"
@@ -86,6 +87,12 @@ void add_bvh(PreparedScene<T>& p) {
                 p.frame.depth);
   const bool eye = !p.eye.c.empty();
   const std::size_t n = order.size();
+  if constexpr (std::is_same_v<T, float>) {
+    h.one_ray_lanes = p.num_spheres >= kOneRayAllSpheres   ? kMaxLanes
+                      : p.num_spheres >= kOneRayMinSpheres ? kOneRayLanes
+                                                           : 0;
+    h.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
+  }
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->resize(n);
   if (eye)
     for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) v->resize(n);

@@ -224,6 +224,21 @@ StructureInfo structure_of(const PreparedScene<T>& p) {
 template StructureInfo structure_of(const PreparedScene<float>&);
 template StructureInfo structure_of(const PreparedScene<double>&);
 
+namespace {
+std::string walk_of(int lanes, int width) {
+  if (lanes <= 0) return "packets";
+  if (lanes >= width) return "one ray at a time";
+  return "packets, one ray alone at " + std::to_string(lanes) +
+         (lanes == 1 ? " lane" : " lanes or fewer");
+}
+}  // namespace
+
+std::string secondary_walk(const StructureInfo& st, int width) {
+  if (width <= 1) return "one ray at a time (the reference)";
+  return "closest hits " + walk_of(st.one_ray_lanes, width) + "; shadow rays " +
+         walk_of(st.shadow_one_ray_lanes, width);
+}
+
 struct PreparedRun::State {
   RenderOptions opt;  // accel, model_everything and on_progress of every run
   Precision precision = Precision::exact;
@@ -264,6 +279,11 @@ void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   res.threads = resolve_threads(threads);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
+    // Only exact float packets read it: the reference walks one ray anyway; fast and double
+    // packets stay packets.
+    const bool packets = st.precision == Precision::exact && res.width > 1;
+    res.structure.one_ray_lanes = packets ? prepared.bvh.one_ray_lanes : 0;
+    res.structure.shadow_one_ray_lanes = packets ? prepared.bvh.shadow_one_ray_lanes : 0;
     res.seconds = timed([&] {
       res.rays = run_tiles(st.ny, res.threads, st.opt,
                            [&](int r0, int r1, RayCounts& c) { body(prepared, rows, r0, r1, c); });

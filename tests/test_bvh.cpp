@@ -10,6 +10,7 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <tuple>
 
 #include "lancer/bvh.hpp"
 #include "lancer/compare.hpp"
@@ -30,8 +31,15 @@ struct CloudOptions {
   bool eye_inside = false;   // the camera inside the cloud
   int nx = 48, ny = 32;
   int max_depth = 3;
-  double scale = 1;                                      // every length times this
-  double transmit = 0;                                   // the spheres' (glass: ior 1.5)
+  double scale = 1;   // every length times this
+  double radius = 1;  // the radii (0.2 to 0.6) times this
+  bool second_light =
+      false;            // another light, left of and behind the cloud: shadow rays that
+                        // go down x and z, where the nodes' near-first order is not slot order
+  double transmit = 0;  // the spheres' (glass: ior 1.5)
+  double transmit_spread = 0;  // each sphere's transmit uniform in transmit -+ this: a shadow
+                               // ray's product of transmits then depends on its order
+  bool far_wall = false;  // a mirror 1e4 away behind the cloud: rays from beyond the origin limit
   std::array<double, 3> direction = {0.1, -0.05, -1.0};  // the camera's
 };
 
@@ -55,7 +63,7 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
            {"center",
             {k * uniform(-side / 2, side / 2), k * uniform(-side / 2, side / 2),
              k * uniform(-side - (o.eye_inside ? 0 : 5), o.eye_inside ? side / 2 : -5.0)}},
-           {"radius", k * uniform(0.2, 0.6)}};
+           {"radius", k * o.radius * uniform(0.2, 0.6)}};
     }
     // Each copy its own colour: a tie won by the wrong id shows in the image.
     s["material"] = {{"color", {uniform(0.1, 1), uniform(0.1, 1), uniform(0.1, 1)}},
@@ -64,7 +72,9 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
                      {"ks", 0.4},
                      {"shininess", 20},
                      {"reflect", 0.4}};
-    if (o.transmit > 0) s["material"]["transmit"] = o.transmit, s["material"]["ior"] = 1.5;
+    if (o.transmit > 0)
+      s["material"]["transmit"] = o.transmit + uniform(-o.transmit_spread, o.transmit_spread),
+      s["material"]["ior"] = 1.5;
     made.push_back(s);
     objects.push_back(s);
   }
@@ -72,18 +82,26 @@ Scene cloud(std::uint64_t seed, const CloudOptions& o) {
                      {"point", {0, k * (-side / 2 - 1), 0}},
                      {"normal", {0, 1, 0}},
                      {"material", {{"color", {0.8, 0.8, 0.8}}, {"kd", 0.8}, {"reflect", 0.3}}}});
-  const json j{
-      {"camera",
-       {{"type", "pinhole"},
-        {"position", {0, 0, 0}},
-        {"direction", o.direction},
-        {"distance", 5 * k},
-        {"resolution", {o.nx, o.ny}},
-        {"bounds", {-3 * k, 3 * k, -2 * k, 2 * k}}}},
-      {"background", {0.1, 0.1, 0.2}},
-      {"max_depth", o.max_depth},
-      {"lights", {{{"position", {k * side, k * side, k * 5}}, {"intensity", 1}, {"ambient", 0.2}}}},
-      {"objects", objects}};
+  if (o.far_wall)
+    objects.push_back({{"type", "plane"},
+                       {"point", {0, 0, -1e4 * k}},
+                       {"normal", {0.05, 0.02, 1}},
+                       {"material", {{"color", {0.5, 0.6, 0.7}}, {"kd", 0.5}, {"reflect", 0.9}}}});
+  json lights = {{{"position", {k * side, k * side, k * 5}}, {"intensity", 1}, {"ambient", 0.2}}};
+  if (o.second_light)
+    lights.push_back(
+        {{"position", {-k * side, k * side, -k * 3 * side}}, {"intensity", 0.7}, {"ambient", 0.1}});
+  const json j{{"camera",
+                {{"type", "pinhole"},
+                 {"position", {0, 0, 0}},
+                 {"direction", o.direction},
+                 {"distance", 5 * k},
+                 {"resolution", {o.nx, o.ny}},
+                 {"bounds", {-3 * k, 3 * k, -2 * k, 2 * k}}}},
+               {"background", {0.1, 0.1, 0.2}},
+               {"max_depth", o.max_depth},
+               {"lights", lights},
+               {"objects", objects}};
   return parse_scene(j.dump(), "cloud.json");
 }
 
@@ -365,6 +383,105 @@ TEST(Bvh, FullRendersShadeTheCameraBlocksHits) {
         EXPECT_TRUE(total == truth.rays) << "width " << w << ": other rays traced";
       }
     }
+}
+
+// Secondary rays' closest hits and their shadow rays one ray at a time (Bvh::one_ray_lanes,
+// shadow_one_ray_lanes: a lane alone below a subtree few lanes enter, or every lane from the
+// root): the plain loop's image and rays at every width, in reflective and glass clouds (shadow
+// rays through several transmitting spheres: the product's order) with ties (duplicates), the
+// camera inside the cloud, and reflections off a far ground plane (rays from beyond the origin
+// limit: padded boxes), at log-uniform scales.
+TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
+  std::mt19937_64 rng(77);
+  for (int round = 0; round < 4; ++round) {
+    CloudOptions o;
+    o.spheres = 1500;
+    o.duplicates = 0.3;
+    o.nx = 40, o.ny = 27;
+    o.eye_inside = round == 1;
+    o.transmit = round == 2 ? 0.6 : 0.0;
+    o.transmit_spread = 0.35;
+    if (round == 2) o.radius = 2, o.second_light = true;  // through three glass spheres or more
+    o.far_wall = round == 3;
+    o.scale = std::pow(10.0, -3.0 + 6.0 * double(rng() >> 11) * 0x1.0p-53);
+    const Scene s = cloud(700 + std::uint64_t(round), o);
+    SCOPED_TRACE("round " + std::to_string(round) + ", scale " + std::to_string(o.scale));
+    // Through glass, the reference's walk of the same hierarchy: shadow rays multiply their
+    // transmits in its depth-first order, the plain loop in id order (docs/precision.md).
+    const RenderResult truth = run(s, 1, o.transmit > 0 ? Accel::bvh : Accel::none);
+    EXPECT_GT(truth.rays.reflected, 100u);
+    if (o.transmit > 0) {
+      const BitDiff loop = bit_diff(run(s, 1, Accel::none).image, truth.image);
+      EXPECT_FALSE(loop.identical()) << "the transmits' order no longer shows in this scene";
+    }
+    auto prepared = prepare<float>(s, Accel::bvh);
+    EXPECT_EQ(prepared.bvh.one_ray_lanes, 0);  // 1500 spheres: packets by default
+    EXPECT_EQ(prepared.bvh.shadow_one_ray_lanes, kOneRayShadowLanes);
+    for (int lanes : {1, 2, 16}) {
+      prepared.bvh.one_ray_lanes = prepared.bvh.shadow_one_ray_lanes = lanes;
+      for (int w : testing::packet_widths(Precision::exact)) {
+        Image img(o.nx, o.ny);
+        RayCounts counts;
+        packet::kernels_for(w)->render_rows(prepared, img, 0, o.ny, counts);
+        const BitDiff d = bit_diff(truth.image, img);
+        EXPECT_TRUE(d.identical())
+            << "width " << w << ", one ray at " << lanes << " lanes: " << d.differing_pixels
+            << " pixels differ, first at (" << d.first_i << ", " << d.first_j << ")";
+        EXPECT_TRUE(counts == truth.rays) << "width " << w << ": other rays traced";
+      }
+    }
+  }
+}
+
+// The sphere counts from which secondary rays and their shadow rays go one at a time (float;
+// double stays packets).
+TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
+  for (const auto& [n, lanes, shadow] : std::vector<std::tuple<int, int, int>>{
+           {kOneRayShadowMinSpheres - 1, 0, 0},
+           {kOneRayShadowMinSpheres, 0, kOneRayShadowLanes},
+           {kOneRayMinSpheres - 1, 0, kOneRayShadowLanes},
+           {kOneRayMinSpheres, kOneRayLanes, kOneRayShadowLanes},
+           {kOneRayAllSpheres - 1, kOneRayLanes, kOneRayShadowLanes},
+           {kOneRayAllSpheres, kMaxLanes, kOneRayShadowLanes}}) {
+    CloudOptions o;
+    o.spheres = n;
+    o.duplicates = 0;
+    o.nx = 8, o.ny = 8;
+    const Scene s = cloud(900, o);
+    const auto f = prepare<float>(s, Accel::bvh);
+    const auto d = prepare<double>(s, Accel::bvh);
+    EXPECT_EQ(f.bvh.one_ray_lanes, lanes) << n << " spheres";
+    EXPECT_EQ(f.bvh.shadow_one_ray_lanes, shadow) << n << " spheres";
+    EXPECT_EQ(d.bvh.one_ray_lanes, 0) << n << " spheres";
+    EXPECT_EQ(d.bvh.shadow_one_ray_lanes, 0) << n << " spheres";
+  }
+}
+
+// The summary says how the secondary rays walked, as they ran: exact float packets by the
+// scene's thresholds, double packets and the reference as they always do.
+TEST(Bvh, SummaryReportsTheSecondaryWalkThatRan) {
+  CloudOptions o;
+  o.spheres = kOneRayShadowMinSpheres + 100;
+  o.nx = 16, o.ny = 8;
+  const Scene s = cloud(41, o);
+  for (int w : testing::packet_widths(Precision::exact)) {
+    const RenderResult r = run(s, w, Accel::bvh);
+    EXPECT_EQ(r.structure.one_ray_lanes, 0);
+    EXPECT_EQ(r.structure.shadow_one_ray_lanes, kOneRayShadowLanes);
+    EXPECT_EQ(secondary_walk(r.structure, r.width),
+              "closest hits packets; shadow rays packets, one ray alone at 1 lane");
+  }
+  for (int w : testing::packet_widths(Precision::dbl)) {
+    const RenderResult d = run(s, w, Accel::bvh, Precision::dbl);
+    EXPECT_EQ(secondary_walk(d.structure, d.width), "closest hits packets; shadow rays packets");
+  }
+  const RenderResult ref = run(s, 1, Accel::bvh);
+  EXPECT_EQ(secondary_walk(ref.structure, ref.width), "one ray at a time (the reference)");
+  StructureInfo st;
+  st.one_ray_lanes = 2, st.shadow_one_ray_lanes = 16;
+  EXPECT_EQ(
+      secondary_walk(st, 16),
+      "closest hits packets, one ray alone at 2 lanes or fewer; shadow rays one ray at a time");
 }
 
 // lancer bench prepares a scene once and times many frames of it (PreparedRun): each frame, at

@@ -32,6 +32,7 @@ struct BenchRow {
   RayCounts by_kind;            // the same rays by kind (camera, shadow, reflected, refracted)
   double seconds = 0;           // per render, median over the repeats
   std::vector<double> samples;  // seconds per render of each repeat, in the order they ran
+  std::string secondary;        // lancer's full renders through a hierarchy: secondary_walk()
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
   // With --peak, lancer's exact primary and kernel rows: intersection GFLOP/s
   // (include/lancer/peak.hpp), what the SIMD lanes execute, and the first against the

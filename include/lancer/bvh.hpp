@@ -21,6 +21,19 @@ const char* to_string(Accel a);
 // Spheres from which the hierarchy beats the plain loop (measured, docs/accel.md).
 inline constexpr int kBvhMinSpheres = 16;
 
+// Secondary rays' closest hits (reflected, refracted; exact float packets): from
+// kOneRayMinSpheres spheres, a lane goes on alone into a subtree that at most 2 lanes of its
+// packet enter; from kOneRayAllSpheres, every lane walks alone from the root (Benthin et al.'s
+// hybrid, thresholds measured on random clouds: docs/accel.md, "Secondary rays one at a time").
+inline constexpr int kOneRayMinSpheres = 8192;
+inline constexpr int kOneRayAllSpheres = 32768;
+inline constexpr int kOneRayLanes = 2;
+// The shadow rays of secondary hits (exact float packets): from kOneRayShadowMinSpheres, a lane
+// goes on alone into a subtree no other lane of its packet enters (docs/accel.md, tenth round).
+// The camera hits' shadow rays, coherent, stay packets.
+inline constexpr int kOneRayShadowMinSpheres = 1024;
+inline constexpr int kOneRayShadowLanes = 1;
+
 template <class T>
 struct Bvh {
   // A kWidth-wide node: a binary SAH tree collapsed (docs/accel.md). Child slot k < arity:
@@ -55,6 +68,12 @@ struct Bvh {
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).
   T origin_limit = T(0);
   int depth = 0;  // deepest wide node (root: 1); at most kMaxDepth / 2
+  // Secondary packets' lanes go on one ray at a time into a subtree at most this many of them
+  // enter (0: packets only; 16 or more: every lane alone from the root). Set by prepare() from
+  // the sphere count (kOneRayMinSpheres); read by exact float packets only.
+  int one_ray_lanes = 0;
+  // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
+  int shadow_one_ray_lanes = 0;
   double build_seconds = 0;
 
   // The binary tree's depth bound; every inner child of a wide node lies two binary levels down,

@@ -28,7 +28,14 @@ struct StructureInfo {
   int spheres = 0;            // objects in it
   std::size_t nodes = 0, bytes = 0;
   double build_seconds = 0;
+  // Secondary rays' closest hits, as they ran: a lane went on alone into a subtree at most this
+  // many lanes of its packet entered (0: packets only; the width or more: every ray alone).
+  int one_ray_lanes = 0;
+  int shadow_one_ray_lanes = 0;  // the same for the shadow rays from secondary hits
 };
+// One line for both: "closest hits one ray at a time; shadow rays packets, one ray alone at 1
+// lane" (each "packets", "one ray at a time" or "packets, one ray alone at N lanes or fewer").
+std::string secondary_walk(const StructureInfo& st, int width);
 
 template <class T>
 struct PreparedScene;

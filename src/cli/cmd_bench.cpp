@@ -130,6 +130,7 @@ void print_json(const std::string& scene, const BenchResult& result,
         {"isa", r.isa},       {"precision", r.precision}, {"threads", r.threads},
         {"rays", r.rays},     {"seconds", r.seconds},     {"mrays_per_s", r.mrays_per_s()}};
     if (!r.config.empty()) row["config"] = r.config;
+    if (!r.secondary.empty()) row["secondary"] = r.secondary;
     if (r.build_seconds >= 0) row["build_seconds"] = r.build_seconds;
     const Spread sp = spread(r.samples);
     row["samples_seconds"] = r.samples;

@@ -49,10 +49,13 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
   const StructureInfo& st = r.structure;
-  if (st.kind == "bvh")
+  if (st.kind == "bvh") {
     std::printf("  structure  bvh (%d spheres, %zu nodes, built in %.1f ms, %zu bytes)\n",
                 st.spheres, st.nodes, st.build_seconds * 1e3, st.bytes);
-  else
+    if (r.rays.reflected + r.rays.refracted > 0)
+      std::printf("  secondary  rays from reflection and refraction points: %s\n",
+                  secondary_walk(st, r.width).c_str());
+  } else
     std::printf("  structure  none: plain loop\n");
   std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu refracted, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
@@ -84,7 +87,8 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                      {"objects", st.spheres},
                      {"nodes", st.nodes},
                      {"bytes", st.bytes},
-                     {"build_seconds", st.build_seconds}}},
+                     {"build_seconds", st.build_seconds},
+                     {"secondary", st.kind == "bvh" ? secondary_walk(st, r.width) : "none"}}},
                    {"rays",
                     {{"camera", r.rays.camera},
                      {"shadow", r.rays.shadow},

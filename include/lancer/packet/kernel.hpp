@@ -385,11 +385,199 @@ struct Kernel {
       spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t, best_id, counts,
                                        leaving);
     };
+    // Exact float: where the scene says (Bvh::one_ray_lanes), lanes go on one ray at a time.
+    if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
+      if (const int k = s.bvh.one_ray_lanes; k > 0) {
+        OneRay one{s, o, d, best_t, best_id, counts, reach == 1};
+        if (reach == 0)
+          Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf, OneStep{&one, k});
+        else
+          Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf, OneStep{&one, k});
+        return;
+      }
+    }
     if (reach == 0)
       Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf);
     else
       Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
   }
+  struct OneRay;
+  struct OneStep {
+    OneRay* one;
+    int limit;
+    static constexpr int kMaxLanes = W;
+    void operator()(unsigned l, std::int32_t c, std::int32_t n) const noexcept { (*one)(l, c, n); }
+  };
+  // A secondary packet's lanes walking a subtree one ray at a time (exact float): each lane's
+  // ray over the wide nodes alone (Traversal::closest_one), its leaves' spheres four at a time
+  // (spheres_closest_one).
+  struct OneRay {
+    const Scene& s;
+    const V& o;
+    const V& d;
+    B& best_t;
+    I& best_id;
+    RayCounts& counts;
+    bool padded;
+    alignas(64) T ox[W], oy[W], oz[W], dx[W], dy[W], dz[W];
+    bool stored = false;
+    void operator()(unsigned lanes, std::int32_t child, std::int32_t count) noexcept {
+      if constexpr (std::is_same_v<T, float>) {
+        if (!stored) {
+          o.x.store_aligned(ox), o.y.store_aligned(oy), o.z.store_aligned(oz);
+          d.x.store_aligned(dx), d.y.store_aligned(dy), d.z.store_aligned(dz);
+          stored = true;
+        }
+        alignas(64) T bt[W];
+        alignas(64) Id bi[W];
+        best_t.store_aligned(bt);
+        best_id.store_aligned(bi);
+        for (; lanes; lanes &= lanes - 1) {
+          const int k = __builtin_ctz(lanes);
+          const T ok[3] = {ox[k], oy[k], oz[k]}, dk[3] = {dx[k], dy[k], dz[k]};
+          T& t = bt[k];
+          Id& id = bi[k];
+          auto leaf = [&](int first, int n) {
+            if constexpr (kProfile) {
+              counts.profile->leaf_packets[counts.profile->current] += 1;
+              counts.profile->leaf_lanes[counts.profile->current] += 1;
+              counts.profile->sphere_tests += std::uint64_t(n);
+            }
+            spheres_closest_one(s, first, n, ok, dk, t, id);
+          };
+          const typename Tr::OneRay4 ray = Tr::one_ray(ok, dk, padded);
+          if (padded)
+            Tr::template closest_one<true>(s.bvh, ray, child, count, t, leaf);
+          else
+            Tr::template closest_one<false>(s.bvh, ray, child, count, t, leaf);
+        }
+        best_t = B::load_aligned(bt);
+        best_id = I::load_aligned(bi);
+      }
+    }
+  };
+  // One ray (o, d) against leaf-order spheres [first, first + n), four spheres a register (the
+  // lanes are spheres): each lane computes the reference's formulas for its sphere, IEEE
+  // operation by operation, so its t is the reference's. hit(q, t) for each sphere met beyond
+  // epsilon, in leaf order, -> true to stop; returns whether one did.
+  template <class Hit>
+  static bool spheres_one(const Scene& s, int first, int n, const T* o, const T* d,
+                          Hit&& hit) noexcept {
+    using B4 = xsimd::batch<float, xsimd::sse4_2>;
+    const Bvh<T>& h = s.bvh;
+    const int total = int(h.cx.size());
+    const Vec3<B4> ov{B4(o[0]), B4(o[1]), B4(o[2])}, dv{B4(d[0]), B4(d[1]), B4(d[2])};
+    const B4 eps(s.epsilon);
+    const B4 lane(_mm_setr_ps(0.f, 1.f, 2.f, 3.f));
+    for (int j = first; j < first + n; j += 4) {
+      const int m = std::min(4, first + n - j);
+      B4 cx, cy, cz, r2;
+      if (j + 4 <= total) {
+        cx = B4::load_unaligned(&h.cx[j]), cy = B4::load_unaligned(&h.cy[j]);
+        cz = B4::load_unaligned(&h.cz[j]), r2 = B4::load_unaligned(&h.r2[j]);
+      } else {  // the last leaf's last spheres: no reads past the arrays
+        alignas(16) T v[4][4] = {};
+        for (int q = 0; q < m; ++q)
+          v[0][q] = h.cx[j + q], v[1][q] = h.cy[j + q], v[2][q] = h.cz[j + q],
+          v[3][q] = h.r2[j + q];
+        cx = B4::load_aligned(v[0]), cy = B4::load_aligned(v[1]);
+        cz = B4::load_aligned(v[2]), r2 = B4::load_aligned(v[3]);
+      }
+      const Vec3<B4> f = ov - Vec3<B4>{cx, cy, cz};
+      const SphereDisc<B4> sd = sphere_disc(f, dv, r2);
+      const auto live = (sd.disc >= B4(0.f)) & (lane < B4(float(m)));
+      if (!xsimd::any(live)) continue;
+      const B4 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = unsigned(_mm_movemask_ps(live & (t > eps)));
+      if (!met) continue;
+      alignas(16) T tt[4];
+      t.store_aligned(tt);
+      for (; met; met &= met - 1) {
+        const int q = __builtin_ctz(met);
+        if (hit(j + q, tt[q])) return true;
+      }
+    }
+    return false;
+  }
+  // The lexicographic minimum of (t, id) over those spheres and the ray's best.
+  static void spheres_closest_one(const Scene& s, int first, int n, const T* o, const T* d,
+                                  T& best_t, Id& best_id) noexcept {
+    spheres_one(s, first, n, o, d, [&](int j, T t) {
+      const Id id = Id(s.bvh.id[std::size_t(j)]);
+      if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
+      return false;
+    });
+  }
+
+  // A shadow packet's lanes walking a subtree one ray at a time (exact float): each pending
+  // lane's segment over the wide nodes alone in the fixed slot order (Traversal::any_one), its
+  // leaves' spheres four at a time; step(id, lane, pending) for each sphere met before the
+  // light, in the packet's order, until the lane is no longer pending.
+  template <class Step>
+  struct OneShadow {
+    const Scene& s;
+    const V& p;
+    const V& l;
+    const B& dist;
+    Step& step;
+    RayCounts& counts;
+    bool padded;
+    int limit;
+    static constexpr int kMaxLanes = W;
+    alignas(64) T px[W], py[W], pz[W], lx[W], ly[W], lz[W], dd[W];
+    bool stored = false;
+    M operator()(unsigned lanes, std::int32_t child, std::int32_t count, M pending) noexcept {
+      if (!stored) {
+        p.x.store_aligned(px), p.y.store_aligned(py), p.z.store_aligned(pz);
+        l.x.store_aligned(lx), l.y.store_aligned(ly), l.z.store_aligned(lz);
+        dist.store_aligned(dd);
+        stored = true;
+      }
+      const B index = iota();
+      for (; lanes; lanes &= lanes - 1) {
+        const int k = __builtin_ctz(lanes);
+        const T ok[3] = {px[k], py[k], pz[k]}, dk[3] = {lx[k], ly[k], lz[k]};
+        const T tmax = dd[k];
+        const M mine = index == B(T(k));
+        auto leaf = [&](int first, int n) {
+          if constexpr (kProfile) {
+            counts.profile->leaf_packets[counts.profile->current] += 1;
+            counts.profile->leaf_lanes[counts.profile->current] += 1;
+            counts.profile->sphere_tests += std::uint64_t(n);
+          }
+          return spheres_one(s, first, n, ok, dk, [&](int j, T t) {
+            if (!(t < tmax)) return false;
+            pending = step(Id(s.bvh.id[std::size_t(j)]), mine, pending);
+            return !xsimd::any(pending & mine);
+          });
+        };
+        const typename Tr::OneRay4 ray = Tr::one_ray(ok, dk, padded);
+        if (padded)
+          Tr::template any_one<true>(s.bvh, ray, child, count, tmax, leaf);
+        else
+          Tr::template any_one<false>(s.bvh, ray, child, count, tmax, leaf);
+      }
+      return pending;
+    }
+  };
+  // The hierarchy's any-hit walk with lanes going on alone (OneShadow) where the scene says;
+  // out of line, so that the shading loops that inline any_hit do not grow.
+  template <bool kPadded, class Leaf, class Step>
+  [[gnu::noinline]] static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l,
+                                         const B& dist, RayCounts& counts, Leaf& leaf,
+                                         Step& step) noexcept {
+    OneShadow<Step> one{s, p, l, dist, step, counts, kPadded, s.bvh.shadow_one_ray_lanes};
+    return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, OneShadowStep<Step>{&one});
+  }
+  template <class Step>
+  struct OneShadowStep {
+    OneShadow<Step>* one;
+    int limit = one->limit;
+    static constexpr int kMaxLanes = W;
+    M operator()(unsigned lanes, std::int32_t c, std::int32_t n, const M& pending) const noexcept {
+      return (*one)(lanes, c, n, pending);
+    }
+  };
 
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
   // hit is found (an equal t: a lower id); returns the lanes whose t is now finite.
@@ -483,7 +671,7 @@ struct Kernel {
   template <class Step>
   [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
                                           const B& dist, RayCounts& counts, const I& leaving,
-                                          Step&& step) noexcept {
+                                          Step&& step, bool secondary = false) noexcept {
     const B eps(s.epsilon);
     auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
       for (int j = begin; j < end; ++j) {
@@ -511,8 +699,17 @@ struct Kernel {
           leaf_visit(counts, mask & pend);
           return spheres(sp, first, first + n, mask, pend);
         };
-        pending = reach == 0 ? Tr::template any<false>(s.bvh, valid, p, l, dist, leaf)
-                             : Tr::template any<true>(s.bvh, valid, p, l, dist, leaf);
+        bool alone = false;
+        if constexpr (!kFast && std::is_same_v<T, float>) {
+          if (secondary && s.bvh.shadow_one_ray_lanes > 0) {
+            alone = true;
+            pending = reach == 0 ? any_one_ray<false>(s, valid, p, l, dist, counts, leaf, step)
+                                 : any_one_ray<true>(s, valid, p, l, dist, counts, leaf, step);
+          }
+        }
+        if (!alone)
+          pending = reach == 0 ? Tr::template any<false>(s.bvh, valid, p, l, dist, leaf)
+                               : Tr::template any<true>(s.bvh, valid, p, l, dist, leaf);
       } else {
         pending = spheres(all_spheres(s), 0, s.num_spheres, valid, valid);
       }
@@ -559,15 +756,17 @@ struct Kernel {
   // render_rows, and course scenes ran 6% to 9% more instructions (callgrind, widths 4 and 8).
   template <bool kGlass>
   [[gnu::always_inline]] static Shadow occluded(const Scene& s, M valid, const V& p, const V& l,
-                                                const B& dist, RayCounts& counts,
-                                                const I& leaving) noexcept {
+                                                const B& dist, RayCounts& counts, const I& leaving,
+                                                bool secondary = false) noexcept {
     Shadow sh{valid, B(T(1))};
-    sh.pending =
-        any_hit(s, valid, p, l, dist, counts, leaving, [&](Id id, const M& met, const M& pending) {
+    sh.pending = any_hit(
+        s, valid, p, l, dist, counts, leaving,
+        [&](Id id, const M& met, const M& pending) {
           sh.pending = pending;
           shadow_hit<kGlass>(s, sh, met, id);
           return sh.pending;
-        });
+        },
+        secondary);
     return sh;
   }
 
@@ -652,8 +851,8 @@ struct Kernel {
   template <int C, bool kGlass>
   [[gnu::always_inline]] static Shade light_sums(const Scene& s, const M& hit, const I& id,
                                                  const B& delta, const V& p, const V& n,
-                                                 const V& view, const I& here,
-                                                 RayCounts& counts) noexcept {
+                                                 const V& view, const I& here, RayCounts& counts,
+                                                 bool secondary) noexcept {
     const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
     B ks(0), shininess(0), shininess_int(0);
     if (s.features.specular) {
@@ -688,7 +887,7 @@ struct Kernel {
         if (!shortcuts) skip_sphere = xsimd::select(to_mi(cos_nl > B(0)), here, I(Id(-1)));
       lap(counts, kShading);
       occupancy(counts, kShadowRays, traced);
-      const Shadow sh = occluded<kGlass>(s, traced, from, l, dist, counts, skip_sphere);
+      const Shadow sh = occluded<kGlass>(s, traced, from, l, dist, counts, skip_sphere, secondary);
       const M unblocked = traced & sh.pending;
       lap(counts, kShadowRays);
       if (!xsimd::any(unblocked)) continue;
@@ -723,10 +922,11 @@ struct Kernel {
   // their speed (issue 13: a scene pays only for what it uses). Arguments by value: references
   // would give the hot path's vectors a home in memory.
   [[gnu::noinline]] static Shade general_light_sums(const Scene& s, M hit, I id, B delta, V p, V n,
-                                                    V view, I here, RayCounts& counts) noexcept {
+                                                    V view, I here, RayCounts& counts,
+                                                    bool secondary) noexcept {
     if (s.features.coloured_lights)
-      return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts);
-    return light_sums<1, true>(s, hit, id, delta, p, n, view, here, counts);
+      return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts, secondary);
+    return light_sums<1, true>(s, hit, id, delta, p, n, view, here, counts, secondary);
   }
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
@@ -813,9 +1013,11 @@ struct Kernel {
         here =
             xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id, here);
 
-    const Shade sum = s.features.coloured_lights || s.features.transparency
-                          ? general_light_sums(s, hit, id, delta, p, n, view, here, counts)
-                          : light_sums<1, false>(s, hit, id, delta, p, n, view, here, counts);
+    const bool secondary = depth > 0;
+    const Shade sum =
+        s.features.coloured_lights || s.features.transparency
+            ? general_light_sums(s, hit, id, delta, p, n, view, here, counts, secondary)
+            : light_sums<1, false>(s, hit, id, delta, p, n, view, here, counts, secondary);
     out.r = xsimd::select(hit, gather(s, s.mat_r, id) * sum.r, out.r);
     out.g = xsimd::select(hit, gather(s, s.mat_g, id) * sum.g, out.g);
     out.b = xsimd::select(hit, gather(s, s.mat_b, id) * sum.b, out.b);

@@ -13,6 +13,8 @@
 // transmittances over them is then the same bits everywhere). Stops once no lane is pending.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -272,21 +274,135 @@ struct Traversal {
     return descend_inline<kSlab>(n, order, r, mask, tmax, st, child, count);
   }
 
+  // No one-ray step: the packet walks every node with its lanes.
+  struct PacketsOnly {
+    static constexpr int kMaxLanes = 0;
+    int limit = 0;
+    void operator()(unsigned, std::int32_t, std::int32_t) const noexcept {}
+  };
+
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
-  // lowering best_t (read here to cull).
-  template <bool kPadded, class Leaf>
+  // lowering best_t (read here to cull). one(lanes, child, count): where at most
+  // One::kMaxLanes lanes go on into a subtree, walks it for each of them alone, lowering best_t
+  // (the hybrid traversal of Benthin et al.).
+  template <bool kPadded, class Leaf, class One = PacketsOnly>
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
-                      Leaf&& leaf) noexcept {
+                      Leaf&& leaf, One one = {}) noexcept {
     Ray r;
     slab_ray<true>(r, o, d);
     if constexpr (kPadded)
-      closest_with<Slab::padded>(h, valid, r, d, best_t, leaf);
+      closest_with<Slab::padded>(h, valid, r, d, best_t, leaf, one);
     else if (same_signs(r, valid))
-      closest_with<Slab::signed_>(h, valid, r, d, best_t, leaf);
+      closest_with<Slab::signed_>(h, valid, r, d, best_t, leaf, one);
     else
-      closest_with<Slab::generic>(h, valid, r, d, best_t, leaf);
+      closest_with<Slab::generic>(h, valid, r, d, best_t, leaf, one);
   }
 
+  // ---- one ray over the wide nodes: the hybrid's step below a packet's thinned lanes ----------
+  // One ray (float) walks the subtree (child, count) alone: a node's four children tested at
+  // once in an xmm (slab values lo * inv - o * inv, as the reference's, padded by pad per axis),
+  // the met ones taken in the node's order for the ray's own direction code, nearest first,
+  // depth first; a popped entry is culled where it starts beyond best_t. leaf(first, count)
+  // tests leaf-order spheres [first, first + count) for this ray, lowering best_t.
+  struct OneRay4 {
+    __m128 inv[3], oi[3], pad[3];
+    std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
+    unsigned code;
+  };
+  static OneRay4 one_ray(const T* o, const T* d, bool padded) noexcept {
+    static_assert(std::is_same_v<T, float> && Bvh<T>::kWidth == 4);
+    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
+    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
+    OneRay4 r;
+    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+    for (int a = 0; a < 3; ++a) {
+      // As slab_ray: a zero direction component becomes 2^-64.
+      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
+      r.inv[a] = _mm_set1_ps(inv);
+      r.oi[a] = _mm_set1_ps(o[a] * inv);
+      r.pad[a] = _mm_set1_ps(padded ? m * T(Bvh<T>::kOriginPad) * std::fabs(inv) : T(0));
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
+      r.near[a] = inv < T(0) ? hi[a] : lo[a];
+      r.far[a] = inv < T(0) ? lo[a] : hi[a];
+    }
+    r.code = unsigned(d[0] >= T(0)) | unsigned(d[1] >= T(0)) << 1 | unsigned(d[2] >= T(0)) << 2;
+    return r;
+  }
+  template <bool kPadded, class Leaf>
+  static void closest_one(const Bvh<T>& h, const OneRay4& r, std::int32_t child, std::int32_t count,
+                          const T& best_t, Leaf&& leaf) noexcept {
+    walk_one<kPadded, false>(h, r, child, count, best_t, [&](std::int32_t first, std::int32_t n) {
+      leaf(first, n);
+      return false;
+    });
+  }
+  // The any-hit walk of one ray before tmax: the nodes' fixed slot order (the reference's,
+  // which a product of transmits depends on), no cull. leaf(first, count) -> true to stop.
+  // Returns whether a leaf stopped it.
+  template <bool kPadded, class Leaf>
+  static bool any_one(const Bvh<T>& h, const OneRay4& r, std::int32_t child, std::int32_t count,
+                      const T& tmax, Leaf&& leaf) noexcept {
+    return walk_one<kPadded, true>(h, r, child, count, tmax, leaf);
+  }
+
+ private:
+  template <bool kPadded, bool kAny, class Leaf>
+  static bool walk_one(const Bvh<T>& h, const OneRay4& r, std::int32_t child, std::int32_t count,
+                       const T& best_t, Leaf&& leaf) noexcept {
+    constexpr int kW = Bvh<T>::kWidth;
+    if (count >= 0) return leaf(child, count);  // a leaf: nothing to walk
+    // The stack holds boxes (node * kW + slot) and their entry distances; met children are
+    // pushed as one shuffled, compacted vector (PushTables), the nearest on top.
+    constexpr int kSize = Bvh<T>::kStack + kW;
+    alignas(16) std::int32_t box[kSize];
+    alignas(16) T tnear[kSize];
+    int sp = 0;
+    const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
+    std::int32_t node = child;
+    for (;;) {
+      const Node& n = h.nodes[std::size_t(node)];
+      const char* base = reinterpret_cast<const char*>(&n);
+      auto plane = [&](std::size_t off) {
+        return _mm_load_ps(reinterpret_cast<const T*>(base + off));
+      };
+      __m128 tn = _mm_setzero_ps(), tf = _mm_set1_ps(best_t);
+      for (int a = 0; a < 3; ++a) {
+        __m128 t0 = _mm_sub_ps(_mm_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
+        __m128 t1 = _mm_sub_ps(_mm_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        if constexpr (kPadded) t0 = _mm_sub_ps(t0, r.pad[a]), t1 = _mm_add_ps(t1, r.pad[a]);
+        tn = _mm_max_ps(tn, t0);
+        tf = _mm_min_ps(tf, t1);
+      }
+      const unsigned met = unsigned(_mm_movemask_ps(_mm_and_ps(
+          _mm_cmple_ps(tn, tf), _mm_castsi128_ps(_mm_load_si128(
+                                    reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
+      const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
+      const __m128i order =
+          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
+      const int m = kPush.reorder[order_byte][met];
+      const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
+      auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp),
+                       push(_mm_add_epi32(_mm_set1_epi32(node * kW), iota)));
+      if constexpr (!kAny)
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp), push(_mm_castps_si128(tn)));
+      sp += kPush.count[m];
+      for (;;) {
+        if (sp == 0) return false;
+        --sp;
+        if (!kAny && tnear[sp] > best_t) continue;
+        const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
+        const int k = int(unsigned(box[sp]) % kW);
+        if (parent.count[k] < 0) {
+          node = parent.child[k];
+          break;
+        }
+        if (leaf(parent.child[k], std::int32_t(parent.count[k]))) return true;
+      }
+    }
+  }
+
+ public:
   // kN camera packets at once (tiles side by side): leaf(i, first, count, mask) tests leaf-order
   // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i]. Where
   // every live lane of every packet agrees in sign on every axis, the packets walk the hierarchy
@@ -346,18 +462,20 @@ struct Traversal {
   }
 
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
-  // others). Returns the lanes of `valid` still pending at the end.
-  template <bool kPadded, class Leaf>
-  static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax,
-               Leaf&& leaf) noexcept {
+  // others). Returns the lanes of `valid` still pending at the end. one(lanes, child, count,
+  // pending) -> pending: where at most One::kMaxLanes pending lanes go on into a subtree, walks
+  // it for each of them alone.
+  template <bool kPadded, class Leaf, class One = PacketsOnly>
+  static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax, Leaf&& leaf,
+               One one = {}) noexcept {
     Ray r;
     slab_ray<true>(r, o, d);
     if constexpr (kPadded)
-      return any_with<Slab::padded>(h, valid, r, tmax, leaf);
+      return any_with<Slab::padded>(h, valid, r, tmax, leaf, one);
     else if (same_signs(r, valid))
-      return any_with<Slab::signed_>(h, valid, r, tmax, leaf);
+      return any_with<Slab::signed_>(h, valid, r, tmax, leaf, one);
     else
-      return any_with<Slab::generic>(h, valid, r, tmax, leaf);
+      return any_with<Slab::generic>(h, valid, r, tmax, leaf, one);
   }
 
  private:
@@ -775,6 +893,12 @@ struct Traversal {
   template <Slab kSlab, class Leaf>
   static void closest_with(const Bvh<T>& h, const M& valid, const Ray& r, const V& d,
                            const B& best_t, Leaf& leaf) noexcept {
+    PacketsOnly none;
+    closest_with<kSlab>(h, valid, r, d, best_t, leaf, none);
+  }
+  template <Slab kSlab, class Leaf, class One>
+  static void closest_with(const Bvh<T>& h, const M& valid, const Ray& r, const V& d,
+                           const B& best_t, Leaf& leaf, One& one) noexcept {
     // Signed: every lane goes the same way along each axis; else the lanes' summed direction.
     const unsigned code = kSlab == Slab::signed_ ? unsigned(!r.neg[0]) | unsigned(!r.neg[1]) << 1 |
                                                        unsigned(!r.neg[2]) << 2
@@ -783,6 +907,12 @@ struct Traversal {
     std::int32_t child = 0, count = -1;
     M mask = valid;
     for (;;) {
+      if constexpr (One::kMaxLanes > 0) {
+        if (const unsigned lanes = lane_bits(mask); __builtin_popcount(lanes) <= one.limit) {
+          one(lanes, child, count);
+          goto next;
+        }
+      }
       if (count < 0) {
         const Node& n = h.nodes[std::size_t(child)];
         if (descend_inline<kSlab>(n, unsigned(n.order[code]), r, mask, best_t, st, child, count))
@@ -790,6 +920,7 @@ struct Traversal {
       } else {
         leaf(child, count, mask);
       }
+    next:
       for (;;) {  // the next subtree some lane may still find a nearer hit in
         if (st.sp == 0) return;
         const int i = --st.sp;
@@ -802,13 +933,20 @@ struct Traversal {
     }
   }
 
-  template <Slab kSlab, class Leaf>
-  static M any_with(const Bvh<T>& h, const M& valid, const Ray& r, const B& tmax,
-                    Leaf& leaf) noexcept {
+  template <Slab kSlab, class Leaf, class One>
+  static M any_with(const Bvh<T>& h, const M& valid, const Ray& r, const B& tmax, Leaf& leaf,
+                    One& one) noexcept {
     Stack st;
     std::int32_t child = 0, count = -1;
     M pending = valid, mask = valid;
     for (;;) {
+      if constexpr (One::kMaxLanes > 0) {
+        if (const unsigned lanes = lane_bits(mask); __builtin_popcount(lanes) <= one.limit) {
+          pending = one(lanes, child, count, pending);
+          if (!xsimd::any(pending)) return pending;
+          goto next;
+        }
+      }
       if (count < 0) {
         if (descend<kSlab>(h.nodes[std::size_t(child)], Bvh<T>::kSlotOrder, r, mask, tmax, st,
                            child, count))
@@ -817,6 +955,7 @@ struct Traversal {
         pending = leaf(child, count, mask, pending);
         if (!xsimd::any(pending)) return pending;
       }
+    next:
       for (;;) {
         if (st.sp == 0) return pending;
         const int i = --st.sp;
