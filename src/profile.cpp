@@ -11,8 +11,8 @@ namespace lancer {
 
 const char* stage_name(int stage) {
   static const char* const names[kStageCount] = {
-      "ray generation", "primary intersection", "shading", "shadow rays",
-      "reflection",     "refraction",           "output"};
+      "ray generation",        "primary intersection", "shading",    "shadow rays",
+      "secondary shadow rays", "reflection",           "refraction", "output"};
   return stage >= 0 && stage < kStageCount ? names[stage] : "?";
 }
 
@@ -44,8 +44,15 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   res.refracted_rays = counts.refracted;
   const std::uint64_t rays = counts.total();
   res.tests_per_ray = rays ? double(prof.sphere_tests + prof.plane_tests) / double(rays) : 0;
-  const std::uint64_t stage_rays[kStageCount] = {counts.camera, counts.camera,    counts.camera,
-                                                 counts.shadow, counts.reflected, counts.refracted,
+  // Shadow rays by where they leave from: the lanes each shadow stage traced (exact mode traces
+  // every lit lane, so the two add up to counts.shadow).
+  const std::uint64_t stage_rays[kStageCount] = {counts.camera,
+                                                 counts.camera,
+                                                 counts.camera,
+                                                 prof.active_lanes[kShadowRays],
+                                                 prof.active_lanes[kSecondaryShadowRays],
+                                                 counts.reflected,
+                                                 counts.refracted,
                                                  counts.camera};
   for (int st = 0; st < kStageCount; ++st) {
     ProfileResult::StageRow row;

@@ -37,6 +37,7 @@ TEST(Profile, CountsRaysAndTestsAsTheRenderDoes) {
     const ProfileResult r = profile_render(s, width);
     EXPECT_EQ(r.camera_rays, plain.rays.camera);
     EXPECT_EQ(r.shadow_rays, plain.rays.shadow);
+    EXPECT_EQ(r.stages[kShadowRays].rays + r.stages[kSecondaryShadowRays].rays, plain.rays.shadow);
     EXPECT_EQ(r.reflected_rays, plain.rays.reflected);
     // Every camera ray is tested against every object (3 spheres and a plane); shadow rays stop
     // early, so fewer than 4 tests each.
@@ -66,6 +67,34 @@ TEST(Profile, RefractionIsItsOwnStage) {
     const auto& h = r.stages[kRefraction].histogram;
     for (std::size_t k = 0; k < h.size(); ++k) lanes += k * h[k];
     EXPECT_EQ(lanes, plain.rays.refracted) << "every refracted ray in one packet's lanes";
+  }
+}
+
+// Shadow rays are two stages by where they leave from (secondary hits may walk one ray at a
+// time, camera hits' do not): together the render's shadow rays; without reflection or
+// refraction the secondary stage is empty.
+TEST(Profile, ShadowRaysOfSecondaryHitsAreTheirOwnStage) {
+  Scene s = load_scene(testing::source_path("scenes/lorenzi-glass.json"));
+  for (int depth : {s.max_depth, 0}) {
+    s.max_depth = depth;
+    for (int width : packet_widths()) {
+      RenderOptions opt;
+      opt.width = width, opt.threads = 1;
+      const RenderResult plain = render(s, opt);
+      const ProfileResult r = profile_render(s, width);
+      const auto& camera = r.stages[kShadowRays];
+      const auto& secondary = r.stages[kSecondaryShadowRays];
+      EXPECT_EQ(secondary.name, "secondary shadow rays");
+      EXPECT_EQ(camera.rays + secondary.rays, plain.rays.shadow) << "width " << width;
+      EXPECT_GT(camera.rays, 0u);
+      if (depth == 0) {
+        EXPECT_EQ(secondary.rays, 0u);
+        EXPECT_EQ(secondary.seconds, 0.0);
+      } else {
+        EXPECT_GT(secondary.rays, 0u);
+        EXPECT_GT(secondary.seconds, 0.0);
+      }
+    }
   }
 }
 

@@ -17,7 +17,8 @@ enum Stage : int {
   kRayGeneration,
   kPrimaryIntersection,
   kShading,
-  kShadowRays,
+  kShadowRays,           // from camera hits (packets)
+  kSecondaryShadowRays,  // from reflection and refraction points (one ray at a time at scale)
   kReflection,
   kRefraction,
   kOutput,

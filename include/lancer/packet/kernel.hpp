@@ -886,10 +886,10 @@ struct Kernel {
       if constexpr (kFast)
         if (!shortcuts) skip_sphere = xsimd::select(to_mi(cos_nl > B(0)), here, I(Id(-1)));
       lap(counts, kShading);
-      occupancy(counts, kShadowRays, traced);
+      occupancy(counts, secondary ? kSecondaryShadowRays : kShadowRays, traced);
       const Shadow sh = occluded<kGlass>(s, traced, from, l, dist, counts, skip_sphere, secondary);
       const M unblocked = traced & sh.pending;
-      lap(counts, kShadowRays);
+      lap(counts, secondary ? kSecondaryShadowRays : kShadowRays);
       if (!xsimd::any(unblocked)) continue;
       const B cos_term = positive_part(cosine(cos_nl));
       B spec_power(0);
