@@ -560,12 +560,10 @@ struct Kernel {
       return pending;
     }
   };
-  // The hierarchy's any-hit walk with lanes going on alone (OneShadow) where the scene says;
-  // out of line, so that the shading loops that inline any_hit do not grow.
+  // The hierarchy's any-hit walk with lanes going on alone (OneShadow) where the scene says.
   template <bool kPadded, class Leaf, class Step>
-  [[gnu::noinline]] static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l,
-                                         const B& dist, RayCounts& counts, Leaf& leaf,
-                                         Step& step) noexcept {
+  static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
+                       RayCounts& counts, Leaf& leaf, Step& step) noexcept {
     OneShadow<Step> one{s, p, l, dist, step, counts, kPadded, s.bvh.shadow_one_ray_lanes};
     return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, OneShadowStep<Step>{&one});
   }
@@ -668,10 +666,10 @@ struct Kernel {
   // hierarchy's fixed depth-first order or id order, then planes), and returns the lanes of
   // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit. The order is
   // the reference's (a float product of three or more transmits depends on it).
-  template <class Step>
+  template <bool kOneRay = false, class Step>
   [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
                                           const B& dist, RayCounts& counts, const I& leaving,
-                                          Step&& step, bool secondary = false) noexcept {
+                                          Step&& step) noexcept {
     const B eps(s.epsilon);
     auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
       for (int j = begin; j < end; ++j) {
@@ -699,15 +697,10 @@ struct Kernel {
           leaf_visit(counts, mask & pend);
           return spheres(sp, first, first + n, mask, pend);
         };
-        bool alone = false;
-        if constexpr (!kFast && std::is_same_v<T, float>) {
-          if (secondary && s.bvh.shadow_one_ray_lanes > 0) {
-            alone = true;
-            pending = reach == 0 ? any_one_ray<false>(s, valid, p, l, dist, counts, leaf, step)
-                                 : any_one_ray<true>(s, valid, p, l, dist, counts, leaf, step);
-          }
-        }
-        if (!alone)
+        if constexpr (kOneRay)
+          pending = reach == 0 ? any_one_ray<false>(s, valid, p, l, dist, counts, leaf, step)
+                               : any_one_ray<true>(s, valid, p, l, dist, counts, leaf, step);
+        else
           pending = reach == 0 ? Tr::template any<false>(s.bvh, valid, p, l, dist, leaf)
                                : Tr::template any<true>(s.bvh, valid, p, l, dist, leaf);
       } else {
@@ -754,20 +747,36 @@ struct Kernel {
   // scenes, those not blocked). `leaving` as for closest_hit.
   // Always inlined: with the 4-wide traversal in any_hit, GCC stopped inlining it into
   // render_rows, and course scenes ran 6% to 9% more instructions (callgrind, widths 4 and 8).
-  template <bool kGlass>
+  template <bool kGlass, bool kOneRay = true>
   [[gnu::always_inline]] static Shadow occluded(const Scene& s, M valid, const V& p, const V& l,
                                                 const B& dist, RayCounts& counts, const I& leaving,
                                                 bool secondary = false) noexcept {
+    if constexpr (kOneRay && !kFast && std::is_same_v<T, float>)
+      if (__builtin_expect(secondary && s.bvh.shadow_one_ray_lanes > 0, 0))
+        return occluded_one_ray<kGlass>(s, valid, p, l, dist, counts);
+    return occluded_as<kGlass, false>(s, valid, p, l, dist, counts, leaving);
+  }
+  template <bool kGlass, bool kOneRay>
+  [[gnu::always_inline]] static Shadow occluded_as(const Scene& s, const M& valid, const V& p,
+                                                   const V& l, const B& dist, RayCounts& counts,
+                                                   const I& leaving) noexcept {
     Shadow sh{valid, B(T(1))};
-    sh.pending = any_hit(
-        s, valid, p, l, dist, counts, leaving,
-        [&](Id id, const M& met, const M& pending) {
-          sh.pending = pending;
-          shadow_hit<kGlass>(s, sh, met, id);
-          return sh.pending;
-        },
-        secondary);
+    sh.pending = any_hit<kOneRay>(s, valid, p, l, dist, counts, leaving,
+                                  [&](Id id, const M& met, const M& pending) {
+                                    sh.pending = pending;
+                                    shadow_hit<kGlass>(s, sh, met, id);
+                                    return sh.pending;
+                                  });
     return sh;
+  }
+  // Shadow rays of secondary hits through a hierarchy, lanes alone where the scene says (exact
+  // float). Out of line and by value: the shading loops that inline `occluded` keep their
+  // vectors in registers (a reference passed out would give them a home in memory; the course
+  // scenes ran 2-3% more instructions in render_rows, callgrind).
+  template <bool kGlass>
+  [[gnu::noinline]] static Shadow occluded_one_ray(const Scene& s, M valid, V p, V l, B dist,
+                                                   RayCounts& counts) noexcept {
+    return occluded_as<kGlass, true>(s, valid, p, l, dist, counts, I(Id(-1)));
   }
 
   // max(0, c)^shininess per lane: binary powering for whole exponents; std::pow lane by lane
@@ -848,7 +857,7 @@ struct Kernel {
   struct Shade {
     B r, g, b;
   };
-  template <int C, bool kGlass>
+  template <int C, bool kGlass, bool kOneRay = true>
   [[gnu::always_inline]] static Shade light_sums(const Scene& s, const M& hit, const I& id,
                                                  const B& delta, const V& p, const V& n,
                                                  const V& view, const I& here, RayCounts& counts,
@@ -887,7 +896,8 @@ struct Kernel {
         if (!shortcuts) skip_sphere = xsimd::select(to_mi(cos_nl > B(0)), here, I(Id(-1)));
       lap(counts, kShading);
       occupancy(counts, secondary ? kSecondaryShadowRays : kShadowRays, traced);
-      const Shadow sh = occluded<kGlass>(s, traced, from, l, dist, counts, skip_sphere, secondary);
+      const Shadow sh =
+          occluded<kGlass, kOneRay>(s, traced, from, l, dist, counts, skip_sphere, secondary);
       const M unblocked = traced & sh.pending;
       lap(counts, secondary ? kSecondaryShadowRays : kShadowRays);
       if (!xsimd::any(unblocked)) continue;
@@ -935,7 +945,7 @@ struct Kernel {
   // `leaving` (fast mode): the sphere each lane's ray leaves from outside, -1 for none; set for
   // the reflected rays (out.t_leaving for the refracted ones).
   // kTree: the ray tree's levels (scenes with refraction); the chain's have no refraction code.
-  template <bool kTree>
+  template <bool kTree, bool kOneRay = true>
   [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, int stage, V& o, V& d,
                                         I& leaving, Level& out, RayCounts& counts,
                                         const GivenHit* given = nullptr) noexcept {
@@ -1017,7 +1027,7 @@ struct Kernel {
     const Shade sum =
         s.features.coloured_lights || s.features.transparency
             ? general_light_sums(s, hit, id, delta, p, n, view, here, counts, secondary)
-            : light_sums<1, false>(s, hit, id, delta, p, n, view, here, counts, secondary);
+            : light_sums<1, false, kOneRay>(s, hit, id, delta, p, n, view, here, counts, secondary);
     out.r = xsimd::select(hit, gather(s, s.mat_r, id) * sum.r, out.r);
     out.g = xsimd::select(hit, gather(s, s.mat_g, id) * sum.g, out.g);
     out.b = xsimd::select(hit, gather(s, s.mat_b, id) * sum.b, out.b);
@@ -1117,6 +1127,7 @@ struct Kernel {
   // loop over levels with an active mask; the levels are then folded from the deepest up,
   // local + reflect * child, which is the order the reference's recursion adds in (a running
   // weight would not be). With refraction the rays form a tree: radiance_tree.
+  template <bool kOneRay>
   [[gnu::always_inline]] static void radiance(const Scene& s, M active, V o, V d,
                                               std::vector<Level>& levels, B& r, B& g, B& b,
                                               RayCounts& counts,
@@ -1128,8 +1139,9 @@ struct Kernel {
       return;
     }
     for (;;) {
-      active = shade<false>(s, active, depth, depth == 0 ? kPrimaryIntersection : kReflection, o, d,
-                            leaving, levels[depth], counts, depth == 0 ? given : nullptr);
+      active =
+          shade<false, kOneRay>(s, active, depth, depth == 0 ? kPrimaryIntersection : kReflection,
+                                o, d, leaving, levels[depth], counts, depth == 0 ? given : nullptr);
       if (!xsimd::any(active)) break;
       ++depth;
     }
@@ -1187,12 +1199,26 @@ struct Kernel {
   static void render_rows(const Scene& s, Image& image, int row_begin, int row_end,
                           RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
-    if (kGroup > 1 && cam.samples == 1 && !cam.orthographic && s.features.spheres && s.bvh.active())
-      render_rows_as<kGroup != 1>(s, image, row_begin, row_end, counts);
+    const bool blocks =
+        kGroup > 1 && cam.samples == 1 && !cam.orthographic && s.features.spheres && s.bvh.active();
+    // Shadow rays of secondary hits one ray at a time (exact float, by the scene): its own
+    // instantiations, so that scenes without it keep their shading loops' code (lorenzi-diffuse,
+    // width 16: 0.97x with the test in every loop).
+    if constexpr (!kFast && std::is_same_v<T, float>) {
+      if (s.bvh.shadow_one_ray_lanes > 0) {
+        if (blocks)
+          render_rows_as<kGroup != 1, true>(s, image, row_begin, row_end, counts);
+        else
+          render_rows_as<false, true>(s, image, row_begin, row_end, counts);
+        return;
+      }
+    }
+    if (blocks)
+      render_rows_as<kGroup != 1, false>(s, image, row_begin, row_end, counts);
     else
-      render_rows_as<false>(s, image, row_begin, row_end, counts);
+      render_rows_as<false, false>(s, image, row_begin, row_end, counts);
   }
-  template <bool kBlocks>
+  template <bool kBlocks, bool kOneRay>
   static void render_rows_as(const Scene& s, Image& image, int row_begin, int row_end,
                              RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
@@ -1234,9 +1260,9 @@ struct Kernel {
             if constexpr (kBlocks) {
               const std::size_t at = std::size_t(band_row) * cam.nx + i0;
               const GivenHit hit{B::load_unaligned(&band_t[at]), I::load_unaligned(&band_id[at])};
-              radiance(s, valid, o, d, levels, r, g, bl, counts, &hit);
+              radiance<kOneRay>(s, valid, o, d, levels, r, g, bl, counts, &hit);
             } else {
-              radiance(s, valid, o, d, levels, r, g, bl, counts);
+              radiance<kOneRay>(s, valid, o, d, levels, r, g, bl, counts);
             }
             sr = sr + r, sg = sg + g, sb = sb + bl;
           }
