@@ -313,6 +313,15 @@ TEST(Bvh, CameraGroupsMatchThePlainLoopAtAnyScale) {
   }
 }
 
+// 1200 spheres, a fifth of them repeating another (ties), seen at nx x ny pixels.
+CloudOptions tied_cloud(int nx, int ny) {
+  CloudOptions o;
+  o.spheres = 1200;
+  o.duplicates = 0.2;
+  o.nx = nx, o.ny = ny;
+  return o;
+}
+
 // Camera blocks (32x8 pixels at width 16, in four registers of four 4x4 tiles; 8x8 at widths 8
 // and 4) cut by the image's edges and by threads' row ranges anywhere: a register whose four
 // tiles all lie outside the image (13 columns), single rows of tiles, blocks cut on both
@@ -321,10 +330,7 @@ TEST(Bvh, CameraBlocksCutAnywhereMatchThePlainLoop) {
   const std::array<std::array<int, 2>, 5> sizes = {{{13, 9}, {17, 3}, {33, 17}, {64, 16}, {5, 30}}};
   for (const auto& [nx, ny] : sizes)
     for (int threads : {1, 2}) {
-      CloudOptions o;
-      o.spheres = 1200;
-      o.duplicates = 0.2;
-      o.nx = nx, o.ny = ny;
+      CloudOptions o = tied_cloud(nx, ny);
       const Scene s = cloud(300 + std::uint64_t(nx), o);
       SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(ny) + ", " + std::to_string(threads) +
                    " threads");
@@ -352,10 +358,7 @@ TEST(Bvh, FullRendersShadeTheCameraBlocksHits) {
   const std::array<std::array<int, 2>, 4> sizes = {{{13, 9}, {33, 17}, {45, 22}, {70, 11}}};
   for (const auto& [nx, ny] : sizes)
     for (double transmit : {0.0, 0.6}) {
-      CloudOptions o;
-      o.spheres = 1200;
-      o.duplicates = 0.2;
-      o.nx = nx, o.ny = ny;
+      CloudOptions o = tied_cloud(nx, ny);
       o.transmit = transmit;
       const Scene s = cloud(500 + std::uint64_t(nx), o);
       SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(ny) + ", transmit " +

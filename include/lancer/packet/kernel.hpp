@@ -387,12 +387,13 @@ struct Kernel {
     };
     // Exact float: where the scene says (Bvh::one_ray_lanes), lanes go on one ray at a time.
     if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
-      if (const int k = s.bvh.one_ray_lanes; k > 0) {
-        OneRay one{s, o, d, best_t, best_id, counts, reach == 1};
-        if (reach == 0)
-          Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf, OneStep{&one, k});
-        else
-          Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf, OneStep{&one, k});
+      if (s.bvh.one_ray_lanes > 0) {
+        auto walk = [&](auto padded) {
+          constexpr bool kPadded = decltype(padded)::value;
+          OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes};
+          Tr::template closest<kPadded>(s.bvh, valid, o, d, best_t, leaf, one);
+        };
+        reach == 0 ? walk(std::false_type{}) : walk(std::true_type{});
         return;
       }
     }
@@ -401,59 +402,60 @@ struct Kernel {
     else
       Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
   }
-  struct OneRay;
-  struct OneStep {
-    OneRay* one;
-    int limit;
-    static constexpr int kMaxLanes = W;
-    void operator()(unsigned l, std::int32_t c, std::int32_t n) const noexcept { (*one)(l, c, n); }
+  // A packet's rays lane by lane, stored when a first lane goes on alone.
+  struct LaneRays {
+    alignas(64) T ox[W], oy[W], oz[W], dx[W], dy[W], dz[W];
+    bool stored = false;
+    void store(const V& o, const V& d) noexcept {
+      if (stored) return;
+      o.x.store_aligned(ox), o.y.store_aligned(oy), o.z.store_aligned(oz);
+      d.x.store_aligned(dx), d.y.store_aligned(dy), d.z.store_aligned(dz);
+      stored = true;
+    }
+    void get(int k, T* o, T* d) const noexcept {
+      o[0] = ox[k], o[1] = oy[k], o[2] = oz[k], d[0] = dx[k], d[1] = dy[k], d[2] = dz[k];
+    }
   };
-  // A secondary packet's lanes walking a subtree one ray at a time (exact float): each lane's
-  // ray over the wide nodes alone (Traversal::closest_one), its leaves' spheres four at a time
-  // (spheres_closest_one).
+  // A leaf visited by one lane alone (lancer profile: one call, one lane live).
+  static void one_leaf_visit(RayCounts& c, int spheres) noexcept {
+    if constexpr (kProfile) {
+      c.profile->leaf_packets[c.profile->current] += 1;
+      c.profile->leaf_lanes[c.profile->current] += 1;
+      c.profile->sphere_tests += std::uint64_t(spheres);
+    }
+  }
+  // A secondary packet's lanes walking a subtree one ray at a time (exact float; the hybrid
+  // step of Traversal::closest): each lane's ray over the wide nodes alone
+  // (Traversal::closest_one), its leaves' spheres four at a time (spheres_closest_one).
+  template <bool kPadded>
   struct OneRay {
+    static constexpr int kMaxLanes = W;
     const Scene& s;
     const V& o;
     const V& d;
     B& best_t;
     I& best_id;
     RayCounts& counts;
-    bool padded;
-    alignas(64) T ox[W], oy[W], oz[W], dx[W], dy[W], dz[W];
-    bool stored = false;
+    int limit;  // lanes at or below which they go on alone
+    LaneRays rays;
     void operator()(unsigned lanes, std::int32_t child, std::int32_t count) noexcept {
-      if constexpr (std::is_same_v<T, float>) {
-        if (!stored) {
-          o.x.store_aligned(ox), o.y.store_aligned(oy), o.z.store_aligned(oz);
-          d.x.store_aligned(dx), d.y.store_aligned(dy), d.z.store_aligned(dz);
-          stored = true;
-        }
-        alignas(64) T bt[W];
-        alignas(64) Id bi[W];
-        best_t.store_aligned(bt);
-        best_id.store_aligned(bi);
-        for (; lanes; lanes &= lanes - 1) {
-          const int k = __builtin_ctz(lanes);
-          const T ok[3] = {ox[k], oy[k], oz[k]}, dk[3] = {dx[k], dy[k], dz[k]};
-          T& t = bt[k];
-          Id& id = bi[k];
-          auto leaf = [&](int first, int n) {
-            if constexpr (kProfile) {
-              counts.profile->leaf_packets[counts.profile->current] += 1;
-              counts.profile->leaf_lanes[counts.profile->current] += 1;
-              counts.profile->sphere_tests += std::uint64_t(n);
-            }
-            spheres_closest_one(s, first, n, ok, dk, t, id);
-          };
-          const typename Tr::OneRay4 ray = Tr::one_ray(ok, dk, padded);
-          if (padded)
-            Tr::template closest_one<true>(s.bvh, ray, child, count, t, leaf);
-          else
-            Tr::template closest_one<false>(s.bvh, ray, child, count, t, leaf);
-        }
-        best_t = B::load_aligned(bt);
-        best_id = I::load_aligned(bi);
+      rays.store(o, d);
+      alignas(64) T bt[W];
+      alignas(64) Id bi[W];
+      best_t.store_aligned(bt);
+      best_id.store_aligned(bi);
+      for (; lanes; lanes &= lanes - 1) {
+        const int k = __builtin_ctz(lanes);
+        T ok[3], dk[3];
+        rays.get(k, ok, dk);
+        Tr::template closest_one<kPadded>(s.bvh, Tr::one_ray(ok, dk, kPadded), child, count, bt[k],
+                                          [&](int first, int n) {
+                                            one_leaf_visit(counts, n);
+                                            spheres_closest_one(s, first, n, ok, dk, bt[k], bi[k]);
+                                          });
       }
+      best_t = B::load_aligned(bt);
+      best_id = I::load_aligned(bi);
     }
   };
   // One ray (o, d) against leaf-order spheres [first, first + n), four spheres a register (the
@@ -509,53 +511,42 @@ struct Kernel {
     });
   }
 
-  // A shadow packet's lanes walking a subtree one ray at a time (exact float): each pending
-  // lane's segment over the wide nodes alone in the fixed slot order (Traversal::any_one), its
-  // leaves' spheres four at a time; step(id, lane, pending) for each sphere met before the
-  // light, in the packet's order, until the lane is no longer pending.
-  template <class Step>
+  // A shadow packet's lanes walking a subtree one ray at a time (exact float; the hybrid step
+  // of Traversal::any): each pending lane's segment over the wide nodes alone in the fixed slot
+  // order (Traversal::any_one), its leaves' spheres four at a time; step(id, lane, pending) for
+  // each sphere met before the light, in the packet's order, until the lane is no longer
+  // pending.
+  template <bool kPadded, class Step>
   struct OneShadow {
+    static constexpr int kMaxLanes = W;
     const Scene& s;
     const V& p;
     const V& l;
     const B& dist;
     Step& step;
     RayCounts& counts;
-    bool padded;
-    int limit;
-    static constexpr int kMaxLanes = W;
-    alignas(64) T px[W], py[W], pz[W], lx[W], ly[W], lz[W], dd[W];
-    bool stored = false;
+    int limit;  // lanes at or below which they go on alone
+    LaneRays rays;
+    alignas(64) T dd[W];
     M operator()(unsigned lanes, std::int32_t child, std::int32_t count, M pending) noexcept {
-      if (!stored) {
-        p.x.store_aligned(px), p.y.store_aligned(py), p.z.store_aligned(pz);
-        l.x.store_aligned(lx), l.y.store_aligned(ly), l.z.store_aligned(lz);
-        dist.store_aligned(dd);
-        stored = true;
-      }
+      if (!rays.stored) dist.store_aligned(dd);
+      rays.store(p, l);
       const B index = iota();
       for (; lanes; lanes &= lanes - 1) {
         const int k = __builtin_ctz(lanes);
-        const T ok[3] = {px[k], py[k], pz[k]}, dk[3] = {lx[k], ly[k], lz[k]};
+        T ok[3], dk[3];
+        rays.get(k, ok, dk);
         const T tmax = dd[k];
         const M mine = index == B(T(k));
-        auto leaf = [&](int first, int n) {
-          if constexpr (kProfile) {
-            counts.profile->leaf_packets[counts.profile->current] += 1;
-            counts.profile->leaf_lanes[counts.profile->current] += 1;
-            counts.profile->sphere_tests += std::uint64_t(n);
-          }
-          return spheres_one(s, first, n, ok, dk, [&](int j, T t) {
-            if (!(t < tmax)) return false;
-            pending = step(Id(s.bvh.id[std::size_t(j)]), mine, pending);
-            return !xsimd::any(pending & mine);
-          });
-        };
-        const typename Tr::OneRay4 ray = Tr::one_ray(ok, dk, padded);
-        if (padded)
-          Tr::template any_one<true>(s.bvh, ray, child, count, tmax, leaf);
-        else
-          Tr::template any_one<false>(s.bvh, ray, child, count, tmax, leaf);
+        Tr::template any_one<kPadded>(
+            s.bvh, Tr::one_ray(ok, dk, kPadded), child, count, tmax, [&](int first, int n) {
+              one_leaf_visit(counts, n);
+              return spheres_one(s, first, n, ok, dk, [&](int j, T t) {
+                if (!(t < tmax)) return false;
+                pending = step(Id(s.bvh.id[std::size_t(j)]), mine, pending);
+                return !xsimd::any(pending & mine);
+              });
+            });
       }
       return pending;
     }
@@ -564,18 +555,9 @@ struct Kernel {
   template <bool kPadded, class Leaf, class Step>
   static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
                        RayCounts& counts, Leaf& leaf, Step& step) noexcept {
-    OneShadow<Step> one{s, p, l, dist, step, counts, kPadded, s.bvh.shadow_one_ray_lanes};
-    return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, OneShadowStep<Step>{&one});
+    OneShadow<kPadded, Step> one{s, p, l, dist, step, counts, s.bvh.shadow_one_ray_lanes};
+    return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, one);
   }
-  template <class Step>
-  struct OneShadowStep {
-    OneShadow<Step>* one;
-    int limit = one->limit;
-    static constexpr int kMaxLanes = W;
-    M operator()(unsigned lanes, std::int32_t c, std::int32_t n, const M& pending) const noexcept {
-      return (*one)(lanes, c, n, pending);
-    }
-  };
 
   // Closest hit over all objects for the lanes in `valid`. Updates t and id only where a nearer
   // hit is found (an equal t: a lower id); returns the lanes whose t is now finite.

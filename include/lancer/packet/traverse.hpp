@@ -274,20 +274,18 @@ struct Traversal {
     return descend_inline<kSlab>(n, order, r, mask, tmax, st, child, count);
   }
 
-  // No one-ray step: the packet walks every node with its lanes.
+  // No one-ray step: the packet walks every node with its lanes (the step is never called).
   struct PacketsOnly {
     static constexpr int kMaxLanes = 0;
-    int limit = 0;
-    void operator()(unsigned, std::int32_t, std::int32_t) const noexcept {}
   };
 
   // leaf(first, count, mask): tests leaf-order spheres [first, first + count) for `mask`,
   // lowering best_t (read here to cull). one(lanes, child, count): where at most
-  // One::kMaxLanes lanes go on into a subtree, walks it for each of them alone, lowering best_t
+  // one.limit lanes go on into a subtree, walks it for each of them alone, lowering best_t
   // (the hybrid traversal of Benthin et al.).
   template <bool kPadded, class Leaf, class One = PacketsOnly>
   static void closest(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& best_t,
-                      Leaf&& leaf, One one = {}) noexcept {
+                      Leaf&& leaf, One&& one = One{}) noexcept {
     Ray r;
     slab_ray<true>(r, o, d);
     if constexpr (kPadded)
@@ -463,11 +461,11 @@ struct Traversal {
 
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
   // others). Returns the lanes of `valid` still pending at the end. one(lanes, child, count,
-  // pending) -> pending: where at most One::kMaxLanes pending lanes go on into a subtree, walks
-  // it for each of them alone.
+  // pending) -> pending: where at most one.limit pending lanes go on into a subtree, walks it
+  // for each of them alone.
   template <bool kPadded, class Leaf, class One = PacketsOnly>
   static M any(const Bvh<T>& h, const M& valid, const V& o, const V& d, const B& tmax, Leaf&& leaf,
-               One one = {}) noexcept {
+               One&& one = One{}) noexcept {
     Ray r;
     slab_ray<true>(r, o, d);
     if constexpr (kPadded)
