@@ -88,9 +88,7 @@ void add_bvh(PreparedScene<T>& p) {
   const bool eye = !p.eye.c.empty();
   const std::size_t n = order.size();
   if constexpr (std::is_same_v<T, float>) {
-    h.one_ray_lanes = p.num_spheres >= kOneRayAllSpheres   ? kMaxLanes
-                      : p.num_spheres >= kOneRayMinSpheres ? kOneRayLanes
-                                                           : 0;
+    h.one_ray_lanes = p.num_spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
     h.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
   }
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->resize(n);

@@ -227,9 +227,10 @@ template StructureInfo structure_of(const PreparedScene<double>&);
 namespace {
 std::string walk_of(int lanes, int width) {
   if (lanes <= 0) return "packets";
-  if (lanes >= width) return "one ray at a time";
+  // A packet's lone lanes walk interleaved (Traversal::closest_one / any_one).
+  if (lanes >= width) return "one ray at a time, " + std::to_string(width) + " walks interleaved";
   return "packets, one ray alone at " + std::to_string(lanes) +
-         (lanes == 1 ? " lane" : " lanes or fewer");
+         (lanes == 1 ? " lane" : " lanes or fewer, their walks interleaved");
 }
 }  // namespace
 

@@ -22,12 +22,10 @@ const char* to_string(Accel a);
 inline constexpr int kBvhMinSpheres = 16;
 
 // Secondary rays' closest hits (reflected, refracted; exact float packets): from
-// kOneRayMinSpheres spheres, a lane goes on alone into a subtree that at most 2 lanes of its
-// packet enter; from kOneRayAllSpheres, every lane walks alone from the root (Benthin et al.'s
-// hybrid, thresholds measured on random clouds: docs/accel.md, "Secondary rays one at a time").
+// kOneRayMinSpheres spheres every lane walks alone from the root, a packet's walks interleaved
+// (Benthin et al.'s hybrid; threshold measured on random clouds: docs/accel.md, "Secondary rays
+// one at a time" and "Lone walks interleaved").
 inline constexpr int kOneRayMinSpheres = 8192;
-inline constexpr int kOneRayAllSpheres = 32768;
-inline constexpr int kOneRayLanes = 2;
 // The shadow rays of secondary hits (exact float packets): from kOneRayShadowMinSpheres, a lane
 // goes on alone into a subtree no other lane of its packet enters (docs/accel.md, tenth round).
 // The camera hits' shadow rays, coherent, stay packets.
@@ -70,7 +68,7 @@ struct Bvh {
   int depth = 0;  // deepest wide node (root: 1); at most kMaxDepth / 2
   // Secondary packets' lanes go on one ray at a time into a subtree at most this many of them
   // enter (0: packets only; 16 or more: every lane alone from the root). Set by prepare() from
-  // the sphere count (kOneRayMinSpheres); read by exact float packets only.
+  // the sphere count (kOneRayMinSpheres: 0 or kMaxLanes); read by exact float packets only.
   int one_ray_lanes = 0;
   // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
   int shadow_one_ray_lanes = 0;

@@ -416,6 +416,20 @@ struct Kernel {
       o[0] = ox[k], o[1] = oy[k], o[2] = oz[k], d[0] = dx[k], d[1] = dy[k], d[2] = dz[k];
     }
   };
+  // The lanes `lanes` of a packet going on alone, in lane order: their rays and slab forms.
+  struct LoneRays {
+    typename Tr::OneRay4 slab[W];
+    T o[W][3], d[W][3];
+    int lane[W];
+    int n = 0;
+    LoneRays(const LaneRays& rays, unsigned lanes, bool padded) noexcept {
+      for (; lanes; lanes &= lanes - 1, ++n) {
+        const int k = lane[n] = __builtin_ctz(lanes);
+        rays.get(k, o[n], d[n]);
+        slab[n] = Tr::one_ray(o[n], d[n], padded);
+      }
+    }
+  };
   // A leaf visited by one lane alone (lancer profile: one call, one lane live).
   static void one_leaf_visit(RayCounts& c, int spheres) noexcept {
     if constexpr (kProfile) {
@@ -425,8 +439,9 @@ struct Kernel {
     }
   }
   // A secondary packet's lanes walking a subtree one ray at a time (exact float; the hybrid
-  // step of Traversal::closest): each lane's ray over the wide nodes alone
-  // (Traversal::closest_one), its leaves' spheres four at a time (spheres_closest_one).
+  // step of Traversal::closest): each lane's ray over the wide nodes alone, the lanes' walks
+  // interleaved (Traversal::closest_one), its leaves' spheres four at a time
+  // (spheres_closest_one).
   template <bool kPadded>
   struct OneRay {
     static constexpr int kMaxLanes = W;
@@ -444,16 +459,16 @@ struct Kernel {
       alignas(64) Id bi[W];
       best_t.store_aligned(bt);
       best_id.store_aligned(bi);
-      for (; lanes; lanes &= lanes - 1) {
-        const int k = __builtin_ctz(lanes);
-        T ok[3], dk[3];
-        rays.get(k, ok, dk);
-        Tr::template closest_one<kPadded>(s.bvh, Tr::one_ray(ok, dk, kPadded), child, count, bt[k],
-                                          [&](int first, int n) {
-                                            one_leaf_visit(counts, n);
-                                            spheres_closest_one(s, first, n, ok, dk, bt[k], bi[k]);
-                                          });
-      }
+      // Every lane's walk at once, interleaved (Traversal::closest_one).
+      const LoneRays lone(rays, lanes, kPadded);
+      const T* best[W];
+      for (int i = 0; i < lone.n; ++i) best[i] = &bt[lone.lane[i]];
+      Tr::template closest_one<kPadded, W>(
+          s.bvh, lone.slab, lone.n, child, count, best, [&](int i, int first, int m) {
+            const int k = lone.lane[i];
+            one_leaf_visit(counts, m);
+            spheres_closest_one(s, first, m, lone.o[i], lone.d[i], bt[k], bi[k]);
+          });
       best_t = B::load_aligned(bt);
       best_id = I::load_aligned(bi);
     }
@@ -513,9 +528,10 @@ struct Kernel {
 
   // A shadow packet's lanes walking a subtree one ray at a time (exact float; the hybrid step
   // of Traversal::any): each pending lane's segment over the wide nodes alone in the fixed slot
-  // order (Traversal::any_one), its leaves' spheres four at a time; step(id, lane, pending) for
-  // each sphere met before the light, in the packet's order, until the lane is no longer
-  // pending.
+  // order, the lanes' walks interleaved (Traversal::any_one), its leaves' spheres four at a
+  // time; step(id, lane, pending) for each sphere a lane meets before the light, in leaf order
+  // for that lane, until the lane is no longer pending (steps of different lanes touch
+  // different lanes only, so their interleaving changes nothing).
   template <bool kPadded, class Step>
   struct OneShadow {
     static constexpr int kMaxLanes = W;
@@ -532,22 +548,24 @@ struct Kernel {
       if (!rays.stored) dist.store_aligned(dd);
       rays.store(p, l);
       const B index = iota();
-      for (; lanes; lanes &= lanes - 1) {
-        const int k = __builtin_ctz(lanes);
-        T ok[3], dk[3];
-        rays.get(k, ok, dk);
-        const T tmax = dd[k];
-        const M mine = index == B(T(k));
-        Tr::template any_one<kPadded>(
-            s.bvh, Tr::one_ray(ok, dk, kPadded), child, count, tmax, [&](int first, int n) {
-              one_leaf_visit(counts, n);
-              return spheres_one(s, first, n, ok, dk, [&](int j, T t) {
-                if (!(t < tmax)) return false;
-                pending = step(Id(s.bvh.id[std::size_t(j)]), mine, pending);
-                return !xsimd::any(pending & mine);
-              });
-            });
-      }
+      // Every lane's walk at once, interleaved.
+      const LoneRays lone(rays, lanes, kPadded);
+      const T* tmax[W];
+      for (int i = 0; i < lone.n; ++i) tmax[i] = &dd[lone.lane[i]];
+      auto leaf = [&](int i, int first, int m) {
+        one_leaf_visit(counts, m);
+        const M mine = index == B(T(lone.lane[i]));
+        return spheres_one(s, first, m, lone.o[i], lone.d[i], [&](int j, T t) {
+          if (!(t < *tmax[i])) return false;
+          pending = step(Id(s.bvh.id[std::size_t(j)]), mine, pending);
+          return !xsimd::any(pending & mine);
+        });
+      };
+      // One lane (the usual case at limit 1) walks without the others' stacks.
+      if (lone.n == 1)
+        Tr::template any_one<kPadded, 1>(s.bvh, lone.slab, 1, child, count, tmax, leaf);
+      else
+        Tr::template any_one<kPadded, W>(s.bvh, lone.slab, lone.n, child, count, tmax, leaf);
       return pending;
     }
   };

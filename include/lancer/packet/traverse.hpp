@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
@@ -300,8 +301,7 @@ struct Traversal {
   // One ray (float) walks the subtree (child, count) alone: a node's four children tested at
   // once in an xmm (slab values lo * inv - o * inv, as the reference's, padded by pad per axis),
   // the met ones taken in the node's order for the ray's own direction code, nearest first,
-  // depth first; a popped entry is culled where it starts beyond best_t. leaf(first, count)
-  // tests leaf-order spheres [first, first + count) for this ray, lowering best_t.
+  // depth first; a popped entry is culled where it starts beyond the ray's best t.
   struct OneRay4 {
     __m128 inv[3], oi[3], pad[3];
     std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
@@ -326,76 +326,107 @@ struct Traversal {
     r.code = unsigned(d[0] >= T(0)) | unsigned(d[1] >= T(0)) << 1 | unsigned(d[2] >= T(0)) << 2;
     return r;
   }
-  template <bool kPadded, class Leaf>
-  static void closest_one(const Bvh<T>& h, const OneRay4& r, std::int32_t child, std::int32_t count,
-                          const T& best_t, Leaf&& leaf) noexcept {
-    walk_one<kPadded, false>(h, r, child, count, best_t, [&](std::int32_t first, std::int32_t n) {
-      leaf(first, n);
-      return false;
-    });
+  // n <= kN rays walk the subtree (child, count), each alone as above, their steps interleaved:
+  // a step tests one ray's node and pops its stack (leaves included) down to its next inner
+  // node, then the next ray's step runs while that node's lines are on their way (a lone walk
+  // waits for every node it loads: at 65536 spheres and more the nodes come from L3 or memory).
+  // The order of a ray's own steps is that of its lone walk, so nothing it finds changes.
+  // best_t[i]: ray i's best t; leaf(i, first, count) tests leaf-order spheres
+  // [first, first + count) for ray i, lowering *best_t[i].
+  template <bool kPadded, int kN, class Leaf>
+  static void closest_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,
+                          std::int32_t count, const T* const* best_t, Leaf&& leaf) noexcept {
+    walk_one<kPadded, false, kN>(h, r, n, child, count, best_t,
+                                 [&](int i, std::int32_t first, std::int32_t c) {
+                                   leaf(i, first, c);
+                                   return false;
+                                 });
   }
-  // The any-hit walk of one ray before tmax: the nodes' fixed slot order (the reference's,
-  // which a product of transmits depends on), no cull. leaf(first, count) -> true to stop.
-  // Returns whether a leaf stopped it.
-  template <bool kPadded, class Leaf>
-  static bool any_one(const Bvh<T>& h, const OneRay4& r, std::int32_t child, std::int32_t count,
-                      const T& tmax, Leaf&& leaf) noexcept {
-    return walk_one<kPadded, true>(h, r, child, count, tmax, leaf);
+  // The any-hit walks of up to kN rays before their tmax[i]: the nodes' fixed slot order (the
+  // reference's, which a product of transmits depends on), no cull. leaf(i, first, count) ->
+  // true when ray i is done.
+  template <bool kPadded, int kN, class Leaf>
+  static void any_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,
+                      std::int32_t count, const T* const* tmax, Leaf&& leaf) noexcept {
+    walk_one<kPadded, true, kN>(h, r, n, child, count, tmax, leaf);
   }
 
  private:
-  template <bool kPadded, bool kAny, class Leaf>
-  static bool walk_one(const Bvh<T>& h, const OneRay4& r, std::int32_t child, std::int32_t count,
-                       const T& best_t, Leaf&& leaf) noexcept {
-    constexpr int kW = Bvh<T>::kWidth;
-    if (count >= 0) return leaf(child, count);  // a leaf: nothing to walk
-    // The stack holds boxes (node * kW + slot) and their entry distances; met children are
-    // pushed as one shuffled, compacted vector (PushTables), the nearest on top.
-    constexpr int kSize = Bvh<T>::kStack + kW;
-    alignas(16) std::int32_t box[kSize];
+  // A lone ray's stack: the met children's references and counts (as the node's child and
+  // count) and their entry distances, pushed as shuffled, compacted vectors (PushTables), the
+  // nearest on top; a pop reads its child from here, not from the parent node.
+  struct OneStack {
+    static constexpr int kSize = Bvh<T>::kStack + Bvh<T>::kWidth;
+    alignas(16) std::int32_t ref[kSize], cnt[kSize];
     alignas(16) T tnear[kSize];
-    int sp = 0;
-    const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
-    std::int32_t node = child;
-    for (;;) {
-      const Node& n = h.nodes[std::size_t(node)];
-      const char* base = reinterpret_cast<const char*>(&n);
-      auto plane = [&](std::size_t off) {
-        return _mm_load_ps(reinterpret_cast<const T*>(base + off));
-      };
-      __m128 tn = _mm_setzero_ps(), tf = _mm_set1_ps(best_t);
-      for (int a = 0; a < 3; ++a) {
-        __m128 t0 = _mm_sub_ps(_mm_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
-        __m128 t1 = _mm_sub_ps(_mm_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
-        if constexpr (kPadded) t0 = _mm_sub_ps(t0, r.pad[a]), t1 = _mm_add_ps(t1, r.pad[a]);
-        tn = _mm_max_ps(tn, t0);
-        tf = _mm_min_ps(tf, t1);
-      }
-      const unsigned met = unsigned(_mm_movemask_ps(_mm_and_ps(
-          _mm_cmple_ps(tn, tf), _mm_castsi128_ps(_mm_load_si128(
-                                    reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
-      const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
-      const __m128i order =
-          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
-      const int m = kPush.reorder[order_byte][met];
-      const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
-      auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(box + sp),
-                       push(_mm_add_epi32(_mm_set1_epi32(node * kW), iota)));
-      if constexpr (!kAny)
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp), push(_mm_castps_si128(tn)));
-      sp += kPush.count[m];
-      for (;;) {
-        if (sp == 0) return false;
-        --sp;
-        if (!kAny && tnear[sp] > best_t) continue;
-        const Node& parent = h.nodes[std::size_t(unsigned(box[sp]) / kW)];
-        const int k = int(unsigned(box[sp]) % kW);
-        if (parent.count[k] < 0) {
-          node = parent.child[k];
-          break;
+    int sp;
+    std::int32_t node;
+  };
+  // Tests node n's children for ray r and pushes the met ones (nearest on top; kAny: slot order).
+  template <bool kPadded, bool kAny>
+  static void push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
+    const char* base = reinterpret_cast<const char*>(&n);
+    auto plane = [&](std::size_t off) {
+      return _mm_load_ps(reinterpret_cast<const T*>(base + off));
+    };
+    __m128 tn = _mm_setzero_ps(), tf = _mm_set1_ps(best_t);
+    for (int a = 0; a < 3; ++a) {
+      __m128 t0 = _mm_sub_ps(_mm_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
+      __m128 t1 = _mm_sub_ps(_mm_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+      if constexpr (kPadded) t0 = _mm_sub_ps(t0, r.pad[a]), t1 = _mm_add_ps(t1, r.pad[a]);
+      tn = _mm_max_ps(tn, t0);
+      tf = _mm_min_ps(tf, t1);
+    }
+    const unsigned met = unsigned(_mm_movemask_ps(_mm_and_ps(
+        _mm_cmple_ps(tn, tf),
+        _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
+    const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
+    const __m128i order =
+        _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
+    const int m = kPush.reorder[order_byte][met];
+    const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
+    auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
+    std::int32_t counts;
+    std::memcpy(&counts, n.count, sizeof counts);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(st.ref + st.sp),
+                     push(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(st.cnt + st.sp),
+                     push(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(counts))));
+    if constexpr (!kAny)
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.tnear + st.sp), push(_mm_castps_si128(tn)));
+    st.sp += kPush.count[m];
+  }
+  template <bool kPadded, bool kAny, int kN, class Leaf>
+  static void walk_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,
+                       std::int32_t count, const T* const* best_t, Leaf&& leaf) noexcept {
+    if (count >= 0) {  // a leaf: nothing to walk
+      for (int i = 0; i < n; ++i) leaf(i, child, count);
+      return;
+    }
+    OneStack st[kN];
+    for (int i = 0; i < n; ++i) st[i].sp = 0, st[i].node = child;
+    unsigned live = (1u << n) - 1;
+    while (live) {
+      for (unsigned each = live; each; each &= each - 1) {
+        const int i = __builtin_ctz(each);
+        OneStack& s = st[i];
+        push_met<kPadded, kAny>(h.nodes[std::size_t(s.node)], r[i], *best_t[i], s);
+        for (;;) {
+          if (s.sp == 0) {
+            live &= ~(1u << i);
+            break;
+          }
+          const int q = --s.sp;
+          if (!kAny && s.tnear[q] > *best_t[i]) continue;
+          if (s.cnt[q] < 0) {
+            s.node = s.ref[q];
+            break;
+          }
+          if (leaf(i, s.ref[q], s.cnt[q])) {
+            live &= ~(1u << i);
+            break;
+          }
         }
-        if (leaf(parent.child[k], std::int32_t(parent.count[k]))) return true;
       }
     }
   }
