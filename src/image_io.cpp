@@ -1,6 +1,7 @@
 // Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); every other
-// format through OpenImageIO. Files appear whole or not at all.
-#include <OpenImageIO/imageio.h>
+// format through OpenImageIO, in lancer's image module (src/image_oiio.cpp), loaded on first use.
+// Files appear whole or not at all.
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
@@ -18,9 +19,12 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <new>
+#include <stdexcept>
 
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/image_module.hpp"
 
 namespace lancer {
 
@@ -55,12 +59,6 @@ std::string known_extensions() {
   std::string out;
   for (const ImageFormat& f : kFormats) out += (out.empty() ? "" : " ") + std::string(f.extension);
   return out;
-}
-
-// Formats that keep radiance as floats, unclamped; the rest are 8-bit, clamped and rounded.
-bool is_float_format(const std::string& ext) {
-  const ImageFormat* f = find_format(ext);
-  return f && f->is_float;
 }
 
 // The temporary file being written, so that a signal handler can remove it. One write at a time
@@ -129,28 +127,66 @@ void write_pfm(const Image& im, const std::string& path) {
   if (std::fflush(f.get()) != 0) throw InputError(path + ": write failed: " + std::strerror(errno));
 }
 
+// The image module, loaded once: where `cmake --install` puts it relative to the executable
+// (<bindir>/../<libdir>/lancer/), else where this build made it. OpenImageIO and the 260
+// libraries it needs come with it, so commands that write no such image start without them.
+struct ImageModule {
+  ImageModuleWriteFn write = nullptr;
+  ImageModuleReadFn read = nullptr;
+};
+const ImageModule& image_module() {
+  static const ImageModule module = [] {
+    std::vector<std::string> tried;
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec)
+      tried.push_back(
+          (exe.parent_path() / LANCER_IMAGE_MODULE_INSTALLED).lexically_normal().string());
+    tried.push_back(LANCER_IMAGE_MODULE_BUILT);
+    std::string why;
+    for (const std::string& path : tried) {
+      if (!fs::exists(path, ec)) continue;
+      void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) {
+        why = dlerror();
+        continue;
+      }
+      ImageModule m;
+      m.write = reinterpret_cast<ImageModuleWriteFn>(dlsym(handle, "lancer_oiio_write"));
+      m.read = reinterpret_cast<ImageModuleReadFn>(dlsym(handle, "lancer_oiio_read"));
+      if (m.write && m.read) return m;
+      why = path + " lacks lancer_oiio_write or lancer_oiio_read";
+    }
+    std::string where;
+    for (const std::string& path : tried) where += (where.empty() ? "" : ", ") + path;
+    throw std::runtime_error("lancer's image module (OpenImageIO) is not installed: looked for " +
+                             where + (why.empty() ? "" : " (" + why + ")"));
+  }();
+  return module;
+}
+
+void check_status(int status, const std::string& path, const std::string& error) {
+  if (status == kImageOutOfMemory) throw std::bad_alloc();
+  if (status != kImageOk) throw InputError(path + ": " + error);
+}
+
 void write_oiio(const Image& im, const std::string& format_path, const std::string& path) {
-  auto out = OIIO::ImageOutput::create(find_format(lower_extension(format_path))->oiio_name);
-  if (!out) throw InputError(format_path + ": this OpenImageIO cannot write the format");
-  const std::string ext = lower_extension(format_path);
-  if (is_float_format(ext)) {
-    OIIO::ImageSpec spec(im.nx, im.ny, 3, OIIO::TypeDesc::FLOAT);
-    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, im.rgb.data()) ||
-        !out->close())
-      throw InputError(format_path + ": " + out->geterror());
-    return;
-  }
+  const ImageFormat* format = find_format(lower_extension(format_path));
+  ImageModuleWrite w{format->oiio_name, format->is_float, im.nx, im.ny,
+                     im.rgb.data(),     path.c_str()};
   // Clamp to [0, 1] and round to the nearest of 256 levels ourselves, so every format agrees.
-  std::vector<unsigned char> bytes(im.rgb.size());
-  for (std::size_t k = 0; k < bytes.size(); ++k) {
-    const float v = im.rgb[k];
-    const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN -> 0
-    bytes[k] = static_cast<unsigned char>(std::lround(c * 255.0f));
+  std::vector<unsigned char> bytes;
+  if (!format->is_float) {
+    bytes.resize(im.rgb.size());
+    for (std::size_t k = 0; k < bytes.size(); ++k) {
+      const float v = im.rgb[k];
+      const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN -> 0
+      bytes[k] = static_cast<unsigned char>(std::lround(c * 255.0f));
+    }
+    w.pixels = bytes.data();
   }
-  OIIO::ImageSpec spec(im.nx, im.ny, 3, OIIO::TypeDesc::UINT8);
-  if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
-      !out->close())
-    throw InputError(format_path + ": " + out->geterror());
+  std::string error;
+  check_status(image_module().write(&w, &error), format_path, error);
 }
 
 }  // namespace
@@ -225,6 +261,7 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
   if (!find_format(ext))
     throw InputError(path + ": lancer does not write '" + ext + "' images (it writes " +
                      known_extensions() + ")");
+  if (ext != ".pfm") image_module();  // a missing module says so before any work
   check_writable_target(path, scene_path);
 }
 
@@ -283,16 +320,9 @@ void write_image(const Image& image, const std::string& path) {
 }
 
 Image read_image(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw InputError(path + ": cannot read image: " + OIIO::geterror());
-  const OIIO::ImageSpec& spec = in->spec();
-  Image im(spec.width, spec.height);
-  std::vector<float> all(std::size_t(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, -1, OIIO::TypeDesc::FLOAT, all.data()))
-    throw InputError(path + ": " + in->geterror());
-  for (std::size_t p = 0; p < std::size_t(spec.width) * spec.height; ++p)
-    for (int c = 0; c < 3; ++c)
-      im.rgb[p * 3 + c] = all[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+  Image im;
+  std::string error;
+  check_status(image_module().read(path.c_str(), &im.nx, &im.ny, &im.rgb, &error), path, error);
   return im;
 }
 

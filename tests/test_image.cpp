@@ -35,6 +35,23 @@ TEST(ImageFiles, PfmRoundTripsThroughOpenImageIO) {
   EXPECT_EQ(back.rgb, im.rgb) << "PFM must store floats exactly, top row first once read";
 }
 
+// OpenImageIO and the 260 libraries it needs load with the image module only, when a format
+// needs it (docs/tools.md, "Start-up"): a process that writes PFM never maps it, one that writes
+// PNG does. Fails if lancer's executable links OpenImageIO again.
+TEST(ImageFiles, OpenImageIOLoadsOnlyForItsFormats) {
+  testing::TempDir dir;
+  const std::string scene = std::string(LANCER_SOURCE_DIR) + "/scenes/lorenzi-diffuse.json";
+  auto maps_oiio = [&](const std::string& args) {
+    const auto r = testing::run_command("LD_DEBUG=files " + testing::cli() + " " + args);
+    EXPECT_EQ(r.status, 0) << args << ": " << r.out;
+    return r.out.find("libOpenImageIO") != std::string::npos;
+  };
+  EXPECT_FALSE(maps_oiio("--help"));
+  EXPECT_FALSE(maps_oiio("render " + scene + " --resolution 16x8 -o " + dir.file("a.pfm")));
+  EXPECT_TRUE(maps_oiio("render " + scene + " --resolution 16x8 -o " + dir.file("a.png")));
+  EXPECT_TRUE(maps_oiio("compare " + dir.file("a.png") + " " + dir.file("a.png")));
+}
+
 TEST(ImageFiles, PfmHeaderAndBottomUpRows) {
   testing::TempDir dir;
   Image im(2, 2);
