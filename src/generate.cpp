@@ -68,6 +68,10 @@ std::string scene_json(const Options& o) {
     throw InputError("--spheres: must be from 0 to " + std::to_string(kMaxObjects - 1));
   if (!(o.reflect >= 0 && o.reflect <= 1)) throw InputError("--reflect: must be from 0 to 1");
   if (o.transmit >= 0 && !(o.transmit <= 1)) throw InputError("--transmit: must be from 0 to 1");
+  if (!(o.transmit_spread >= 0 && o.transmit_spread <= 1))
+    throw InputError("--transmit-spread: must be from 0 to 1");
+  if (o.transmit_spread > 0 && !(o.transmit >= 0))
+    throw InputError("--transmit-spread: needs --transmit");
   if (o.ior >= 0 && !(o.ior >= 1 && o.ior <= 10)) throw InputError("--ior: must be from 1 to 10");
   if (o.nx < 1 || o.ny < 1 || o.nx > kMaxResolution || o.ny > kMaxResolution)
     throw InputError("--resolution: must be from 1 to " + std::to_string(kMaxResolution) +
@@ -107,7 +111,12 @@ std::string scene_json(const Options& o) {
     }
     out += "], \"ka\": 0.1, \"kd\": 0.8, \"ks\": 0.4, \"shininess\": 40";
     if (o.reflect > 0) out += ", \"reflect\": ", put_number(out, o.reflect);
-    if (o.transmit >= 0) out += ", \"transmit\": ", put_number(out, o.transmit);
+    if (o.transmit >= 0) {
+      out += ", \"transmit\": ";
+      put_number(out, o.transmit_spread > 0
+                          ? o.transmit * (1 - o.transmit_spread * m / (kMaterials - 1))
+                          : o.transmit);
+    }
     if (o.ior >= 0) out += ", \"ior\": ", put_number(out, o.ior);
     out += "},\n";
   }

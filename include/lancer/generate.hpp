@@ -14,8 +14,12 @@ struct Options {
   std::uint64_t seed = 1;
   double reflect = 0;              // every sphere's reflectivity
   double transmit = -1, ior = -1;  // emitted only when given (>= 0)
-  bool plane = true;               // a ground plane under the box
-  int nx = 600, ny = 400;          // camera resolution
+  // Material m's transmit is transmit * (1 - transmit_spread * m / 15): differing transmits, so
+  // that a product over the spheres a shadow ray crosses depends on its order (validate then
+  // checks that order too). 0: every sphere the same.
+  double transmit_spread = 0;
+  bool plane = true;       // a ground plane under the box
+  int nx = 600, ny = 400;  // camera resolution
 };
 
 // Checks the options (InputError naming the option) and returns the scene as JSON text.

@@ -51,6 +51,10 @@ void add_generate(CLI::App& app) {
                   "Reflectivity of every sphere, 0 to 1 (above 0: max_depth 3)")
       ->capture_default_str();
   cmd->add_option("--transmit", args->o.transmit, "Transmission of every sphere, 0 to 1");
+  cmd->add_option("--transmit-spread", args->o.transmit_spread,
+                  "Material m of 16 transmits T * (1 - S * m / 15), so that shadow rays' products "
+                  "of transmits depend on their order (validate checks it); 0 to 1, needs "
+                  "--transmit");
   cmd->add_option("--ior", args->o.ior, "Index of refraction of every sphere");
   cmd->add_flag("--no-plane", args->no_plane, "No ground plane");
   cmd->add_option("--resolution", args->resolution, "Camera resolution NXxNY (default 600x400)");

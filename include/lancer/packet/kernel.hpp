@@ -390,7 +390,7 @@ struct Kernel {
       if (s.bvh.one_ray_lanes > 0) {
         auto walk = [&](auto padded) {
           constexpr bool kPadded = decltype(padded)::value;
-          OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes};
+          OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes, {}};
           Tr::template closest<kPadded>(s.bvh, valid, o, d, best_t, leaf, one);
         };
         reach == 0 ? walk(std::false_type{}) : walk(std::true_type{});
@@ -573,7 +573,7 @@ struct Kernel {
   template <bool kPadded, class Leaf, class Step>
   static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
                        RayCounts& counts, Leaf& leaf, Step& step) noexcept {
-    OneShadow<kPadded, Step> one{s, p, l, dist, step, counts, s.bvh.shadow_one_ray_lanes};
+    OneShadow<kPadded, Step> one{s, p, l, dist, step, counts, s.bvh.shadow_one_ray_lanes, {}, {}};
     return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, one);
   }
 

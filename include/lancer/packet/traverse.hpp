@@ -941,6 +941,8 @@ struct Traversal {
           one(lanes, child, count);
           goto next;
         }
+      } else if (false) {
+        goto next;  // packets only: the label stays used (no -Wunused-label), the code is dead
       }
       if (count < 0) {
         const Node& n = h.nodes[std::size_t(child)];
@@ -975,6 +977,8 @@ struct Traversal {
           if (!xsimd::any(pending)) return pending;
           goto next;
         }
+      } else if (false) {
+        goto next;  // as in closest_with
       }
       if (count < 0) {
         if (descend<kSlab>(h.nodes[std::size_t(child)], Bvh<T>::kSlotOrder, r, mask, tmax, st,
