@@ -33,6 +33,8 @@ mkdir -p "$out"
 scene="$root/scenes/lorenzi-reflections.json"
 glass="$root/scenes/lorenzi-glass.json"
 cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')"
+# VMs often give a bare "AMD EPYC": the family and model tell the core (25/17: Zen 4; 26: Zen 5).
+cpu="$cpu (family $(awk -F'\t*: ' '$1 == "cpu family" {print $2; exit}' /proc/cpuinfo), model $(awk -F'\t*: ' '$1 == "model" {print $2; exit}' /proc/cpuinfo))"
 commit="$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 
 "$lancer" bench "$scene" --width all --threads 1,2 --mode primary,full --repeat "$repeat" \

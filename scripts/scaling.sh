@@ -43,6 +43,8 @@ width="$("$lancer" render "$root/scenes/lorenzi-diffuse.json" --resolution 8x8 -
 rm -f "$out/width-probe.png"
 
 cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')"
+# VMs often give a bare "AMD EPYC": the family and model tell the core (25/17: Zen 4; 26: Zen 5).
+cpu="$cpu (family $(awk -F'\t*: ' '$1 == "cpu family" {print $2; exit}' /proc/cpuinfo), model $(awk -F'\t*: ' '$1 == "model" {print $2; exit}' /proc/cpuinfo))"
 csv="$out/scaling.csv"
 md="$out/scaling.md"
 echo "spheres,path,mrays_per_s,embree_mrays_per_s,embree_config,embree_build_s,structure,build_s,bytes_per_sphere" >"$csv"
