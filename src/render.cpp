@@ -340,9 +340,10 @@ struct PrimaryKernelRun::State {
   PreparedScene<float> scene;
   const packet::KernelTable<float>* kernels = nullptr;
   int threads = 1;
-  int packets_per_row = 0;
-  std::vector<float> rays;
+  std::vector<float> rays, t;  // the packets' rays and, per run, their lanes' t
   std::vector<int> lanes;
+  std::vector<std::uint32_t> where;  // each lane's camera ray in the image's order
+  std::size_t camera_rays = 0;
 };
 
 PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
@@ -355,32 +356,40 @@ PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
   st.scene = prepare_for<float>(scene, opt);
   st.kernels = packet::float_kernels(width, opt.precision);
   st.threads = resolve_threads(opt.threads);
-  st.packets_per_row = packet::camera_packets_per_row(st.scene.camera, width);
-  const std::size_t packets = std::size_t(st.packets_per_row) * scene.camera.ny;
+  const int ny = scene.camera.ny;
+  const std::size_t packets = st.kernels->camera_packet_count(st.scene, 0, ny);
   st.rays.resize(packets * 6 * std::size_t(width));
+  st.t.resize(packets * std::size_t(width));
   st.lanes.resize(packets);
-  st.kernels->camera_packets(st.scene, 0, scene.camera.ny, st.rays.data(), st.lanes.data());
+  st.where.resize(packets * std::size_t(width));
+  st.kernels->camera_packets(st.scene, 0, ny, st.rays.data(), st.lanes.data(), st.where.data());
+  const int samples = st.scene.camera.samples;
+  st.camera_rays =
+      std::size_t(ny) * std::size_t(scene.camera.nx) * std::size_t(samples) * std::size_t(samples);
 }
 
 PrimaryKernelRun::~PrimaryKernelRun() = default;
 
 PrimaryResult PrimaryKernelRun::run() {
-  const State& st = *state_;
+  State& st = *state_;
   const int w = st.kernels->width;
   PrimaryResult res;
   res.width = w;
   res.threads = st.threads;
   res.structure = structure_of(st.scene);
-  res.t.assign(st.lanes.size() * std::size_t(w), 0.0f);
   res.seconds = timed([&] {
     res.rays = lancer::run_tiles(st.scene.camera.ny, st.threads, [&](int r0, int r1, RayCounts& c) {
-      const std::size_t first = std::size_t(r0) * st.packets_per_row;
-      const std::size_t count = std::size_t(r1 - r0) * st.packets_per_row;
+      const std::size_t first = st.kernels->camera_packet_count(st.scene, 0, r0);
+      const std::size_t count = st.kernels->camera_packet_count(st.scene, r0, r1);
       st.kernels->intersect_camera_packets(st.scene, st.rays.data() + first * 6 * w,
-                                           st.lanes.data() + first, count, res.t.data() + first * w,
+                                           st.lanes.data() + first, count, st.t.data() + first * w,
                                            c);
     });
   });
+  // Untimed: each camera ray's t to its place in the image's order.
+  res.t.assign(st.camera_rays, 0.0f);
+  for (std::size_t k = 0; k < st.where.size(); ++k)
+    if (st.where[k] != ~std::uint32_t(0)) res.t[st.where[k]] = st.t[k];
   return res;
 }
 

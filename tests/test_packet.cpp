@@ -2,12 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "lancer/compare.hpp"
 #include "lancer/error.hpp"
+#include "lancer/generate.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
@@ -256,44 +258,65 @@ TEST(PacketPrimary, SameDistancesAsTheReference) {
 
 // The kernel alone (lancer bench --mode kernel) runs primary mode's closest hit on the same
 // camera rays: summing its sub-sample distances in primary mode's order gives its bits.
+void expect_kernel_alone_matches_primary(const Scene& s) {
+  const int n = s.supersample;
+  for (Precision p : {Precision::exact, Precision::fast})
+    for (int width : packet::supported_widths(p)) {
+      if (width == 1) continue;  // the reference: no kernel alone
+      for (int threads : {1, 2}) {
+        RenderOptions opt;
+        opt.width = width, opt.precision = p, opt.threads = threads;
+        const PrimaryResult primary = render_primary(s, opt);
+        PrimaryKernelRun kernel(s, opt);
+        const PrimaryResult alone = kernel.run();
+        EXPECT_EQ(alone.structure.kind, primary.structure.kind);
+        EXPECT_EQ(alone.rays.camera, primary.rays.camera);
+        const std::size_t nx = std::size_t(s.camera.nx);
+        ASSERT_EQ(alone.t.size(), std::size_t(s.camera.ny) * n * n * nx);
+        std::size_t differ = 0;
+        for (int j = 0; j < s.camera.ny; ++j)
+          for (int i = 0; i < s.camera.nx; ++i) {
+            float sum = 0;
+            for (int b = 0; b < n; ++b)
+              for (int a = 0; a < n; ++a)
+                sum = sum + alone.t[(std::size_t(j) * n * n + b * n + a) * nx + i];
+            const float want = primary.t[std::size_t(j) * s.camera.nx + i];
+            differ += std::memcmp(&sum, &want, sizeof(float)) != 0;
+          }
+        EXPECT_EQ(differ, 0u) << to_string(p) << " width " << width << ", " << threads
+                              << " threads";
+      }
+    }
+}
+
 TEST(PacketPrimary, KernelAloneGivesPrimaryModesDistances) {
-  std::vector<std::string> paths = testing::shipped_scenes();
-  for (const std::string& path : paths) {
+  for (const std::string& path : testing::shipped_scenes()) {
     SCOPED_TRACE(path);
     Scene s = load_scene(path);
     s.supersample = 2;  // sub-samples too, and odd packets at the rows' ends
     s.camera.nx = 37;
-    const int n = s.supersample;
-    for (Precision p : {Precision::exact, Precision::fast})
-      for (int width : packet::supported_widths(p)) {
-        if (width == 1) continue;  // the reference: no kernel alone
-        for (int threads : {1, 2}) {
-          RenderOptions opt;
-          opt.width = width, opt.precision = p, opt.threads = threads;
-          const PrimaryResult primary = render_primary(s, opt);
-          PrimaryKernelRun kernel(s, opt);
-          const PrimaryResult alone = kernel.run();
-          EXPECT_EQ(alone.rays.camera, primary.rays.camera);
-          const int across = (s.camera.nx + width - 1) / width;
-          ASSERT_EQ(alone.t.size(), std::size_t(s.camera.ny) * n * n * across * width);
-          std::size_t differ = 0;
-          for (int j = 0; j < s.camera.ny; ++j)
-            for (int i = 0; i < s.camera.nx; ++i) {
-              float sum = 0;
-              for (int b = 0; b < n; ++b)
-                for (int a = 0; a < n; ++a) {
-                  const std::size_t packet =
-                      (std::size_t(j) * n * n + b * n + a) * across + i / width;
-                  sum = sum + alone.t[packet * width + i % width];
-                }
-              const float want = primary.t[std::size_t(j) * s.camera.nx + i];
-              differ += std::memcmp(&sum, &want, sizeof(float)) != 0;
-            }
-          EXPECT_EQ(differ, 0u) << to_string(p) << " width " << width << ", " << threads
-                                << " threads";
-        }
-      }
+    expect_kernel_alone_matches_primary(s);
   }
+}
+
+// Through a hierarchy the kernel's rays come in primary mode's camera blocks: blocks cut by the
+// image's right edge and by its last rows (21 = 2 x 8 + 5), one and four sub-samples.
+TEST(PacketPrimary, KernelAloneWalksCameraBlocksAsPrimaryModeDoes) {
+  testing::TempDir dir;
+  generate::Options g;
+  g.spheres = 3000, g.seed = 5, g.nx = 45, g.ny = 21;
+  {
+    std::ofstream out(dir.file("cloud.json"));
+    out << generate::scene_json(g);
+  }
+  Scene s = load_scene(dir.file("cloud.json"));
+  for (int supersample : {1, 2}) {
+    SCOPED_TRACE(supersample);
+    s.supersample = supersample;
+    expect_kernel_alone_matches_primary(s);
+  }
+  RenderOptions opt;
+  EXPECT_EQ(PrimaryKernelRun(s, opt).run().structure.kind, "bvh");
 }
 
 TEST(PacketPrimary, KernelAloneRunsFloatPacketsOnly) {

@@ -161,25 +161,6 @@ TEST(BenchCliFormat, BadFormatIsAnInputError) {
   EXPECT_NE(r.out.find("--format"), std::string::npos);
 }
 
-// Kernel rows walk the hierarchy packet by packet, primary rows in camera blocks: the table says
-// so where a scene has a hierarchy (else a "kernel alone" slower than primary mode misleads).
-TEST(BenchCliTable, KernelRowsSayHowTheyWalkAHierarchy) {
-  const std::string line = "kernel rows: camera rays in rows of packets";
-  auto bench = [](const std::string& scene, const std::string& modes) {
-    return run_command(cli() + " bench " + source_path(scene) +
-                       " --resolution 24x16 --width 4 --repeat 1 --mode " + modes);
-  };
-  const auto spheres = bench("scenes/many-spheres.json", "primary,kernel");
-  ASSERT_EQ(spheres.status, 0) << spheres.out;
-  EXPECT_NE(spheres.out.find(line), std::string::npos) << spheres.out;
-  const auto primary_only = bench("scenes/many-spheres.json", "primary");
-  ASSERT_EQ(primary_only.status, 0) << primary_only.out;
-  EXPECT_EQ(primary_only.out.find(line), std::string::npos) << primary_only.out;
-  const auto plain = bench("scenes/lorenzi-diffuse.json", "primary,kernel");  // no hierarchy
-  ASSERT_EQ(plain.status, 0) << plain.out;
-  EXPECT_EQ(plain.out.find(line), std::string::npos) << plain.out;
-}
-
 // The progress line never wraps: at most columns - 1 characters at any width, the percentage
 // kept to the narrowest.
 TEST(Progress, NeverWiderThanTheTerminal) {

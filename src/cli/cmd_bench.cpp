@@ -54,8 +54,8 @@ void print_peaks(const std::vector<PeakRow>& peaks) {
                 p.width >= 8 ? "fma (2 flops)" : "mul+add (2 flops)", p.gflops, p.muladd_gflops);
 }
 
-void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
-                 const StructureInfo& structure, int repeat, bool peak) {
+void print_table(const std::string& scene, const std::vector<BenchRow>& rows, int repeat,
+                 bool peak) {
   std::printf("lancer bench: %s, median of %d runs, configurations interleaved\n", scene.c_str(),
               repeat);
   std::printf("  %-8s %-8s %-9s %5s %-10s %7s %12s %10s %10s %9s", "engine", "mode", "precision",
@@ -99,17 +99,6 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
           "refracted\n",
           (unsigned long long)k.camera, (unsigned long long)k.shadow,
           (unsigned long long)k.reflected, (unsigned long long)k.refracted);
-      break;
-    }
-  // The kernel rows' camera rays are made in rows of packets, and each packet walks the
-  // hierarchy alone (intersect_camera_packets): not primary's camera blocks. Say so where it
-  // differs, or the kernel "alone" reads as slower than primary mode with its ray generation.
-  for (const BenchRow& r : rows)
-    if (r.engine == "lancer" && r.mode == "kernel" && structure.kind == "bvh") {
-      std::printf(
-          "  kernel rows: camera rays in rows of packets, each packet walking the hierarchy on "
-          "its own; primary\n  rows (float, pinhole camera) walk blocks of tiles together "
-          "(docs/accel.md)\n");
       break;
     }
   if (peak)
@@ -254,7 +243,7 @@ void run_bench_cmd(const BenchArgs& a) {
   } else if (a.json || a.format == "json") {
     print_json(a.scene, result, a.peak ? &result.peaks : nullptr);
   } else {
-    print_table(a.scene, result.rows, result.structure, a.repeat, a.peak);
+    print_table(a.scene, result.rows, a.repeat, a.peak);
     if (a.peak) print_peaks(result.peaks);
   }
 }

@@ -3,6 +3,7 @@
 // in src/isa/<isa>.cpp, which alone is built with that ISA's flags.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -32,13 +33,17 @@ struct KernelTable {
   // Camera rays and closest hit only, as reference::primary_rows.
   void (*primary_rows)(const PreparedScene<Real>&, float* t_out, std::int32_t* id_out,
                        int row_begin, int row_end, RayCounts&);
-  // The primary intersection kernel alone (lancer bench --mode kernel): camera_packets makes the
-  // camera rays of rows [row_begin, row_end) once, camera_packets_per_row() per row, each 6 x width
-  // values (origin then direction, SoA) and its live lanes; intersect_camera_packets runs
-  // primary_rows' closest-hit kernel over `count` of them, width nearest t per packet into t_out
-  // (infinity where missed).
+  // The primary intersection kernel alone (lancer bench --mode kernel). camera_packets makes
+  // the camera rays of rows [row_begin, row_end) once (row_begin a multiple of kTileRows),
+  // camera_packet_count(row_begin, row_end) packets in the order primary_rows traces them (the
+  // camera blocks through a hierarchy, else rows), each 6 x width values (origin then
+  // direction, SoA), its live lanes as bits in lanes[p], and per lane the index of its camera
+  // ray, (row * samples^2 + sub-sample) * nx + column, or ~0u for a dead lane, in where[].
+  // intersect_camera_packets runs primary_rows' closest-hit kernel over `count` of them (the
+  // count of whole rows of tiles), width nearest t per packet into t_out (infinity where missed).
+  std::size_t (*camera_packet_count)(const PreparedScene<Real>&, int row_begin, int row_end);
   void (*camera_packets)(const PreparedScene<Real>&, int row_begin, int row_end, Real* rays,
-                         int* lanes);
+                         int* lanes, std::uint32_t* where);
   void (*intersect_camera_packets)(const PreparedScene<Real>&, const Real* rays, const int* lanes,
                                    std::size_t count, Real* t_out, RayCounts&);
   // One packet through the closest-hit kernel, for tests and the library API (src/api.cpp,
@@ -53,13 +58,6 @@ struct KernelTable {
   void (*occluded_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                           const Real* tfar, bool* blocked_out);
 };
-
-// Packets of camera rays per image row as camera_packets lays them out: sub-samples times
-// packets across.
-template <class Real>
-int camera_packets_per_row(const PreparedCamera<Real>& cam, int width) {
-  return cam.samples * cam.samples * ((cam.nx + width - 1) / width);
-}
 
 // Defined in packet/kernel.hpp; instantiated per ISA in src/isa/*.cpp. Call only after the
 // CPU check (dispatch.cpp): it runs that ISA's instructions.

@@ -1416,55 +1416,76 @@ struct Kernel {
           primary_block<gx, gy, false>(s, i0, j0, row_end, row_base, t_out, id_out, counts);
       }
   }
+  // The tiles of the block at (i0, j0), gx x gy tiles: tile g's columns ti[g] .., rows tj[g]
+  // .., cols[g] x rows[g] of them inside the image and above row_end (0: outside), its live
+  // lanes valid[g]. kWhole: every tile whole (all but the image's last columns and rows).
+  template <int gx, int gy, bool kWhole>
+  struct BlockTiles {
+    static constexpr int n = gx * gy;
+    int ti[n], tj[n], cols[n], rows[n];
+    M valid[n];
+    [[gnu::always_inline]] BlockTiles(const PreparedCamera<T>& cam, int i0, int j0,
+                                      int row_end) noexcept {
+      alignas(64) T col_of[W], row_of[W];  // each lane's column and row in its tile (edges)
+      if constexpr (!kWhole)
+        for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
+      for (int g = 0; g < n; ++g) {
+        ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
+        if constexpr (kWhole) {
+          cols[g] = kTileW, rows[g] = kTileH, valid[g] = M(true);
+        } else {
+          cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
+          rows[g] = std::max(0, std::min(kTileH, row_end - tj[g]));
+          valid[g] =
+              (B::load_aligned(col_of) < B(T(cols[g]))) & (B::load_aligned(row_of) < B(T(rows[g])));
+        }
+      }
+    }
+    // Tile g's camera rays at sub-sample (a, b); a tile at the image's edge repeats its last
+    // live row or column in its dead lanes, a tile outside it takes tile 0's rays (unused).
+    [[gnu::always_inline]] void rays(const PreparedCamera<T>& cam, int g, int a, int b, V* o,
+                                     V* d) const noexcept {
+      const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + tj[g]];
+      const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + ti[g]];
+      alignas(64) T edge_x[kTileW], edge_y[kTileH];
+      if constexpr (!kWhole) {
+        if (cols[g] == 0 || rows[g] == 0) {
+          o[g] = o[0], d[g] = d[0];
+          return;
+        }
+        if (rows[g] < kTileH) {
+          for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
+          ys = edge_y;
+        }
+        if (cols[g] < kTileW) {
+          for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
+          xs = edge_x;
+        }
+      }
+      camera_ray<Mth>(cam, tile_columns(xs), tile_rows(ys), o[g], d[g]);
+    }
+  };
+
   template <int gx, int gy, bool kWhole>
   [[gnu::always_inline]] static void primary_block(const Scene& s, int i0, int j0, int row_end,
                                                    int row_base, float* t_out, std::int32_t* id_out,
                                                    RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     constexpr int n = gx * gy;
-    // Tile g of the block: columns ti[g] .., rows tj[g] ..; cols or rows 0: outside.
-    int ti[n], tj[n], cols[n], rows[n];
-    M valid[n];
+    const BlockTiles<gx, gy, kWhole> tiles(cam, i0, j0, row_end);
+    const int* ti = tiles.ti;
+    const int* tj = tiles.tj;
+    const int* cols = tiles.cols;
+    const int* rows = tiles.rows;
+    const M* valid = tiles.valid;
     B sum[n];
     I first_id[n];
-    alignas(64) T col_of[W], row_of[W];  // each lane's column and row in its tile (edge blocks)
-    if constexpr (!kWhole)
-      for (int k = 0; k < W; ++k) col_of[k] = T(k % kTileW), row_of[k] = T(k / kTileW);
-    for (int g = 0; g < n; ++g) {
-      ti[g] = i0 + (g % gx) * kTileW, tj[g] = j0 + (g / gx) * kTileH;
-      if constexpr (kWhole) {
-        cols[g] = kTileW, rows[g] = kTileH, valid[g] = M(true);
-      } else {
-        cols[g] = std::max(0, std::min(kTileW, cam.nx - ti[g]));
-        rows[g] = std::max(0, std::min(kTileH, row_end - tj[g]));
-        valid[g] =
-            (B::load_aligned(col_of) < B(T(cols[g]))) & (B::load_aligned(row_of) < B(T(rows[g])));
-      }
-      sum[g] = B(0), first_id[g] = I(Id(-1));
-    }
+    for (int g = 0; g < n; ++g) sum[g] = B(0), first_id[g] = I(Id(-1));
     for (int b = 0; b < cam.samples; ++b) {
       for (int a = 0; a < cam.samples; ++a) {
         V o[n], d[n];
         for (int g = 0; g < n; ++g) {
-          const T* ys = &cam.screen_y[std::size_t(b) * cam.ny + tj[g]];
-          const T* xs = &cam.screen_x[std::size_t(a) * cam.nx + ti[g]];
-          alignas(64) T edge_x[kTileW], edge_y[kTileH];
-          if constexpr (!kWhole) {
-            if (cols[g] == 0 || rows[g] == 0) {  // no live lane: tile 0's rays, unused
-              o[g] = o[0], d[g] = d[0];
-              continue;
-            }
-            // A tile at the image's edge repeats its last live row or column in its dead lanes.
-            if (rows[g] < kTileH) {
-              for (int r = 0; r < kTileH; ++r) edge_y[r] = ys[std::min(r, rows[g] - 1)];
-              ys = edge_y;
-            }
-            if (cols[g] < kTileW) {
-              for (int c = 0; c < kTileW; ++c) edge_x[c] = xs[std::min(c, cols[g] - 1)];
-              xs = edge_x;
-            }
-          }
-          camera_ray<Mth>(cam, tile_columns(xs), tile_rows(ys), o[g], d[g]);
+          tiles.rays(cam, g, a, b, o, d);
           counts.camera += std::uint64_t(cols[g] * rows[g]);
         }
         const bool first = a == 0 && b == 0;
@@ -1504,40 +1525,124 @@ struct Kernel {
     }
   }
 
-  // The camera rays of rows [row_begin, row_end), made once for the primary intersection kernel
-  // alone (intersect_camera_packets): per packet the origin then the direction, component by
-  // component, W lanes each (6 W values), and its live lanes; camera_packets_per_row() per row.
-  static void camera_packets(const Scene& s, int row_begin, int row_end, T* rays,
-                             int* lanes_out) noexcept {
+  // ---- the primary intersection kernel alone (lancer bench --mode kernel) -------------------
+  // Its camera rays are made once, beforehand, in the layout primary mode traces them in:
+  // through a hierarchy with a pinhole camera (float), blocks of kGroup tiles, per block and
+  // sub-sample its tiles' packets (primary_blocks); else rows of packets (primary_packet_rows).
+  static bool kernel_blocks(const Scene& s) noexcept {
+    return kGroup > 1 && s.bvh.active() && !s.camera.orthographic && s.features.spheres;
+  }
+  // Packets camera_packets makes for rows [row_begin, row_end), row_begin a multiple of
+  // kBlockRows (run_tiles' rows).
+  static std::size_t camera_packet_count(const Scene& s, int row_begin, int row_end) noexcept {
+    const PreparedCamera<T>& cam = s.camera;
+    const std::size_t samples = std::size_t(cam.samples) * std::size_t(cam.samples);
+    if (kernel_blocks(s))
+      return std::size_t((row_end - row_begin + kBlockRows - 1) / kBlockRows) *
+             std::size_t((cam.nx + kGroupPx - 1) / kGroupPx) * samples * kGroup;
+    return std::size_t(row_end - row_begin) * samples * std::size_t((cam.nx + W - 1) / W);
+  }
+  // Per packet the origin then the direction, component by component, W lanes each (6 W
+  // values), its live lanes as bits in lanes[p], and per lane the index of its camera ray in
+  // the image's order, (row * samples^2 + sub-sample) * nx + column, or kNoRay for a dead lane.
+  static constexpr std::uint32_t kNoRay = ~std::uint32_t(0);
+  static void camera_packets(const Scene& s, int row_begin, int row_end, T* rays, int* lanes,
+                             std::uint32_t* where) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     std::size_t p = 0;
+    auto put = [&](const V& o, const V& d, unsigned live, auto ray_of) {
+      T* r = rays + p * 6 * W;
+      o.x.store_unaligned(r), o.y.store_unaligned(r + W), o.z.store_unaligned(r + 2 * W);
+      d.x.store_unaligned(r + 3 * W), d.y.store_unaligned(r + 4 * W);
+      d.z.store_unaligned(r + 5 * W);
+      lanes[p] = int(live);
+      for (int k = 0; k < W; ++k) where[p * W + k] = (live >> k & 1u) ? ray_of(k) : kNoRay;
+      ++p;
+    };
+    auto index = [&](int j, int b, int a, int i) {
+      return std::uint32_t((std::size_t(j) * cam.samples * cam.samples +
+                            std::size_t(b) * cam.samples + std::size_t(a)) *
+                               std::size_t(cam.nx) +
+                           std::size_t(i));
+    };
+    if constexpr (kGroup > 1) {
+      if (kernel_blocks(s)) {
+        for (int j0 = row_begin; j0 < row_end; j0 += kBlockRows)
+          for (int i0 = 0; i0 < cam.nx; i0 += kGroupPx) {
+            const BlockTiles<kGroupX, kGroupY, false> tiles(cam, i0, j0, row_end);
+            for (int b = 0; b < cam.samples; ++b)
+              for (int a = 0; a < cam.samples; ++a) {
+                V o[kGroup], d[kGroup];
+                for (int g = 0; g < kGroup; ++g) {
+                  tiles.rays(cam, g, a, b, o, d);
+                  put(o[g], d[g], bits(tiles.valid[g]), [&](int k) {
+                    return index(tiles.tj[g] + k / kTileW, b, a, tiles.ti[g] + k % kTileW);
+                  });
+                }
+              }
+          }
+        return;
+      }
+    }
     for (int j = row_begin; j < row_end; ++j)
       for (int b = 0; b < cam.samples; ++b)
         for (int a = 0; a < cam.samples; ++a)
-          for (int i0 = 0; i0 < cam.nx; i0 += W, ++p) {
+          for (int i0 = 0; i0 < cam.nx; i0 += W) {
             V o, d;
             camera_packet(s, i0, j, a, b, o, d);
-            T* r = rays + p * 6 * W;
-            o.x.store_unaligned(r), o.y.store_unaligned(r + W), o.z.store_unaligned(r + 2 * W);
-            d.x.store_unaligned(r + 3 * W), d.y.store_unaligned(r + 4 * W);
-            d.z.store_unaligned(r + 5 * W);
-            lanes_out[p] = std::min(W, cam.nx - i0);
+            const int live = std::min(W, cam.nx - i0);
+            put(o, d, live >= 32 ? ~0u : (1u << live) - 1u,
+                [&](int k) { return index(j, b, a, i0 + k); });
           }
   }
 
   // The primary intersection kernel alone, as primary_rows runs it, over `count` packets made
-  // by camera_packets(): W nearest distances per packet into t_out (infinity where missed).
+  // by camera_packets() (a whole number of blocks where they are blocks): W nearest distances
+  // per packet into t_out (infinity where missed).
+  static M lanes_of(int live) noexcept {
+    alignas(64) T v[W];
+    for (int k = 0; k < W; ++k) v[k] = T((unsigned(live) >> k) & 1u);
+    return B::load_aligned(v) != B(0);
+  }
   [[gnu::flatten]] static void intersect_camera_packets(const Scene& s, const T* rays,
                                                         const int* lanes, std::size_t count,
                                                         T* t_out, RayCounts& counts) noexcept {
-    const B lane = iota();
-    for (std::size_t p = 0; p < count; ++p) {
+    auto load = [&](std::size_t p, V& o, V& d) {
       const T* r = rays + p * 6 * W;
-      const V o{B::load_unaligned(r), B::load_unaligned(r + W), B::load_unaligned(r + 2 * W)};
-      const V d{B::load_unaligned(r + 3 * W), B::load_unaligned(r + 4 * W),
-                B::load_unaligned(r + 5 * W)};
-      const M valid = lane < B(T(lanes[p]));
-      counts.camera += static_cast<std::uint64_t>(lanes[p]);
+      o = V{B::load_unaligned(r), B::load_unaligned(r + W), B::load_unaligned(r + 2 * W)};
+      d = V{B::load_unaligned(r + 3 * W), B::load_unaligned(r + 4 * W),
+            B::load_unaligned(r + 5 * W)};
+    };
+    constexpr int kFull = W >= 32 ? -1 : int((1u << W) - 1u);
+    if constexpr (kGroup > 1) {
+      if (kernel_blocks(s)) {
+        for (std::size_t p = 0; p < count; p += kGroup) {
+          V o[kGroup], d[kGroup];
+          M valid[kGroup];
+          B t[kGroup];
+          I id[kGroup];
+          for (int g = 0; g < kGroup; ++g) {
+            load(p + g, o[g], d[g]);
+            const int live = lanes[p + g];
+            valid[g] = live == kFull ? M(true) : lanes_of(live);
+            counts.camera += std::uint64_t(__builtin_popcount(unsigned(live)));
+            t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
+          }
+          closest_group_in_hierarchy<kGroup>(s, valid, o, d, t, id, counts);
+          for (int g = 0; g < kGroup; ++g) {
+            if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
+            t[g].store_unaligned(t_out + (p + g) * W);
+          }
+        }
+        return;
+      }
+    }
+    for (std::size_t p = 0; p < count; ++p) {
+      V o, d;
+      load(p, o, d);
+      const int live = lanes[p];
+      const M valid = live == kFull ? M(true) : lanes_of(live);
+      counts.camera += std::uint64_t(__builtin_popcount(unsigned(live)));
       B t(std::numeric_limits<T>::infinity());
       I id(Id(-1));
       // primary_rows' dispatch, written out here too: a shared helper moved GCC's inlining of
@@ -1592,6 +1697,7 @@ const KernelTable<Real>* table() {
                                    Arch::name(),
                                    &K::render_rows,
                                    &K::primary_rows,
+                                   &K::camera_packet_count,
                                    &K::camera_packets,
                                    &K::intersect_camera_packets,
                                    &K::closest_hit_packet,
