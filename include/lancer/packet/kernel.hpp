@@ -1473,11 +1473,7 @@ struct Kernel {
     const PreparedCamera<T>& cam = s.camera;
     constexpr int n = gx * gy;
     const BlockTiles<gx, gy, kWhole> tiles(cam, i0, j0, row_end);
-    const int* ti = tiles.ti;
-    const int* tj = tiles.tj;
-    const int* cols = tiles.cols;
-    const int* rows = tiles.rows;
-    const M* valid = tiles.valid;
+    const auto& [ti, tj, cols, rows, valid] = tiles;
     B sum[n];
     I first_id[n];
     for (int g = 0; g < n; ++g) sum[g] = B(0), first_id[g] = I(Id(-1));
@@ -1591,8 +1587,7 @@ struct Kernel {
             V o, d;
             camera_packet(s, i0, j, a, b, o, d);
             const int live = std::min(W, cam.nx - i0);
-            put(o, d, live >= 32 ? ~0u : (1u << live) - 1u,
-                [&](int k) { return index(j, b, a, i0 + k); });
+            put(o, d, (1u << live) - 1u, [&](int k) { return index(j, b, a, i0 + k); });
           }
   }
 
@@ -1613,7 +1608,8 @@ struct Kernel {
       d = V{B::load_unaligned(r + 3 * W), B::load_unaligned(r + 4 * W),
             B::load_unaligned(r + 5 * W)};
     };
-    constexpr int kFull = W >= 32 ? -1 : int((1u << W) - 1u);
+    static_assert(W <= 16, "lanes[] holds a packet's live lanes as bits of an int");
+    constexpr int kFull = int((1u << W) - 1u);
     if constexpr (kGroup > 1) {
       if (kernel_blocks(s)) {
         for (std::size_t p = 0; p < count; p += kGroup) {
