@@ -114,11 +114,11 @@ class PreparedRun {
 
 // The primary intersection kernel alone (lancer bench --mode kernel): the camera rays of every
 // pixel and sub-sample are made once, at construction, untimed, laid out as primary mode
-// traces them (camera blocks through a hierarchy, else rows of packets); each run() times only
-// the closest-hit kernel of primary mode over them (on options.threads threads) and returns the
-// nearest t of every camera ray, infinity where missed, at (row * samples^2 + sub-sample b *
-// samples + a) * nx + column. Float packets only (exact or fast): InputError otherwise, naming
-// --width or --precision.
+// traces them (camera blocks or tiles through a hierarchy, else rows of packets); each run()
+// times only the closest-hit kernel of primary mode over them (on options.threads threads) and
+// returns the nearest t of every camera ray, infinity where missed, at (row * samples^2 +
+// sub-sample b * samples + a) * nx + column. Float packets only (exact or fast): InputError
+// otherwise, naming --width or --precision.
 class PrimaryKernelRun {
  public:
   PrimaryKernelRun(const Scene& scene, const RenderOptions& options);

@@ -36,7 +36,7 @@ struct KernelTable {
   // The primary intersection kernel alone (lancer bench --mode kernel). camera_packets makes
   // the camera rays of rows [row_begin, row_end) once (row_begin a multiple of kTileRows),
   // camera_packet_count(row_begin, row_end) packets in the order primary_rows traces them (the
-  // camera blocks through a hierarchy, else rows), each 6 x width values (origin then
+  // camera blocks or tiles through a hierarchy, else rows), each 6 x width values (origin then
   // direction, SoA), its live lanes as bits in lanes[p], and per lane the index of its camera
   // ray, (row * samples^2 + sub-sample) * nx + column, or ~0u for a dead lane, in where[].
   // intersect_camera_packets runs primary_rows' closest-hit kernel over `count` of them (the

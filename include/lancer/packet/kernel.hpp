@@ -1522,9 +1522,9 @@ struct Kernel {
   }
 
   // ---- the primary intersection kernel alone (lancer bench --mode kernel) -------------------
-  // Its camera rays are made once, beforehand, in the layout primary mode traces them in:
-  // through a hierarchy with a pinhole camera (float), blocks of kGroup tiles, per block and
-  // sub-sample its tiles' packets (primary_blocks); else rows of packets (primary_packet_rows).
+  // Its camera rays are made once, beforehand, in the layout primary mode traces them in
+  // (primary_rows): through a hierarchy, blocks of kGroup tiles walked together (pinhole
+  // camera, float) or single tiles (gx = gy = 1); else rows of packets.
   static bool kernel_blocks(const Scene& s) noexcept {
     return kGroup > 1 && s.bvh.active() && !s.camera.orthographic && s.features.spheres;
   }
@@ -1533,10 +1533,13 @@ struct Kernel {
   static std::size_t camera_packet_count(const Scene& s, int row_begin, int row_end) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const std::size_t samples = std::size_t(cam.samples) * std::size_t(cam.samples);
-    if (kernel_blocks(s))
-      return std::size_t((row_end - row_begin + kBlockRows - 1) / kBlockRows) *
-             std::size_t((cam.nx + kGroupPx - 1) / kGroupPx) * samples * kGroup;
-    return std::size_t(row_end - row_begin) * samples * std::size_t((cam.nx + W - 1) / W);
+    auto blocks = [&](int w, int h, int packets) {
+      return std::size_t((row_end - row_begin + h - 1) / h) * std::size_t((cam.nx + w - 1) / w) *
+             samples * std::size_t(packets);
+    };
+    if (kernel_blocks(s)) return blocks(kGroupPx, kBlockRows, kGroup);
+    if (s.bvh.active()) return blocks(kTileW, kTileH, 1);
+    return blocks(W, 1, 1);
   }
   // Per packet the origin then the direction, component by component, W lanes each (6 W
   // values), its live lanes as bits in lanes[p], and per lane the index of its camera ray in
@@ -1561,25 +1564,28 @@ struct Kernel {
                                std::size_t(cam.nx) +
                            std::size_t(i));
     };
-    if constexpr (kGroup > 1) {
-      if (kernel_blocks(s)) {
-        for (int j0 = row_begin; j0 < row_end; j0 += kBlockRows)
-          for (int i0 = 0; i0 < cam.nx; i0 += kGroupPx) {
-            const BlockTiles<kGroupX, kGroupY, false> tiles(cam, i0, j0, row_end);
-            for (int b = 0; b < cam.samples; ++b)
-              for (int a = 0; a < cam.samples; ++a) {
-                V o[kGroup], d[kGroup];
-                for (int g = 0; g < kGroup; ++g) {
-                  tiles.rays(cam, g, a, b, o, d);
-                  put(o[g], d[g], bits(tiles.valid[g]), [&](int k) {
-                    return index(tiles.tj[g] + k / kTileW, b, a, tiles.ti[g] + k % kTileW);
-                  });
-                }
+    // Blocks of gx x gy tiles, as primary_blocks visits them; per block and sub-sample its tiles.
+    auto blocks = [&](auto gx_, auto gy_) {
+      constexpr int gx = decltype(gx_)::value, gy = decltype(gy_)::value, n = gx * gy;
+      for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy)
+        for (int i0 = 0; i0 < cam.nx; i0 += kTileW * gx) {
+          const BlockTiles<gx, gy, false> tiles(cam, i0, j0, row_end);
+          for (int b = 0; b < cam.samples; ++b)
+            for (int a = 0; a < cam.samples; ++a) {
+              V o[n], d[n];
+              for (int g = 0; g < n; ++g) {
+                tiles.rays(cam, g, a, b, o, d);
+                put(o[g], d[g], bits(tiles.valid[g]), [&](int k) {
+                  return index(tiles.tj[g] + k / kTileW, b, a, tiles.ti[g] + k % kTileW);
+                });
               }
-          }
-        return;
-      }
-    }
+            }
+        }
+    };
+    using One = std::integral_constant<int, 1>;
+    if (kernel_blocks(s))
+      return blocks(std::integral_constant<int, kGroupX>{}, std::integral_constant<int, kGroupY>{});
+    if (s.bvh.active()) return blocks(One{}, One{});
     for (int j = row_begin; j < row_end; ++j)
       for (int b = 0; b < cam.samples; ++b)
         for (int a = 0; a < cam.samples; ++a)
