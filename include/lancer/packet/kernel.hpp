@@ -375,19 +375,22 @@ struct Kernel {
   // The spheres through the hierarchy (reach 0 or 1: Traversal::reach). Out of line: inlined
   // into closest_hit, the 4-wide traversal changed the code GCC made for the plain loop around
   // it (course scenes, no hierarchy: 2.5% more instructions at width 8, callgrind).
+  // camera: camera rays (orthographic ones come here), which stay packets: they are coherent.
   template <bool kFromEye>
   [[gnu::noinline]] static void closest_in_hierarchy(const Scene& s, int reach, M valid, const V& o,
                                                      const V& d, B& best_t, I& best_id,
-                                                     RayCounts& counts, const I& leaving) noexcept {
+                                                     RayCounts& counts, const I& leaving,
+                                                     bool camera) noexcept {
     const Spheres sp = leaf_spheres(s);
     auto leaf = [&](int first, int n, const M& m) {
       leaf_visit(counts, m);
       spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t, best_id, counts,
                                        leaving);
     };
-    // Exact float: where the scene says (Bvh::one_ray_lanes), lanes go on one ray at a time.
+    // Exact float: where the scene says (Bvh::one_ray_lanes), secondary rays' lanes go on one
+    // ray at a time.
     if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
-      if (s.bvh.one_ray_lanes > 0) {
+      if (s.bvh.one_ray_lanes > 0 && !camera) {
         auto walk = [&](auto padded) {
           constexpr bool kPadded = decltype(padded)::value;
           OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes, {}};
@@ -582,16 +585,19 @@ struct Kernel {
   // Spheres through the hierarchy where the scene has one (and every lane starts within its
   // origin limit), else all in a loop; planes always in a loop, after the spheres (higher ids).
   // `leaving`: per lane, the sphere the ray leaves from outside (-1: none); see skip().
+  // camera: the rays are camera rays (coherent: never one ray at a time).
   // Always inlined: with the ray tree's second copy of shade(), GCC stopped inlining it into
   // render_rows, and opaque scenes lost 5% to 15% at width 16.
   template <bool kFromEye = false>
   [[gnu::always_inline]] static M closest_hit(const Scene& s, M valid, const V& o, const V& d,
                                               B& best_t, I& best_id, RayCounts& counts,
-                                              const I& leaving = I(Id(-1))) noexcept {
+                                              const I& leaving = I(Id(-1)),
+                                              bool camera = false) noexcept {
     if (s.features.spheres) {
       const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
       if (reach < 2) {
-        closest_in_hierarchy<kFromEye>(s, reach, valid, o, d, best_t, best_id, counts, leaving);
+        closest_in_hierarchy<kFromEye>(s, reach, valid, o, d, best_t, best_id, counts, leaving,
+                                       camera);
       } else {
         spheres_closest<kFromEye, true>(s, all_spheres(s), 0, s.num_spheres, valid, o, d, best_t,
                                         best_id, counts, leaving);
@@ -961,7 +967,7 @@ struct Kernel {
     } else {
       hit = depth == 0 && !s.camera.orthographic
                 ? closest_hit<true>(s, active, o, d, best_t, best_id, counts)
-                : closest_hit(s, active, o, d, best_t, best_id, counts, leaving);
+                : closest_hit(s, active, o, d, best_t, best_id, counts, leaving, depth == 0);
     }
     lap(counts, stage);
     const T* miss_color = depth == 0 ? s.background : s.environment;
@@ -1339,7 +1345,7 @@ struct Kernel {
     B t(std::numeric_limits<T>::infinity());
     I id(Id(-1));
     if (s.camera.orthographic)
-      closest_hit(s, valid, o, d, t, id, counts);
+      closest_hit(s, valid, o, d, t, id, counts, I(Id(-1)), true);
     else
       closest_hit<true>(s, valid, o, d, t, id, counts);
     sum = sum + t;
@@ -1650,7 +1656,7 @@ struct Kernel {
       // primary_rows' dispatch, written out here too: a shared helper moved GCC's inlining of
       // closest_hit in render_rows and cost exact's full render 5%.
       if (s.camera.orthographic)
-        closest_hit(s, valid, o, d, t, id, counts);
+        closest_hit(s, valid, o, d, t, id, counts, I(Id(-1)), true);
       else
         closest_hit<true>(s, valid, o, d, t, id, counts);
       t.store_unaligned(t_out + p * W);
