@@ -389,7 +389,7 @@ PrimaryResult PrimaryKernelRun::run() {
   // Untimed: each camera ray's t to its place in the image's order.
   res.t.assign(st.camera_rays, 0.0f);
   for (std::size_t k = 0; k < st.where.size(); ++k)
-    if (st.where[k] != ~std::uint32_t(0)) res.t[st.where[k]] = st.t[k];
+    if (st.where[k] != packet::kNoCameraRay) res.t[st.where[k]] = st.t[k];
   return res;
 }
 

@@ -37,8 +37,8 @@ struct KernelTable {
   // the camera rays of rows [row_begin, row_end) once (row_begin a multiple of kTileRows),
   // camera_packet_count(row_begin, row_end) packets in the order primary_rows traces them (the
   // camera blocks or tiles through a hierarchy, else rows), each 6 x width values (origin then
-  // direction, SoA), its live lanes as bits in lanes[p], and per lane the index of its camera
-  // ray, (row * samples^2 + sub-sample) * nx + column, or ~0u for a dead lane, in where[].
+  // direction, SoA), its live lanes as bits in lanes[p], and in where[] per lane the index of
+  // its camera ray, (row * samples^2 + sub-sample) * nx + column, or kNoCameraRay (dead lane).
   // intersect_camera_packets runs primary_rows' closest-hit kernel over `count` of them (the
   // count of whole rows of tiles), width nearest t per packet into t_out (infinity where missed).
   std::size_t (*camera_packet_count)(const PreparedScene<Real>&, int row_begin, int row_end);
@@ -58,6 +58,9 @@ struct KernelTable {
   void (*occluded_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                           const Real* tfar, bool* blocked_out);
 };
+
+// camera_packets' where[] for a lane that holds no camera ray.
+inline constexpr std::uint32_t kNoCameraRay = ~std::uint32_t(0);
 
 // Defined in packet/kernel.hpp; instantiated per ISA in src/isa/*.cpp. Call only after the
 // CPU check (dispatch.cpp): it runs that ISA's instructions.

@@ -1549,8 +1549,7 @@ struct Kernel {
   }
   // Per packet the origin then the direction, component by component, W lanes each (6 W
   // values), its live lanes as bits in lanes[p], and per lane the index of its camera ray in
-  // the image's order, (row * samples^2 + sub-sample) * nx + column, or kNoRay for a dead lane.
-  static constexpr std::uint32_t kNoRay = ~std::uint32_t(0);
+  // the image's order, (row * samples^2 + sub-sample) * nx + column, or kNoCameraRay.
   static void camera_packets(const Scene& s, int row_begin, int row_end, T* rays, int* lanes,
                              std::uint32_t* where) noexcept {
     const PreparedCamera<T>& cam = s.camera;
@@ -1561,7 +1560,7 @@ struct Kernel {
       d.x.store_unaligned(r + 3 * W), d.y.store_unaligned(r + 4 * W);
       d.z.store_unaligned(r + 5 * W);
       lanes[p] = int(live);
-      for (int k = 0; k < W; ++k) where[p * W + k] = (live >> k & 1u) ? ray_of(k) : kNoRay;
+      for (int k = 0; k < W; ++k) where[p * W + k] = (live >> k & 1u) ? ray_of(k) : kNoCameraRay;
       ++p;
     };
     auto index = [&](int j, int b, int a, int i) {
