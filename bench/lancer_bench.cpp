@@ -1,6 +1,7 @@
 // Google Benchmark cases: rays per second (items/s) for every scene in scenes/, every width this
 // CPU runs (1 = the scalar reference) and both modes, plus what modelling only what a scene
-// requires saves (the same renders with every term forced on).
+// requires saves (the same renders with every term forced on), and the library API's closest
+// hits of 16-ray packets: camera rays in 4x4 tiles, and the mirror reflections of their hits.
 //
 //   build/bench/lancer_bench --benchmark_filter=reflections --benchmark_repetitions=5
 //   build/bench/lancer_bench --scene=my.json      (or LANCER_BENCH_SCENE=a.json:b.json): your
@@ -8,12 +9,16 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
+#include "lancer/lancer.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/profile.hpp"
 #include "lancer/render.hpp"
@@ -64,6 +69,63 @@ void profiled(benchmark::State& state, const Scene* scene, int width) {
   }
   state.SetItemsProcessed(static_cast<int64_t>(rays));
   state.SetLabel(packet::isa_name(width) + " profiled");
+}
+
+// The library API's intersect<16> over packets made once, untimed: every camera ray of the image
+// in 4x4 tiles (coherent), or, reflections = true, each hit's mirror reflection (rays from
+// points on the objects; a cloud's diverge, a flat mirror's stay together). docs/api.md.
+void api_intersect(benchmark::State& state, const Scene* scene, bool reflections) {
+  api::Options opt;
+  opt.precision = Precision::exact;
+  const api::Scene s = api::Scene::from_description(*scene, opt);
+  const api::Info& in = s.info();
+  std::vector<api::Ray16> rays;
+  std::vector<std::array<int, 16>> valid;
+  for (int j0 = 0; j0 + 4 <= in.ny; j0 += 4)
+    for (int i0 = 0; i0 + 4 <= in.nx; i0 += 4) {
+      api::Ray16 r;
+      for (int k = 0; k < 16; ++k) {
+        float o[3], d[3];
+        s.camera_ray(i0 + k % 4, j0 + k / 4, 0, 0, o, d);
+        r.org_x[k] = o[0], r.org_y[k] = o[1], r.org_z[k] = o[2];
+        r.dir_x[k] = d[0], r.dir_y[k] = d[1], r.dir_z[k] = d[2];
+        r.tfar[k] = std::numeric_limits<float>::infinity();
+      }
+      std::array<int, 16> v;
+      v.fill(-1);
+      if (reflections) {
+        api::Hit16 h;
+        s.intersect(nullptr, r, h);
+        for (int k = 0; k < 16; ++k) {
+          v[k] = h.id[k] >= 0 ? -1 : 0;
+          if (!v[k]) continue;
+          const float d[3] = {r.dir_x[k], r.dir_y[k], r.dir_z[k]};
+          const float n[3] = {h.ng_x[k], h.ng_y[k], h.ng_z[k]};
+          const float dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+          float* org[3] = {r.org_x, r.org_y, r.org_z};
+          float* dir[3] = {r.dir_x, r.dir_y, r.dir_z};
+          float m[3], len = 0;
+          for (int a = 0; a < 3; ++a) m[a] = d[a] - 2 * dn * n[a], len += m[a] * m[a];
+          for (int a = 0; a < 3; ++a) {
+            // Off the surface on the side the ray came from, well beyond the scene's epsilon.
+            org[a][k] += h.t[k] * d[a] + (dn < 0 ? 1e-3f : -1e-3f) * n[a];
+            dir[a][k] = m[a] / std::sqrt(len);
+          }
+        }
+      }
+      rays.push_back(r);
+      valid.push_back(v);
+    }
+  std::uint64_t traced = 0;
+  api::Hit16 h;
+  for (auto _ : state)
+    for (std::size_t p = 0; p < rays.size(); ++p) {
+      s.intersect(valid[p].data(), rays[p], h);
+      benchmark::DoNotOptimize(h.t);
+      for (int v : valid[p]) traced += v != 0;
+    }
+  state.SetItemsProcessed(static_cast<int64_t>(traced));
+  state.SetLabel(in.isa);
 }
 
 }  // namespace
@@ -127,6 +189,11 @@ int main(int argc, char** argv) {
         benchmark::RegisterBenchmark(("full_profiled/" + name + w).c_str(), profiled, s, width)
             ->Unit(benchmark::kMillisecond);
     }
+    for (const bool reflections : {false, true})
+      benchmark::RegisterBenchmark(
+          ("api_intersect16/" + name + (reflections ? "/reflections" : "/camera_tiles")).c_str(),
+          api_intersect, s, reflections)
+          ->Unit(benchmark::kMillisecond);
 #ifdef LANCER_WITH_EMBREE_BENCH
     register_embree_benchmarks(path);
 #endif

@@ -420,6 +420,27 @@ class Collapse {
 template <class T>
 constexpr double kPad = std::numeric_limits<T>::epsilon() * 256.0;
 
+// The scale a packet's spread is judged against (Bvh::coherent_spread): the root box's diagonal
+// and the median leaf box's.
+template <class T>
+void set_spread_scale(Bvh<T>& bvh, const Box<T>& all) {
+  auto diagonal = [](double x, double y, double z) { return std::sqrt(x * x + y * y + z * z); };
+  bvh.diagonal =
+      T(diagonal(double(all.hi[0]) - double(all.lo[0]), double(all.hi[1]) - double(all.lo[1]),
+                 double(all.hi[2]) - double(all.lo[2])));
+  std::vector<double> leaves;
+  for (const auto& nd : bvh.nodes)
+    for (int k = 0; k < nd.arity; ++k)
+      if (nd.count[k] > 0)
+        leaves.push_back(diagonal(double(nd.hi_x[k]) - double(nd.lo_x[k]),
+                                  double(nd.hi_y[k]) - double(nd.lo_y[k]),
+                                  double(nd.hi_z[k]) - double(nd.lo_z[k])));
+  if (leaves.empty()) return;
+  const auto mid = leaves.begin() + std::ptrdiff_t(leaves.size() / 2);
+  std::nth_element(leaves.begin(), mid, leaves.end());
+  bvh.coherent_spread = T(kCoherentLeaves * *mid);
+}
+
 }  // namespace
 
 template <class T>
@@ -471,6 +492,7 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
   Collapse<T> collapse(binary, bvh.nodes);
   collapse.node(0, 1);
   bvh.depth = collapse.deepest;
+  set_spread_scale(bvh, all);
   LANCER_CHECK((Bvh<T>::kWidth - 1) * bvh.depth + 1 <= Bvh<T>::kStack);
   bvh.build_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

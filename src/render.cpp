@@ -236,8 +236,11 @@ std::string walk_of(int lanes, int width) {
 
 std::string secondary_walk(const StructureInfo& st, int width) {
   if (width <= 1) return "one ray at a time (the reference)";
-  return "closest hits " + walk_of(st.one_ray_lanes, width) + "; shadow rays " +
-         walk_of(st.shadow_one_ray_lanes, width);
+  // Where closest hits go one ray at a time, a packet whose rays stay together walks whole
+  // (Bvh::coherent_spread).
+  return "closest hits " + walk_of(st.one_ray_lanes, width) +
+         (st.one_ray_lanes > 0 ? " (a packet whole where its rays stay together)" : "") +
+         "; shadow rays " + walk_of(st.shadow_one_ray_lanes, width);
 }
 
 struct PreparedRun::State {

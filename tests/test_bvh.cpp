@@ -420,19 +420,25 @@ TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
     auto prepared = prepare<float>(s, Accel::bvh);
     EXPECT_EQ(prepared.bvh.one_ray_lanes, 0);  // 1500 spheres: packets by default
     EXPECT_EQ(prepared.bvh.shadow_one_ray_lanes, kOneRayShadowLanes);
-    for (int lanes : {1, 2, 16}) {
-      prepared.bvh.one_ray_lanes = prepared.bvh.shadow_one_ray_lanes = lanes;
-      for (int w : testing::packet_widths(Precision::exact)) {
-        Image img(o.nx, o.ny);
-        RayCounts counts;
-        packet::kernels_for(w)->render_rows(prepared, img, 0, o.ny, counts);
-        const BitDiff d = bit_diff(truth.image, img);
-        EXPECT_TRUE(d.identical())
-            << "width " << w << ", one ray at " << lanes << " lanes: " << d.differing_pixels
-            << " pixels differ, first at (" << d.first_i << ", " << d.first_j << ")";
-        EXPECT_TRUE(counts == truth.rays) << "width " << w << ": other rays traced";
+    // Every packet apart (spread 0: the one-ray walks everywhere), and the scene's own choice,
+    // where packets whose rays stay together walk whole.
+    const float built_spread = prepared.bvh.coherent_spread;
+    for (const float spread : {0.0f, built_spread})
+      for (int lanes : {1, 2, 16}) {
+        prepared.bvh.one_ray_lanes = prepared.bvh.shadow_one_ray_lanes = lanes;
+        prepared.bvh.coherent_spread = spread;
+        for (int w : testing::packet_widths(Precision::exact)) {
+          Image img(o.nx, o.ny);
+          RayCounts counts;
+          packet::kernels_for(w)->render_rows(prepared, img, 0, o.ny, counts);
+          const BitDiff d = bit_diff(truth.image, img);
+          EXPECT_TRUE(d.identical())
+              << "width " << w << ", one ray at " << lanes << " lanes, spread " << spread << ": "
+              << d.differing_pixels << " pixels differ, first at (" << d.first_i << ", "
+              << d.first_j << ")";
+          EXPECT_TRUE(counts == truth.rays) << "width " << w << ": other rays traced";
+        }
       }
-    }
   }
 }
 
@@ -481,12 +487,13 @@ TEST(Bvh, SummaryReportsTheSecondaryWalkThatRan) {
   StructureInfo st;
   st.one_ray_lanes = 2, st.shadow_one_ray_lanes = 16;
   EXPECT_EQ(secondary_walk(st, 16),
-            "closest hits packets, one ray alone at 2 lanes or fewer, their walks interleaved; "
-            "shadow rays one ray at a time, 16 walks interleaved");
+            "closest hits packets, one ray alone at 2 lanes or fewer, their walks interleaved (a "
+            "packet whole where its rays stay together); shadow rays one ray at a time, 16 walks "
+            "interleaved");
   st.one_ray_lanes = kMaxLanes;
   EXPECT_EQ(secondary_walk(st, 8),
-            "closest hits one ray at a time, 8 walks interleaved; shadow rays one ray at a time, "
-            "8 walks interleaved");
+            "closest hits one ray at a time, 8 walks interleaved (a packet whole where its rays "
+            "stay together); shadow rays one ray at a time, 8 walks interleaved");
 }
 
 // lancer bench prepares a scene once and times many frames of it (PreparedRun): each frame, at

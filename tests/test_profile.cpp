@@ -151,6 +151,43 @@ TEST(Profile, OrthographicCameraRaysStayPackets) {
   }
 }
 
+// Where secondary rays go one at a time (from kOneRayMinSpheres spheres), a packet whose rays
+// stay together walks whole: the reflections of a flat mirror mostly do, those of a cloud of
+// spheres mostly do not. Below the threshold no packet is counted either way.
+TEST(Profile, SecondaryPacketsWalkWholeWhereTheirRaysStayTogether) {
+  generate::Options g;
+  // A row of 16 pixels must span a small angle: at 64x40 it spans a quarter of the view, and
+  // such packets diverge (over the structure's diagonal) as much as a cloud's reflections.
+  g.spheres = 10000, g.seed = 4, g.nx = 320, g.ny = 200;
+  const std::string matte_ground = R"("ground": {"color": [0.6, 0.6, 0.55], "ka": 0.1, "kd": 0.8})";
+  auto with = [&](std::string json, const std::string& from, const std::string& to) {
+    const std::size_t at = json.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return at == std::string::npos ? json : json.replace(at, from.size(), to);
+  };
+  std::string mirror = with(generate::scene_json(g), matte_ground,
+                            R"("ground": {"color": [0.6, 0.6, 0.55], "kd": 0.2, "reflect": 0.8})");
+  mirror = with(mirror, R"("max_depth": 0)", R"("max_depth": 2)");
+  g.reflect = 0.5;
+  const std::string cloud = generate::scene_json(g);
+  g.spheres = kOneRayMinSpheres - 1;
+  const std::string fewer = generate::scene_json(g);
+  for (int width : packet_widths()) {
+    SCOPED_TRACE("width " + std::to_string(width));
+    const ProfileResult pm = profile_render(parse_scene(mirror, "mirror"), width);
+    const auto& m = pm.stages[kReflection];
+    EXPECT_GT(m.walked_whole, 3 * m.walked_apart) << m.walked_apart << " apart";
+    const ProfileResult pc = profile_render(parse_scene(cloud, "cloud"), width);
+    const auto& c = pc.stages[kReflection];
+    EXPECT_GT(c.walked_apart, 3 * c.walked_whole) << c.walked_whole << " whole";
+    EXPECT_GT(c.walked_whole, 0u);
+    const ProfileResult pf = profile_render(parse_scene(fewer, "fewer"), width);
+    const auto& f = pf.stages[kReflection];
+    EXPECT_GT(f.rays, 0u);
+    EXPECT_EQ(f.walked_whole + f.walked_apart, 0u);
+  }
+}
+
 // The camera blocks' counts (primary mode's path): every block once, walked together or packet
 // by packet; inside the walks, a leaf call only after a tile's box test met it, with 1 to W
 // lanes, and every block that walked together tested the root at least.

@@ -26,6 +26,10 @@ inline constexpr int kBvhMinSpheres = 16;
 // (Benthin et al.'s hybrid; threshold measured on random clouds: docs/accel.md, "Secondary rays
 // one at a time" and "Lone walks interleaved").
 inline constexpr int kOneRayMinSpheres = 8192;
+// ... except a packet whose rays stay within about this many leaves of each other over the whole
+// structure (a flat mirror's reflections, camera-like rays through the library API): it walks
+// as a packet (Bvh::coherent_spread; measured 4 to 16 alike, docs/accel.md thirteenth round).
+inline constexpr int kCoherentLeaves = 8;
 // The shadow rays of secondary hits (exact float packets): from kOneRayShadowMinSpheres, a lane
 // goes on alone into a subtree no other lane of its packet enters (docs/accel.md, tenth round).
 // The camera hits' shadow rays, coherent, stay packets.
@@ -72,6 +76,11 @@ struct Bvh {
   int one_ray_lanes = 0;
   // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
   int shadow_one_ray_lanes = 0;
+  // Where secondary rays go one at a time, a packet whose live lanes stay together walks whole:
+  // the spread of their origins plus `diagonal` (the root box's) times the spread of their
+  // directions (the sides of the boxes around each) at most coherent_spread, kCoherentLeaves
+  // times the median leaf box's diagonal.
+  T diagonal = T(0), coherent_spread = T(0);
   double build_seconds = 0;
 
   // The binary tree's depth bound; every inner child of a wide node lies two binary levels down,

@@ -38,6 +38,9 @@ struct StageProfile {
   std::uint64_t last_tsc = 0;                       // the chain of laps; see Kernel::lap
   // Hierarchy leaves visited per stage and the lanes active in them (traversal occupancy).
   std::array<std::uint64_t, kStageCount> leaf_packets{}, leaf_lanes{};
+  // Secondary packets in a scene whose secondary rays go one at a time (Bvh::one_ray_lanes):
+  // those that walked whole (their rays stay together) and those that went lane by lane.
+  std::array<std::uint64_t, kStageCount> walked_whole{}, walked_apart{};
   int current = 0;  // the stage whose rays are being traced (set by Kernel::occupancy)
   // The camera blocks' walk (primary mode's path, Traversal::closest_coherent): blocks whose
   // tiles walked the hierarchy together or packet by packet (blocks on the image's centre
@@ -58,6 +61,9 @@ struct ProfileResult {
     double lane_occupancy = 0;             // mean active lanes / width over its packets
     double leaf_occupancy = 0;             // the same at the hierarchy's leaves (0: none)
     std::uint64_t leaves = 0;              // leaf visits by its packets
+    // Where its scene sends secondary rays one at a time: packets that walked the hierarchy
+    // whole (their rays stay together) and packets that went lane by lane (0 and 0 elsewhere).
+    std::uint64_t walked_whole = 0, walked_apart = 0;
     std::vector<std::uint64_t> histogram;  // packets by active lanes
   };
   int width = 0;

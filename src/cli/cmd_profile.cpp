@@ -49,6 +49,8 @@ void run_profile(const ProfileArgs& a) {
            {"leaf_visits", st.leaves},
            // No leaves visited (no hierarchy, or not this stage's): null.
            {"leaf_occupancy", st.leaves ? nlohmann::json(st.leaf_occupancy) : nlohmann::json()},
+           {"packets_walked_whole", st.walked_whole},
+           {"packets_walked_apart", st.walked_apart},
            {"lane_histogram", or_null(st.histogram)}});
     }
     const auto& cb = r.camera_blocks;
@@ -104,6 +106,15 @@ void run_profile(const ProfileArgs& a) {
       leaves = true;
       std::printf("  %-22s %12llu leaves %6.1f%%\n", st.name.c_str(), (unsigned long long)st.leaves,
                   100 * st.leaf_occupancy);
+    }
+  bool apart = false;
+  for (const auto& st : r.stages)
+    if (st.walked_whole + st.walked_apart) {
+      if (!apart)
+        std::printf("  secondary packets, one ray at a time unless their rays stay together\n");
+      apart = true;
+      std::printf("  %-22s %12llu whole %12llu lane by lane\n", st.name.c_str(),
+                  (unsigned long long)st.walked_whole, (unsigned long long)st.walked_apart);
     }
   std::printf("  %-22s %10.5f %6.1f%%   (stages add up to %.1f%% of the total)\n", "total",
               r.total_seconds, 100.0, r.total_seconds > 0 ? 100 * staged / r.total_seconds : 0);

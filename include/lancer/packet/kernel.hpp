@@ -152,6 +152,12 @@ struct Kernel {
       c.profile->leaf_lanes[c.profile->current] += count(m);
     }
   }
+  // A secondary packet that walked the hierarchy whole though its scene sends such rays one at a
+  // time (its rays stay together), or lane by lane.
+  static void walk_choice(RayCounts& c, bool whole) noexcept {
+    if constexpr (kProfile)
+      (whole ? c.profile->walked_whole : c.profile->walked_apart)[c.profile->current] += 1;
+  }
   static void tests(RayCounts& c, const M& m, bool sphere) noexcept {
     if constexpr (kProfile) (sphere ? c.profile->sphere_tests : c.profile->plane_tests) += count(m);
   }
@@ -388,22 +394,39 @@ struct Kernel {
                                        leaving);
     };
     // Exact float: where the scene says (Bvh::one_ray_lanes), secondary rays' lanes go on one
-    // ray at a time.
+    // ray at a time, unless they stay together.
     if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
       if (s.bvh.one_ray_lanes > 0 && !camera) {
-        auto walk = [&](auto padded) {
-          constexpr bool kPadded = decltype(padded)::value;
-          OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes, {}};
-          Tr::template closest<kPadded>(s.bvh, valid, o, d, best_t, leaf, one);
-        };
-        reach == 0 ? walk(std::false_type{}) : walk(std::true_type{});
-        return;
+        const bool whole = together(s, valid, o, d);
+        walk_choice(counts, whole);
+        if (!whole) {
+          auto walk = [&](auto padded) {
+            constexpr bool kPadded = decltype(padded)::value;
+            OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes, {}};
+            Tr::template closest<kPadded>(s.bvh, valid, o, d, best_t, leaf, one);
+          };
+          reach == 0 ? walk(std::false_type{}) : walk(std::true_type{});
+          return;
+        }
       }
     }
     if (reach == 0)
       Tr::template closest<false>(s.bvh, valid, o, d, best_t, leaf);
     else
       Tr::template closest<true>(s.bvh, valid, o, d, best_t, leaf);
+  }
+  // Whether a packet's live lanes stay together through the hierarchy (Bvh::coherent_spread):
+  // the spread of their origins plus that of their directions over the structure's diagonal.
+  // Coherent packets (a flat mirror's, camera rays through the library API) walk 2x faster
+  // whole than lane by lane at 65536 spheres; diverging ones 1.3x-1.5x slower.
+  [[gnu::noinline]] static bool together(const Scene& s, const M& valid, const V& o,
+                                         const V& d) noexcept {
+    auto span = [&](const B& x) { return Tr::live_span(valid, x); };
+    const T ox = span(o.x), oy = span(o.y), oz = span(o.z);
+    const T dx = span(d.x), dy = span(d.y), dz = span(d.z);
+    return std::sqrt(ox * ox + oy * oy + oz * oz) +
+               s.bvh.diagonal * std::sqrt(dx * dx + dy * dy + dz * dz) <=
+           s.bvh.coherent_spread;
   }
   // A packet's rays lane by lane, stored when a first lane goes on alone.
   struct LaneRays {

@@ -216,6 +216,13 @@ struct Traversal {
     return code;
   }
 
+  // The greatest of x's live lanes less the least (valid: some lane live).
+  static T live_span(const M& valid, const B& x) noexcept {
+    const M v[1] = {valid};
+    auto get = [&](int) { return x; };
+    return _mm_cvtss_f32(lane_bound<true, 1>(v, get)) - _mm_cvtss_f32(lane_bound<false, 1>(v, get));
+  }
+
   // The subtrees still to visit, with the lanes that met each one's box and where they entered
   // it.
   struct Stack {
