@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -23,6 +22,7 @@
 #include "lancer/profile.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
+#include "lancer/vec3.hpp"
 
 namespace {
 
@@ -99,18 +99,14 @@ void api_intersect(benchmark::State& state, const Scene* scene, bool reflections
         for (int k = 0; k < 16; ++k) {
           v[k] = h.id[k] >= 0 ? -1 : 0;
           if (!v[k]) continue;
-          const float d[3] = {r.dir_x[k], r.dir_y[k], r.dir_z[k]};
-          const float n[3] = {h.ng_x[k], h.ng_y[k], h.ng_z[k]};
-          const float dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
-          float* org[3] = {r.org_x, r.org_y, r.org_z};
-          float* dir[3] = {r.dir_x, r.dir_y, r.dir_z};
-          float m[3], len = 0;
-          for (int a = 0; a < 3; ++a) m[a] = d[a] - 2 * dn * n[a], len += m[a] * m[a];
-          for (int a = 0; a < 3; ++a) {
-            // Off the surface on the side the ray came from, well beyond the scene's epsilon.
-            org[a][k] += h.t[k] * d[a] + (dn < 0 ? 1e-3f : -1e-3f) * n[a];
-            dir[a][k] = m[a] / std::sqrt(len);
-          }
+          const Vec3<float> o{r.org_x[k], r.org_y[k], r.org_z[k]};
+          const Vec3<float> d{r.dir_x[k], r.dir_y[k], r.dir_z[k]};
+          const Vec3<float> n{h.ng_x[k], h.ng_y[k], h.ng_z[k]};
+          // Off the surface on the side the ray came from, well beyond the scene's epsilon.
+          const Vec3<float> p = along(o, d, h.t[k]) + n * (dot(d, n) < 0 ? 1e-3f : -1e-3f);
+          const Vec3<float> m = normalize(reflect(d, n));
+          r.org_x[k] = p.x, r.org_y[k] = p.y, r.org_z[k] = p.z;
+          r.dir_x[k] = m.x, r.dir_y[k] = m.y, r.dir_z[k] = m.z;
         }
       }
       rays.push_back(r);

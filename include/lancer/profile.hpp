@@ -61,10 +61,10 @@ struct ProfileResult {
     double lane_occupancy = 0;             // mean active lanes / width over its packets
     double leaf_occupancy = 0;             // the same at the hierarchy's leaves (0: none)
     std::uint64_t leaves = 0;              // leaf visits by its packets
+    std::vector<std::uint64_t> histogram;  // packets by active lanes
     // Where its scene sends secondary rays one at a time: packets that walked the hierarchy
     // whole (their rays stay together) and packets that went lane by lane (0 and 0 elsewhere).
     std::uint64_t walked_whole = 0, walked_apart = 0;
-    std::vector<std::uint64_t> histogram;  // packets by active lanes
   };
   int width = 0;
   std::string isa;
