@@ -1,11 +1,12 @@
 // Binned SAH build of the sphere hierarchy (include/lancer/bvh.hpp): top-down, up to 32 bins per
 // axis over the centroids, in-place partition of the spheres' boxes; large subtrees build as
-// parallel tasks (TBB) into preassigned node slots, so the result is the same for any thread count.
+// parallel tasks (TBB). The result is a function of the input only, the same for any thread count.
 #include "lancer/bvh.hpp"
 
 #include <tbb/task_group.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -53,7 +54,7 @@ namespace {
 // A node of the binary tree the build makes (then collapsed into Bvh<T>::Node): its two
 // children's boxes, references and counts (< 0: inner) as the wide node's, and its split axis.
 template <class T>
-struct BinaryNode {
+struct alignas(64) BinaryNode {  // one cache line: parallel tasks never write the same line
   T lo_x[2], hi_x[2], lo_y[2], hi_y[2], lo_z[2], hi_z[2];
   std::int32_t child[2];
   std::int16_t count[2];
@@ -112,21 +113,35 @@ constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
 constexpr int kParallelMin = 4096;      // subtrees at least this large build as parallel tasks
 static_assert(kMaxSahLeaf <= 127, "a wide node's counts are 8 bits");
 
-// Top-down binned SAH over prims_/idx_ (partitioned in place, in lockstep). Inner nodes go to
-// preassigned slots: a subtree over n spheres has at most n - 1 inner nodes, so the one over
-// [begin, end) whose node sits at slot s owns slots [s, s + n - 1): its left child's subtree
-// starts at s + 1, its right child's at s + (left count). Subtrees then build in parallel
-// without sharing anything, and the result is a function of the input only; compact() closes
-// the unused slots, keeping the depth-first (pre-)order.
+// Top-down binned SAH over prims_/idx_ (partitioned in place, in lockstep). Which spheres a
+// subtree holds depends on the input only; where its nodes sit in nodes_ depends on the tasks'
+// timing, and nothing reads that but the collapse, which follows the children from the root.
+// Each task takes node slots kChunk at a time from one count, so the used slots are dense: the
+// bound of n - 1 inner nodes (about three times what SAH trees use) is reserved, never touched.
 template <class T>
 class Builder {
  public:
   using Node = BinaryNode<T>;
-  Builder(std::vector<Prim<T>>& prims, std::vector<std::int32_t>& idx)
-      : prims_(prims),
-        idx_(idx),
-        nodes_(std::max<std::size_t>(1, prims.size() - 1)),
-        used_(nodes_.size(), 0) {}
+  static constexpr int kChunk = 64;
+  Builder(BigVector<Prim<T>>& prims, std::vector<std::int32_t>& idx)
+      : prims_(prims), idx_(idx), nodes_(capacity(prims.size())) {}
+
+  // A task's slots: [next, end) of its chunk.
+  struct Slots {
+    int next = 0, end = 0;
+  };
+  int take(Slots& s) {
+    if (s.next == s.end) {
+      s.next = count_.fetch_add(kChunk), s.end = s.next + kChunk;
+      LANCER_CHECK(std::size_t(s.end) <= nodes_.size());
+    }
+    return s.next++;
+  }
+  // Inner nodes (n - 1 at most) and every task's unused rest of a chunk: a task per subtree of
+  // at least kParallelMin spheres, so fewer than n / kParallelMin + 1 of them.
+  static std::size_t capacity(std::size_t n) {
+    return n + std::size_t(kChunk) * (n / std::size_t(kParallelMin) + 2);
+  }
 
   struct Split {
     int axis = -1, bin = -1, last = 0;  // last: the highest bin
@@ -137,7 +152,7 @@ class Builder {
 
   // The inner node at `slot` over [begin, end) (at least 2 spheres), split by `s` (axis < 0:
   // halved by index), and its two subtrees.
-  void inner(int slot, int begin, int end, Split s, int depth) {
+  void inner(Slots& slots, int slot, int begin, int end, Split s, int depth) {
     const int n = end - begin;
     int mid;
     Box<T> lc = Box<T>::empty(), rc = Box<T>::empty();  // the sides' centroid bounds
@@ -147,36 +162,41 @@ class Builder {
     } else {
       mid = partition(begin, end, s, lc, rc);
     }
-    Node& node = nodes_[std::size_t(slot)];
-    node.axis = std::max(0, s.axis);
-    used_[std::size_t(slot)] = 1;
-    auto left = [&] { child(slot, 0, slot + 1, begin, mid, s.left, lc, depth + 1); };
-    auto right = [&] { child(slot, 1, slot + (mid - begin), mid, end, s.right, rc, depth + 1); };
+    nodes_[std::size_t(slot)].axis = std::max(0, s.axis);
     if (mid - begin >= kParallelMin && end - mid >= kParallelMin) {
       tbb::task_group g;
-      g.run(left);
-      right();
+      g.run([&] {
+        Slots own;
+        child(own, slot, 0, begin, mid, s.left, lc, depth + 1);
+      });
+      child(slots, slot, 1, mid, end, s.right, rc, depth + 1);
       g.wait();
     } else {
-      left();
-      right();
+      child(slots, slot, 0, begin, mid, s.left, lc, depth + 1);
+      child(slots, slot, 1, mid, end, s.right, rc, depth + 1);
     }
   }
 
-  // Child k of the node at `parent`: a leaf or an inner node at slot `free`.
-  void child(int parent, int k, int free, int begin, int end, const Box<T>& box, const Box<T>& cbox,
-             int depth) {
+  // Child k of the node at `parent`: a leaf or an inner node.
+  void child(Slots& slots, int parent, int k, int begin, int end, const Box<T>& box,
+             const Box<T>& cbox, int depth) {
     Node& p = nodes_[std::size_t(parent)];
     set_box(p, k, box);
     const int n = end - begin;
+    if (depth > deepest_.load(std::memory_order_relaxed)) {
+      int seen = deepest_.load(std::memory_order_relaxed);
+      while (depth > seen && !deepest_.compare_exchange_weak(seen, depth)) {
+      }
+    }
     if (n <= kMaxLeaf) return leaf(p, k, begin, n);
     const Split s = depth < Bvh<T>::kMaxDepth - 40 ? best_split(begin, end, cbox) : Split{};
     // A small set that no split improves on stays a leaf.
     if (s.axis >= 0 && n <= kMaxSahLeaf &&
         s.cost + kTraversalCost * box.half_area() >= double(n) * box.half_area())
       return leaf(p, k, begin, n);
+    const int free = take(slots);
     p.child[k] = free, p.count[k] = -1;
-    inner(free, begin, end, s, depth);
+    inner(slots, free, begin, end, s, depth);
   }
 
   static void set_box(Node& p, int k, const Box<T>& b) {
@@ -288,36 +308,17 @@ class Builder {
     return mid;
   }
 
-  // The used slots in order (depth first, as a sequential build numbers them), into `out`.
-  int compact(std::vector<Node>& out) const {
-    std::vector<std::int32_t> to(nodes_.size(), -1), depth(nodes_.size(), 0);
-    std::int32_t next = 0;
-    for (std::size_t k = 0; k < nodes_.size(); ++k)
-      if (used_[k]) to[k] = next++;
-    out.clear();
-    out.reserve(std::size_t(next));
-    int deepest = 0;
-    for (std::size_t k = 0; k < nodes_.size(); ++k) {
-      if (!used_[k]) continue;
-      Node n = nodes_[k];
-      deepest = std::max(deepest, depth[k] + 1);
-      for (int c = 0; c < 2; ++c)
-        if (n.count[c] < 0) {
-          depth[std::size_t(n.child[c])] = depth[k] + 1;
-          n.child[c] = to[std::size_t(n.child[c])];
-        }
-      out.push_back(n);
-    }
-    return deepest;
-  }
-
   Node& node(int slot) { return nodes_[std::size_t(slot)]; }
+  const BigArray<Node>& nodes() const { return nodes_; }
+  int used() const { return count_.load(); }       // slots taken (some chunks' rests unused)
+  int deepest() const { return deepest_.load(); }  // binary depth (the root's children: 1)
 
  private:
-  std::vector<Prim<T>>& prims_;
+  BigVector<Prim<T>>& prims_;
   std::vector<std::int32_t>& idx_;
-  std::vector<Node> nodes_;
-  std::vector<char> used_;
+  BigArray<Node> nodes_;
+  std::atomic<int> count_{0};
+  alignas(64) std::atomic<int> deepest_{0};
 };
 
 // The binary tree collapsed into kWidth-wide nodes, in depth-first pre-order. A wide node over
@@ -328,7 +329,7 @@ template <class T>
 class Collapse {
  public:
   using Node = typename Bvh<T>::Node;
-  Collapse(const std::vector<BinaryNode<T>>& bin, std::vector<Node>& out) : bin_(bin), out_(out) {}
+  Collapse(const BigArray<BinaryNode<T>>& bin, BigVector<Node>& out) : bin_(bin), out_(out) {}
 
   // The wide node over binary node b at wide depth `depth`: returns its index.
   std::int32_t node(int b, int depth) {
@@ -410,8 +411,8 @@ class Collapse {
     }
   }
 
-  const std::vector<BinaryNode<T>>& bin_;
-  std::vector<Node>& out_;
+  const BigArray<BinaryNode<T>>& bin_;
+  BigVector<Node>& out_;
 };
 
 // Padding per unit of magnitude: 2^8 ulps of T, far above the rounding of the sphere test
@@ -428,7 +429,7 @@ void set_spread_scale(Bvh<T>& bvh, const Box<T>& all) {
   bvh.diagonal =
       T(diagonal(double(all.hi[0]) - double(all.lo[0]), double(all.hi[1]) - double(all.lo[1]),
                  double(all.hi[2]) - double(all.lo[2])));
-  std::vector<double> leaves;
+  BigVector<double> leaves;
   for (const auto& nd : bvh.nodes)
     for (int k = 0; k < nd.arity; ++k)
       if (nd.count[k] > 0)
@@ -459,7 +460,8 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
                       std::fabs(double(cz[std::size_t(i)])) + double(r[std::size_t(i)])});
   const double limit = 4.0 * reach;
   bvh.origin_limit = T(limit);
-  std::vector<Prim<T>> prims(static_cast<std::size_t>(n));
+  BigVector<Prim<T>> prims;
+  prims.reserve(std::size_t(n));  // written once below, not zeroed first
   Box<T> all = Box<T>::empty(), call = Box<T>::empty();
   for (int i = 0; i < n; ++i) {
     const std::size_t k = std::size_t(i);
@@ -467,30 +469,29 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
     const double rad = double(r[k]);
     const double big = std::max({std::fabs(c[0]), std::fabs(c[1]), std::fabs(c[2])});
     const double pad = kPad<T> * (limit + big + rad);
-    Box<T>& b = prims[k].box;
-    b.lo = V4<T>{T(c[0] - rad - pad), T(c[1] - rad - pad), T(c[2] - rad - pad), T(0)};
-    b.hi = V4<T>{T(c[0] + rad + pad), T(c[1] + rad + pad), T(c[2] + rad + pad), T(0)};
-    all.grow(b);
-    call.grow(prims[k].centroid());
+    prims.push_back({{V4<T>{T(c[0] - rad - pad), T(c[1] - rad - pad), T(c[2] - rad - pad), T(0)},
+                      V4<T>{T(c[0] + rad + pad), T(c[1] + rad + pad), T(c[2] + rad + pad), T(0)}}});
+    const Prim<T>& q = prims.back();
+    all.grow(q.box);
+    call.grow(q.centroid());
     order[k] = i;
   }
   Builder<T> builder(prims, order);
-  std::vector<BinaryNode<T>> binary;
-  int binary_depth = 1;
-  if (n == 1) {  // the root's child 0 holds the sphere, child 1 is empty
-    for (int k = 0; k < 2; ++k) Builder<T>::set_box(builder.node(0), k, all);
-    Builder<T>::leaf(builder.node(0), 0, 0, 1);
-    Builder<T>::leaf(builder.node(0), 1, 1, 0);
-    builder.node(0).axis = 0;
-    binary.assign(1, builder.node(0));
+  typename Builder<T>::Slots slots;
+  const int root = builder.take(slots);  // slot 0
+  // One sphere: the root's child 0 holds it, child 1 is empty.
+  if (n == 1) {
+    for (int k = 0; k < 2; ++k) Builder<T>::set_box(builder.node(root), k, all);
+    Builder<T>::leaf(builder.node(root), 0, 0, 1);
+    Builder<T>::leaf(builder.node(root), 1, 1, 0);
+    builder.node(root).axis = 0;
   } else {  // the root holds the two top subtrees' boxes, whatever their size
-    builder.inner(0, 0, n, builder.best_split(0, n, call), 0);
-    binary_depth = builder.compact(binary);
+    builder.inner(slots, root, 0, n, builder.best_split(0, n, call), 0);
   }
-  LANCER_CHECK(binary_depth < Bvh<T>::kMaxDepth);
-  bvh.nodes.reserve(binary.size() / 2 + 1);
-  Collapse<T> collapse(binary, bvh.nodes);
-  collapse.node(0, 1);
+  LANCER_CHECK(std::max(1, builder.deepest()) < Bvh<T>::kMaxDepth);
+  bvh.nodes.reserve(std::size_t(builder.used()) / 2 + 1);
+  Collapse<T> collapse(builder.nodes(), bvh.nodes);
+  collapse.node(root, 1);
   bvh.depth = collapse.deepest;
   set_spread_scale(bvh, all);
   LANCER_CHECK((Bvh<T>::kWidth - 1) * bvh.depth + 1 <= Bvh<T>::kStack);

@@ -8,6 +8,7 @@
 #include <type_traits>
 
 #include "lancer/formulas.hpp"
+#include "lancer/huge_pages.hpp"
 #include "lancer/prepared.hpp"
 
 namespace lancer {
@@ -91,10 +92,16 @@ void add_bvh(PreparedScene<T>& p) {
     h.one_ray_lanes = p.num_spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
     h.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
   }
-  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) v->resize(n);
+  // Fresh arrays, their pages advised as huge before the first write (lancer/huge_pages.hpp).
+  auto fresh = [n](auto& v) {
+    v.reserve(n);
+    advise_huge_pages(v.data(), n * sizeof(v[0]));
+  };
+  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) fresh(*v), v->resize(n);
   if (eye)
-    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) v->resize(n);
-  h.id = order;
+    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) fresh(*v), v->resize(n);
+  fresh(h.id);
+  h.id.assign(order.begin(), order.end());
   // A gather: each entry written once from its own sphere, so any split over threads gives the
   // same arrays. In parallel, as the build: at 2^20 spheres its random reads were a tenth of it.
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384),

@@ -8,12 +8,16 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <sstream>
+#include <string>
 #include <tuple>
 
 #include "lancer/bvh.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/huge_pages.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
@@ -549,6 +553,41 @@ TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
 TEST(Bvh, AccelOptionIsValidated) {
   EXPECT_EQ(parse_accel("bvh", "--accel"), Accel::bvh);
   EXPECT_THROW(parse_accel("kd", "--accel"), InputError);
+}
+
+// The hierarchy's large arrays: 2 MiB aligned, advised as huge pages (THPeligible in smaps,
+// where the kernel has transparent huge pages), usable, and freed; small ones are plain.
+TEST(HugePages, LargeArraysAreAlignedAndAdvised) {
+  const std::size_t n = (kHugePageBytes + 12345) / sizeof(float);
+  BigVector<float> big(n, 1.5f);
+  const auto at = reinterpret_cast<std::uintptr_t>(big.data());
+  EXPECT_EQ(at % kHugePageBytes, 0u) << std::hex << at;
+  big.back() = 2.5f;
+  EXPECT_EQ(big.front() + big.back(), 4.0f);
+  BigVector<Bvh<float>::Node> small(3);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(small.data()) % alignof(Bvh<float>::Node), 0u);
+
+  std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  std::getline(mode, modes);
+  if (modes.empty() || modes.find("[never]") != std::string::npos)
+    GTEST_SKIP() << "no transparent huge pages here: '" << modes << "'";
+  // The mapping holding the array, and its THPeligible line (kernels from 5.0 print it).
+  std::ifstream smaps("/proc/self/smaps");
+  std::string line, eligible;
+  bool inside = false;
+  while (std::getline(smaps, line)) {
+    unsigned long long lo = 0, hi = 0;
+    char dash = 0;
+    std::istringstream head(line);
+    if (head >> std::hex >> lo >> dash >> hi && dash == '-' && line.find(':') > line.find(' ')) {
+      inside = lo <= at && at < hi;
+    } else if (inside && line.rfind("THPeligible:", 0) == 0) {
+      eligible = line;
+    }
+  }
+  if (eligible.empty()) GTEST_SKIP() << "this kernel's smaps has no THPeligible";
+  EXPECT_NE(eligible.find('1'), std::string::npos) << eligible << " (THP: " << modes << ")";
 }
 
 }  // namespace
