@@ -1,6 +1,7 @@
 #include "lancer/huge_pages.hpp"
 
 #include <sys/mman.h>
+#include <unistd.h>
 
 #include <cstdint>
 
@@ -32,15 +33,19 @@ void* acquire_memory(std::size_t bytes, std::size_t align) {
   return p;
 }
 
-void advise_huge_pages(const void* p, std::size_t bytes) noexcept {
-#ifdef MADV_HUGEPAGE
+void prepare_pages(const void* p, std::size_t bytes) noexcept {
   const auto start = reinterpret_cast<std::uintptr_t>(p);
-  if (bytes < kHugePageBytes || start > std::uintptr_t(-1) - bytes) return;
+  if (bytes < kHugePageBytes || start > std::uintptr_t(-1) - 2 * kHugePageBytes - bytes) return;
+#ifdef MADV_HUGEPAGE
   const std::uintptr_t lo = round_up(start, kHugePageBytes);
   const std::uintptr_t hi = (start + bytes) / kHugePageBytes * kHugePageBytes;
   if (hi > lo) madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
-#else
-  (void)p, (void)bytes;
+#endif
+#ifdef MADV_POPULATE_WRITE
+  // One call for the pages a fault each would bring in (on a VM each fault is a costly exit).
+  const std::uintptr_t page = std::uintptr_t(sysconf(_SC_PAGESIZE));
+  const std::uintptr_t first = start / page * page, last = round_up(start + bytes, page);
+  madvise(reinterpret_cast<void*>(first), last - first, MADV_POPULATE_WRITE);
 #endif
 }
 

@@ -92,10 +92,11 @@ void add_bvh(PreparedScene<T>& p) {
     h.one_ray_lanes = p.num_spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
     h.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
   }
-  // Fresh arrays, their pages advised as huge before the first write (lancer/huge_pages.hpp).
+  // Fresh arrays, their pages huge and present before the first write (lancer/huge_pages.hpp):
+  // at one million spheres, 15 ms instead of 55 for these nine arrays on a VM.
   auto fresh = [n](auto& v) {
     v.reserve(n);
-    advise_huge_pages(v.data(), n * sizeof(v[0]));
+    prepare_pages(v.data(), n * sizeof(v[0]));
   };
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) fresh(*v), v->resize(n);
   if (eye)

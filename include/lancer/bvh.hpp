@@ -66,8 +66,8 @@ struct Bvh {
   static constexpr unsigned kSlotOrder = slot_order();
   BigVector<Node> nodes;  // nodes[0] is the root; empty: no hierarchy (plain loop)
   // The spheres in leaf order: centre, r^2, the eye's table (pinhole cameras) and object id.
-  // (Plain vectors, their pages advised by prepare(): with BigVector's type here GCC compiled the
-  // course scenes' AVX2 shading loop differently, 2% more instructions.)
+  // (Plain vectors, their pages prepared by prepare(): with BigVector's type here GCC compiled
+  // the course scenes' AVX2 shading loop differently, 2% more instructions.)
   std::vector<T> cx, cy, cz, r2, eye_fx, eye_fy, eye_fz, eye_c;
   std::vector<std::int32_t> id;
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
