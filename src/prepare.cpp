@@ -171,6 +171,24 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   p.max_depth = scene.max_depth;
   p.epsilon = T(scene.epsilon);
 
+  // Arrays of one entry per object (materials) or per sphere, each allocated once with its pages
+  // huge and present (lancer/huge_pages.hpp): at one million spheres these 22 arrays grew by
+  // doubling, each growth a copy into fresh pages, a fault per page.
+  const std::size_t objects = scene.spheres.size() + scene.planes.size();
+  auto sized = [](std::vector<T>& v, std::size_t n) {
+    v.reserve(n);
+    prepare_pages(v.data(), n * sizeof(T));
+  };
+  for (auto* v :
+       {&p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd, &p.mat_ks, &p.mat_shininess,
+        &p.mat_reflect, &p.mat_transmit, &p.mat_ior, &p.mat_inv_ior, &p.mat_shininess_int})
+    sized(*v, objects);
+  for (auto* v :
+       {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.sphere_r2, &p.sphere_inv_r})
+    sized(*v, scene.spheres.size());
+  if (!pc.orthographic)
+    for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) sized(*v, scene.spheres.size());
+
   auto add_material = [&](const Material& m) {
     p.mat_r.push_back(T(m.color.r));
     p.mat_g.push_back(T(m.color.g));
