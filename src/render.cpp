@@ -252,6 +252,10 @@ struct PreparedRun::State {
   std::unique_ptr<PreparedScene<double>> d;
 };
 
+StructureInfo PreparedRun::structure() const {
+  return state_->f ? structure_of(*state_->f) : structure_of(*state_->d);
+}
+
 PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
     : state_(std::make_unique<State>()) {
   State& st = *state_;

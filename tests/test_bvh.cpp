@@ -523,6 +523,12 @@ TEST(Bvh, PreparedRunFramesMatchOneShotRenders) {
       expect_same(one, second, "second frame, width " + std::to_string(w));
       EXPECT_EQ(first.width, w);
       EXPECT_EQ(first.structure.kind, "bvh");
+      // What bench reads without a frame: the frames' structure.
+      const StructureInfo st = prepared.structure();
+      EXPECT_EQ(st.kind, first.structure.kind);
+      EXPECT_EQ(st.nodes, first.structure.nodes);
+      EXPECT_EQ(st.bytes, first.structure.bytes);
+      EXPECT_EQ(st.build_seconds, first.structure.build_seconds);
       const PrimaryResult hits = render_primary_with_ids(s, opt);
       const PrimaryResult frame = prepared.primary(w, 2, true);
       EXPECT_EQ(hits.t, frame.t) << "width " << w;

@@ -104,6 +104,7 @@ class PreparedRun {
   // One frame at this width and thread count (0: auto), InputError as render().
   RenderResult render(int width, int threads) const;
   PrimaryResult primary(int width, int threads, bool ids = false) const;
+  StructureInfo structure() const;  // what the frames report, without running one
 
  private:
   struct State;
