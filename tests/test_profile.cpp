@@ -2,6 +2,7 @@
 // whole render.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 
 #include "lancer/compare.hpp"
@@ -19,12 +20,20 @@ using testing::packet_widths;
 TEST(Profile, StagesAddUpToTheTotal) {
   Scene s = load_scene(testing::source_path("scenes/lorenzi-reflections.json"));
   for (int width : packet_widths()) {
-    const ProfileResult r = profile_render(s, width);
-    double sum = 0;
-    for (const auto& st : r.stages) sum += st.seconds;
-    EXPECT_NEAR(sum / r.total_seconds, 1.0, 0.05) << "width " << width;
-    EXPECT_EQ(r.stages.size(), std::size_t(kStageCount));
-    EXPECT_GT(r.tests_per_ray, 0);
+    // A ratio of times: one preemption in an untimed part moves a run by a few percent on a
+    // loaded machine (0.946 once in 25 runs, 0.973-0.990 the others; the CI's ctest -j2 failed
+    // on 0.9498), so the run nearest 1 of up to three is judged.
+    double ratio = 0;
+    for (int run = 0; run < 3 && std::abs(ratio - 1.0) > 0.05; ++run) {
+      const ProfileResult r = profile_render(s, width);
+      double sum = 0;
+      for (const auto& st : r.stages) sum += st.seconds;
+      if (std::abs(sum / r.total_seconds - 1.0) < std::abs(ratio - 1.0))
+        ratio = sum / r.total_seconds;
+      EXPECT_EQ(r.stages.size(), std::size_t(kStageCount));
+      EXPECT_GT(r.tests_per_ray, 0);
+    }
+    EXPECT_NEAR(ratio, 1.0, 0.05) << "width " << width;
   }
 }
 
