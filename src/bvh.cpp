@@ -126,9 +126,10 @@ class Builder {
   Builder(BigVector<Prim<T>>& prims, std::vector<std::int32_t>& idx)
       : prims_(prims), idx_(idx), nodes_(capacity(prims.size())) {}
 
-  // A task's slots: [next, end) of its chunk.
+  // A task's slots: [next, end) of its chunk; and the deepest child depth it made (the root's
+  // children: 1), merged into its parent task's after it, so no shared state per node.
   struct Slots {
-    int next = 0, end = 0;
+    int next = 0, end = 0, deepest = 0;
   };
   int take(Slots& s) {
     if (s.next == s.end) {
@@ -165,12 +166,11 @@ class Builder {
     nodes_[std::size_t(slot)].axis = std::max(0, s.axis);
     if (mid - begin >= kParallelMin && end - mid >= kParallelMin) {
       tbb::task_group g;
-      g.run([&] {
-        Slots own;
-        child(own, slot, 0, begin, mid, s.left, lc, depth + 1);
-      });
+      Slots own;
+      g.run([&] { child(own, slot, 0, begin, mid, s.left, lc, depth + 1); });
       child(slots, slot, 1, mid, end, s.right, rc, depth + 1);
       g.wait();
+      slots.deepest = std::max(slots.deepest, own.deepest);
     } else {
       child(slots, slot, 0, begin, mid, s.left, lc, depth + 1);
       child(slots, slot, 1, mid, end, s.right, rc, depth + 1);
@@ -183,11 +183,7 @@ class Builder {
     Node& p = nodes_[std::size_t(parent)];
     set_box(p, k, box);
     const int n = end - begin;
-    if (depth > deepest_.load(std::memory_order_relaxed)) {
-      int seen = deepest_.load(std::memory_order_relaxed);
-      while (depth > seen && !deepest_.compare_exchange_weak(seen, depth)) {
-      }
-    }
+    slots.deepest = std::max(slots.deepest, depth);
     if (n <= kMaxLeaf) return leaf(p, k, begin, n);
     const Split s = depth < Bvh<T>::kMaxDepth - 40 ? best_split(begin, end, cbox) : Split{};
     // A small set that no split improves on stays a leaf.
@@ -310,15 +306,13 @@ class Builder {
 
   Node& node(int slot) { return nodes_[std::size_t(slot)]; }
   const BigArray<Node>& nodes() const { return nodes_; }
-  int used() const { return count_.load(); }       // slots taken (some chunks' rests unused)
-  int deepest() const { return deepest_.load(); }  // binary depth (the root's children: 1)
+  int used() const { return count_.load(); }  // slots taken (some chunks' rests unused)
 
  private:
   BigVector<Prim<T>>& prims_;
   std::vector<std::int32_t>& idx_;
   BigArray<Node> nodes_;
   std::atomic<int> count_{0};
-  alignas(64) std::atomic<int> deepest_{0};
 };
 
 // The binary tree collapsed into kWidth-wide nodes, in depth-first pre-order. A wide node over
@@ -488,7 +482,7 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
   } else {  // the root holds the two top subtrees' boxes, whatever their size
     builder.inner(slots, root, 0, n, builder.best_split(0, n, call), 0);
   }
-  LANCER_CHECK(std::max(1, builder.deepest()) < Bvh<T>::kMaxDepth);
+  LANCER_CHECK(std::max(1, slots.deepest) < Bvh<T>::kMaxDepth);
   bvh.nodes.reserve(std::size_t(builder.used()) / 2 + 1);
   Collapse<T> collapse(builder.nodes(), bvh.nodes);
   collapse.node(root, 1);

@@ -35,7 +35,7 @@ void* acquire_memory(std::size_t bytes, std::size_t align) {
 
 void prepare_pages(const void* p, std::size_t bytes) noexcept {
   const auto start = reinterpret_cast<std::uintptr_t>(p);
-  if (bytes < kHugePageBytes || start > std::uintptr_t(-1) - 2 * kHugePageBytes - bytes) return;
+  if (bytes < kHugePageBytes) return;
 #ifdef MADV_HUGEPAGE
   const std::uintptr_t lo = round_up(start, kHugePageBytes);
   const std::uintptr_t hi = (start + bytes) / kHugePageBytes * kHugePageBytes;

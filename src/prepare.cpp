@@ -94,14 +94,11 @@ void add_bvh(PreparedScene<T>& p) {
   }
   // Fresh arrays, their pages huge and present before the first write (lancer/huge_pages.hpp):
   // at one million spheres, 15 ms instead of 55 for these nine arrays on a VM.
-  auto fresh = [n](auto& v) {
-    v.reserve(n);
-    prepare_pages(v.data(), n * sizeof(v[0]));
-  };
-  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) fresh(*v), v->resize(n);
+  for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) reserve_prepared(*v, n), v->resize(n);
   if (eye)
-    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c}) fresh(*v), v->resize(n);
-  fresh(h.id);
+    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c})
+      reserve_prepared(*v, n), v->resize(n);
+  reserve_prepared(h.id, n);
   h.id.assign(order.begin(), order.end());
   // A gather: each entry written once from its own sphere, so any split over threads gives the
   // same arrays. In parallel, as the build: at 2^20 spheres its random reads were a tenth of it.
@@ -175,19 +172,16 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   // huge and present (lancer/huge_pages.hpp): at one million spheres these 22 arrays grew by
   // doubling, each growth a copy into fresh pages, a fault per page.
   const std::size_t objects = scene.spheres.size() + scene.planes.size();
-  auto sized = [](std::vector<T>& v, std::size_t n) {
-    v.reserve(n);
-    prepare_pages(v.data(), n * sizeof(T));
-  };
+  const std::size_t spheres = scene.spheres.size();
   for (auto* v :
        {&p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd, &p.mat_ks, &p.mat_shininess,
         &p.mat_reflect, &p.mat_transmit, &p.mat_ior, &p.mat_inv_ior, &p.mat_shininess_int})
-    sized(*v, objects);
+    reserve_prepared(*v, objects);
   for (auto* v :
        {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.sphere_r2, &p.sphere_inv_r})
-    sized(*v, scene.spheres.size());
+    reserve_prepared(*v, spheres);
   if (!pc.orthographic)
-    for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) sized(*v, scene.spheres.size());
+    for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) reserve_prepared(*v, spheres);
 
   auto add_material = [&](const Material& m) {
     p.mat_r.push_back(T(m.color.r));

@@ -27,6 +27,13 @@ void release_memory(void* p, std::size_t bytes, std::size_t align) noexcept;
 // refuses it, the pages come as they would have.
 void prepare_pages(const void* p, std::size_t bytes) noexcept;
 
+// v.reserve(n), its buffer's pages prepared for the n elements about to be written.
+template <class Vector>
+void reserve_prepared(Vector& v, std::size_t n) {
+  v.reserve(n);
+  prepare_pages(v.data(), n * sizeof(typename Vector::value_type));
+}
+
 // A standard allocator over acquire_memory: std::vector<T, HugePageAllocator<T>> is a vector
 // whose large buffers sit on huge pages where the system has them (a plain mapping elsewhere).
 template <class T>
