@@ -10,6 +10,7 @@
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/profile.hpp"
+#include "lancer/render.hpp"
 #include "support/test_util.hpp"
 
 namespace lancer {
@@ -219,6 +220,37 @@ TEST(Profile, CameraBlocksAreCountedOnTheirPath) {
     EXPECT_LE(b.leaf_lanes, b.leaf_calls * std::uint64_t(width));
     EXPECT_EQ(r.camera_blocks.rays, std::uint64_t(s.camera.nx) * std::uint64_t(s.camera.ny));
     EXPECT_DOUBLE_EQ(r.camera_blocks.nodes, double(b.nodes) / double(b.together));
+  }
+}
+
+// Blocks on the image's centre lines: looking straight down -z at 48x24 pixels, x changes sign
+// between columns 23 and 24 and y between rows 11 and 12, tile boundaries at widths 16 and 8,
+// inside blocks (32x8 at width 16: both lines; 8x8 at width 8: the row). There each side's
+// tiles walk the hierarchy together (each tile's own interval), so no packet walks alone; at
+// width 4 (one interval per block) the straddled blocks' packets do. Hits as the plain loop's.
+TEST(Profile, CentreLineBlocksWalkTogetherBySide) {
+  generate::Options g;
+  g.spheres = 2048, g.seed = 5, g.nx = 48, g.ny = 24;
+  Scene s = parse_scene(generate::scene_json(g), "cloud");
+  s.camera.direction = {0, 0, -1};
+  RenderOptions po;
+  po.width = 1, po.accel = Accel::none;
+  const PrimaryResult plain = render_primary_with_ids(s, po);
+  int hits = 0;
+  for (float id : plain.id) hits += id >= 0 && id < 2048;
+  EXPECT_GT(hits, 100);
+  for (int width : packet_widths()) {
+    SCOPED_TRACE("width " + std::to_string(width));
+    const auto& b = profile_render(s, width).camera_blocks.totals;
+    if (width == 4)
+      EXPECT_GT(b.alone, 0u);
+    else
+      EXPECT_EQ(b.alone, 0u);
+    EXPECT_GT(b.together, 0u);
+    po.width = width, po.accel = Accel::bvh;
+    const PrimaryResult tree = render_primary_with_ids(s, po);
+    EXPECT_EQ(plain.t, tree.t);
+    EXPECT_EQ(plain.id, tree.id);
   }
 }
 

@@ -43,8 +43,9 @@ struct StageProfile {
   std::array<std::uint64_t, kStageCount> walked_whole{}, walked_apart{};
   int current = 0;  // the stage whose rays are being traced (set by Kernel::occupancy)
   // The camera blocks' walk (primary mode's path, Traversal::closest_coherent): blocks whose
-  // tiles walked the hierarchy together or packet by packet (blocks on the image's centre
-  // lines), and in the walks together: inner nodes tested, leaves popped, tile-by-leaf box
+  // tiles walked the hierarchy together (on the image's centre lines, one walk per side, a tile
+  // a line crosses alone) or packet by packet (width 4's blocks on the centre lines, double
+  // precision), and in the walks together: inner nodes tested, leaves popped, tile-by-leaf box
   // tests, leaf calls and the lanes live in them. block_w x block_h: the blocks' pixels.
   struct Blocks {
     std::uint64_t together = 0, alone = 0, nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0,

@@ -439,56 +439,79 @@ struct Traversal {
   }
 
  public:
+  // Camera blocks of kN packets: each tile's interval, several in one register (Tiles16 at
+  // width 16, Tiles8 at width 8 with fused fmsub), or else the block's one interval (Block4).
+  template <int kN>
+  static constexpr bool kTiles16 = kN % 4 == 0 && kAvx512<Arch>;
+  template <int kN>
+  static constexpr bool kTiles8 = B::size == 8 && kN % 2 == 0 && kFusedFmsub<Arch>;
+
   // kN camera packets at once (tiles side by side): leaf(i, first, count, mask) tests leaf-order
-  // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i]. Where
-  // every live lane of every packet agrees in sign on every axis, the packets walk the hierarchy
-  // together (closest_tiles): a node costs one interval test for several tiles; else each
-  // packet walks alone. Packets without live lanes take no part.
-  // count: a NoWalkCount's interface, told of each block, node test, leaf pop, tile-by-leaf box
-  // test and leaf call.
+  // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i].
+  // Packets whose live lanes agree in sign on every axis walk the hierarchy together
+  // (closest_tiles): a node costs one interval test for several tiles; a packet whose lanes
+  // do not walks alone. Packets without live lanes take no part.
+  // count: a NoWalkCount's interface, told of each block (whether any of its packets walked
+  // together), node test, leaf pop, tile-by-leaf box test and leaf call.
   template <int kN, class Leaf, class Count = NoWalkCount>
   static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
                                const B* best_t, Leaf&& leaf, Count count = {}) noexcept {
     Ray r[kN];
-    unsigned live[kN], neg[3] = {}, pos[3] = {};
+    unsigned live[kN], code[kN];
+    constexpr unsigned kMixed = 8;  // a packet whose live lanes differ in sign on some axis
     int first = -1;
+    unsigned packets = 0;  // the live ones
     for (int i = 0; i < kN; ++i) {
       live[i] = lane_bits(valid[i]);
       if (!live[i]) continue;
       if (first < 0) first = i;
+      packets |= 1u << i;
       slab_ray<false>(r[i], o[i], d[i]);
+      unsigned neg[3] = {}, pos[3] = {};
       add_signs(r[i], live[i], neg, pos);
+      code[i] =
+          (neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2])
+              ? kMixed
+              : unsigned(neg[0] != 0) | unsigned(neg[1] != 0) << 1 | unsigned(neg[2] != 0) << 2;
     }
     if (first < 0) return;
+    unsigned alone = packets;  // the packets that walk by themselves
     if constexpr (std::is_same_v<T, float>) {
-      if (!((neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2]))) {
-        // One sign per axis over the block: one slab form for every packet. A packet without
-        // live lanes takes the first one's ray: its lanes, all outside `valid`, then take part
-        // in no bound and no leaf (closest_tiles does not branch on liveness).
-        for (int a = 0; a < 3; ++a) r[first].neg[a] = neg[a] != 0;
-        set_planes(r[first]);  // every packet's (closest_tiles reads only the first's)
+      // Packets of one sign per axis walk together. With each tile's own interval (widths 16
+      // and 8) a block on the image's centre lines, whose tiles lie on both sides of them, walks
+      // once per side, and a tile the line crosses walks alone; the block's one interval (width
+      // 4) is loose there (the reciprocals of near-zero directions spread widely), so its tiles
+      // all walk alone, as every block's did before the sides walked apart (fifteenth round).
+      alone = 0;
+      for (int i = 0; i < kN; ++i)
+        if (live[i] && code[i] == kMixed) alone |= 1u << i;
+      if constexpr (!(kTiles16<kN> || kTiles8<kN>))
         for (int i = 0; i < kN; ++i)
-          if (!live[i]) r[i] = r[first];
-        // Widths 16 and 8: each tile's interval, several in one register; width 4: the block's.
-        constexpr bool k16 = kAvx512<Arch> && kN % 4 == 0;
-        constexpr bool k8 = B::size == 8 && kFusedFmsub<Arch> && kN % 2 == 0;
-        unsigned packets = 0;
-        bool full = true;
-        for (int i = 0; i < kN; ++i)
-          packets |= unsigned(live[i] != 0) << i, full = full && live[i] == (1u << B::size) - 1;
-        count.block(true);
-        if constexpr (k16 || k8) {
-          using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
-          using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
-          if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf, count);
-          return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf, count);
+          if (live[i] && code[i] != code[first]) alone = packets;
+      // A packet without live lanes takes the first one's ray: its lanes, all outside `valid`,
+      // then take part in no bound and no leaf (closest_tiles does not branch on liveness).
+      for (int i = 0; i < kN; ++i)
+        if (!live[i]) r[i] = r[first];
+      for (unsigned todo = packets & ~alone; todo;) {
+        const int f = __builtin_ctz(todo);
+        unsigned side = 0;  // the packets of f's signs
+        for (unsigned t = todo; t; t &= t - 1)
+          if (code[__builtin_ctz(t)] == code[f]) side |= 1u << __builtin_ctz(t);
+        todo &= ~side;
+        for (int a = 0; a < 3; ++a) r[f].neg[a] = (code[f] >> a & 1u) != 0;
+        set_planes(r[f]);  // closest_tiles reads only the first packet's planes
+        if (side == packets) {
+          closest_block<kN>(h, valid, r, f, side, best_t, leaf, count);
+        } else {  // the other packets take part in no bound
+          M in_side[kN];
+          for (int i = 0; i < kN; ++i) in_side[i] = side >> i & 1u ? valid[i] : M(false);
+          closest_block<kN>(h, in_side, r, f, side, best_t, leaf, count);
         }
-        return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf, count);
       }
     }
-    count.block(false);
-    for (int i = 0; i < kN; ++i) {
-      if (!live[i]) continue;
+    count.block(alone != packets);  // some of its packets walked together
+    for (unsigned t = alone; t; t &= t - 1) {
+      const int i = __builtin_ctz(t);
       auto one = [&](std::int32_t f, std::int32_t c, const M& m) { leaf(i, f, c, m); };
       if (same_signs(r[i], valid[i]))
         closest_with<Slab::signed_>(h, valid[i], r[i], d[i], best_t[i], one);
@@ -497,6 +520,24 @@ struct Traversal {
     }
   }
 
+ private:
+  // The tiles `packets` (one sign per axis, the planes of packet `first`) walk together.
+  template <int kN, class Leaf, class Count>
+  static void closest_block(const Bvh<T>& h, const M* valid, const Ray* r, int first,
+                            unsigned packets, const B* best_t, Leaf& leaf, Count count) noexcept {
+    constexpr bool k16 = kTiles16<kN>, k8 = kTiles8<kN>;
+    bool full = true;
+    for (int i = 0; i < kN; ++i) full = full && lane_bits(valid[i]) == (1u << B::size) - 1;
+    if constexpr (k16 || k8) {
+      using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
+      using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
+      if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf, count);
+      return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf, count);
+    }
+    return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf, count);
+  }
+
+ public:
   // leaf(first, count, mask) -> the lanes still pending after that leaf (of `mask`'s and the
   // others). Returns the lanes of `valid` still pending at the end. one(lanes, child, count,
   // pending) -> pending: where at most one.limit pending lanes go on into a subtree, walks it
