@@ -457,8 +457,7 @@ struct Traversal {
   static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
                                const B* best_t, Leaf&& leaf, Count count = {}) noexcept {
     Ray r[kN];
-    unsigned live[kN], code[kN];
-    constexpr unsigned kMixed = 8;  // a packet whose live lanes differ in sign on some axis
+    unsigned live[kN], neg[3] = {}, pos[3] = {};
     int first = -1;
     unsigned packets = 0;  // the live ones
     for (int i = 0; i < kN; ++i) {
@@ -467,47 +466,30 @@ struct Traversal {
       if (first < 0) first = i;
       packets |= 1u << i;
       slab_ray<false>(r[i], o[i], d[i]);
-      unsigned neg[3] = {}, pos[3] = {};
       add_signs(r[i], live[i], neg, pos);
-      code[i] =
-          (neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2])
-              ? kMixed
-              : unsigned(neg[0] != 0) | unsigned(neg[1] != 0) << 1 | unsigned(neg[2] != 0) << 2;
     }
     if (first < 0) return;
     unsigned alone = packets;  // the packets that walk by themselves
     if constexpr (std::is_same_v<T, float>) {
-      // Packets of one sign per axis walk together. With each tile's own interval (widths 16
-      // and 8) a block on the image's centre lines, whose tiles lie on both sides of them, walks
-      // once per side, and a tile the line crosses walks alone; the block's one interval (width
-      // 4) is loose there (the reciprocals of near-zero directions spread widely), so its tiles
-      // all walk alone, as every block's did before the sides walked apart (fifteenth round).
-      alone = 0;
-      for (int i = 0; i < kN; ++i)
-        if (live[i] && code[i] == kMixed) alone |= 1u << i;
-      if constexpr (!(kTiles16<kN> || kTiles8<kN>))
-        for (int i = 0; i < kN; ++i)
-          if (live[i] && code[i] != code[first]) alone = packets;
       // A packet without live lanes takes the first one's ray: its lanes, all outside `valid`,
       // then take part in no bound and no leaf (closest_tiles does not branch on liveness).
       for (int i = 0; i < kN; ++i)
         if (!live[i]) r[i] = r[first];
-      for (unsigned todo = packets & ~alone; todo;) {
-        const int f = __builtin_ctz(todo);
-        unsigned side = 0;  // the packets of f's signs
-        for (unsigned t = todo; t; t &= t - 1)
-          if (code[__builtin_ctz(t)] == code[f]) side |= 1u << __builtin_ctz(t);
-        todo &= ~side;
-        for (int a = 0; a < 3; ++a) r[f].neg[a] = (code[f] >> a & 1u) != 0;
-        set_planes(r[f]);  // closest_tiles reads only the first packet's planes
-        if (side == packets) {
-          closest_block<kN>(h, valid, r, f, side, best_t, leaf, count);
-        } else {  // the other packets take part in no bound
-          M in_side[kN];
-          for (int i = 0; i < kN; ++i) in_side[i] = side >> i & 1u ? valid[i] : M(false);
-          closest_block<kN>(h, in_side, r, f, side, best_t, leaf, count);
-        }
+      if (!((neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2]))) {
+        // One sign per axis over the block: one slab form for every packet.
+        for (int a = 0; a < 3; ++a) r[first].neg[a] = neg[a] != 0;
+        set_planes(r[first]);  // every packet's (closest_tiles reads only the first's)
+        bool full = true;
+        for (int i = 0; i < kN; ++i) full = full && live[i] == (1u << B::size) - 1;
+        count.block(true);
+        return closest_block<kN>(h, valid, r, first, packets, full, best_t, leaf, count);
       }
+      // A block on the image's centre lines. With each tile's own interval (widths 16 and 8)
+      // the tiles on each side of the lines walk together, a tile a line crosses alone; the
+      // block's one interval (width 4) is loose there (the reciprocals of near-zero directions
+      // spread widely: 8% slower at 65536 spheres), so every packet walks alone.
+      if constexpr (kTiles16<kN> || kTiles8<kN>)
+        alone = walk_sides<kN>(h, valid, r, packets, best_t, leaf, count);
     }
     count.block(alone != packets);  // some of its packets walked together
     for (unsigned t = alone; t; t &= t - 1) {
@@ -521,13 +503,47 @@ struct Traversal {
   }
 
  private:
+  // The live packets of a block whose lanes differ in sign on some axis, by their own signs:
+  // those of one sign per axis walk together, one walk per combination of signs (per side of
+  // the image's centre lines). Returns the packets whose own lanes differ in sign, which are
+  // left to walk alone.
+  template <int kN, class Leaf, class Count>
+  static unsigned walk_sides(const Bvh<T>& h, const M* valid, Ray* r, unsigned packets,
+                             const B* best_t, Leaf& leaf, Count count) noexcept {
+    constexpr unsigned kMixed = 8;
+    unsigned code[kN], alone = 0;
+    for (unsigned t = packets; t; t &= t - 1) {
+      const int i = __builtin_ctz(t);
+      unsigned neg[3] = {}, pos[3] = {};
+      add_signs(r[i], lane_bits(valid[i]), neg, pos);
+      code[i] =
+          (neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2])
+              ? kMixed
+              : unsigned(neg[0] != 0) | unsigned(neg[1] != 0) << 1 | unsigned(neg[2] != 0) << 2;
+      if (code[i] == kMixed) alone |= 1u << i;
+    }
+    for (unsigned todo = packets & ~alone; todo;) {
+      const int f = __builtin_ctz(todo);
+      unsigned side = 0;  // the packets of f's signs
+      for (unsigned t = todo; t; t &= t - 1)
+        if (code[__builtin_ctz(t)] == code[f]) side |= 1u << __builtin_ctz(t);
+      todo &= ~side;
+      for (int a = 0; a < 3; ++a) r[f].neg[a] = (code[f] >> a & 1u) != 0;
+      set_planes(r[f]);  // closest_tiles reads only the first packet's planes
+      M in_side[kN];     // the other packets take part in no bound
+      for (int i = 0; i < kN; ++i) in_side[i] = side >> i & 1u ? valid[i] : M(false);
+      closest_block<kN>(h, in_side, r, f, side, false, best_t, leaf, count);
+    }
+    return alone;
+  }
+
   // The tiles `packets` (one sign per axis, the planes of packet `first`) walk together.
   template <int kN, class Leaf, class Count>
+  // full: every lane of every packet live.
   static void closest_block(const Bvh<T>& h, const M* valid, const Ray* r, int first,
-                            unsigned packets, const B* best_t, Leaf& leaf, Count count) noexcept {
+                            unsigned packets, bool full, const B* best_t, Leaf& leaf,
+                            Count count) noexcept {
     constexpr bool k16 = kTiles16<kN>, k8 = kTiles8<kN>;
-    bool full = true;
-    for (int i = 0; i < kN; ++i) full = full && lane_bits(valid[i]) == (1u << B::size) - 1;
     if constexpr (k16 || k8) {
       using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
       using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
