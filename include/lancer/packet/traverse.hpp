@@ -66,6 +66,19 @@ inline constexpr PushTables kPush = push_tables();
 
 // What the camera blocks' walk tells a counter (lancer profile's camera blocks): the default
 // counts nothing and compiles to nothing.
+// The camera tiles' register of kBytes bytes (Traversal::TileBounds), named here rather than as
+// a template argument, which would drop the vector type's attributes (-Wignored-attributes).
+template <int kBytes>
+struct TileReg;
+template <>
+struct TileReg<32> {
+  using type = __m256;
+};
+template <>
+struct TileReg<64> {
+  using type = __m512;
+};
+
 struct NoWalkCount {
   void block(bool /*together*/) const noexcept {}
   void node() const noexcept {}
@@ -725,10 +738,12 @@ struct Traversal {
     return xsimd::select(valid[p], get(p), fill);
   }
 
-  // What Tiles16 and Tiles8 (L) share: per register g, each tile's bounds (L::bound) of its
-  // reciprocals, its o * inv and its best t, and the greatest of the best t (L::greatest).
-  template <class L, class F, int kG>
+  // What Tiles16 and Tiles8 (L) share: per register g (kBytes bytes: F), each tile's bounds
+  // (L::bound) of its reciprocals, its o * inv and its best t, and the greatest of the best t
+  // (L::greatest).
+  template <class L, int kBytes, int kG>
   struct TileBounds {
+    using F = typename TileReg<kBytes>::type;
     struct Axes {
       F inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
     } f[kG];
@@ -760,11 +775,11 @@ struct Traversal {
 
   // Width 16: kG zmm of four 4x4 tiles each.
   template <int kG, bool kFull>
-  struct Tiles16 : TileBounds<Tiles16<kG, kFull>, __m512, kG> {
+  struct Tiles16 : TileBounds<Tiles16<kG, kFull>, 64, kG> {
     using F16 = __m512;
-    using TileBounds<Tiles16, F16, kG>::TileBounds;
-    using TileBounds<Tiles16, F16, kG>::f;
-    using TileBounds<Tiles16, F16, kG>::tmax;
+    using TileBounds<Tiles16, 64, kG>::TileBounds;
+    using TileBounds<Tiles16, 64, kG>::f;
+    using TileBounds<Tiles16, 64, kG>::tmax;
     static constexpr bool kPerTile = true;  // a child goes on with the tiles that meet it
     // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction
     // (two packets' halves folded in one operation, then their quarters, then within quarters).
@@ -844,11 +859,11 @@ struct Traversal {
 
   // Width 8 (AVX2): kG ymm of two 4x2 tiles each.
   template <int kG, bool kFull>
-  struct Tiles8 : TileBounds<Tiles8<kG, kFull>, __m256, kG> {
+  struct Tiles8 : TileBounds<Tiles8<kG, kFull>, 32, kG> {
     using F8 = __m256;
-    using TileBounds<Tiles8, F8, kG>::TileBounds;
-    using TileBounds<Tiles8, F8, kG>::f;
-    using TileBounds<Tiles8, F8, kG>::tmax;
+    using TileBounds<Tiles8, 32, kG>::TileBounds;
+    using TileBounds<Tiles8, 32, kG>::f;
+    using TileBounds<Tiles8, 32, kG>::tmax;
     static constexpr bool kPerTile = true;
     // Of tiles 2g and 2g + 1: the least (kMax: greatest) in lanes 0-3 and 4-7.
     template <bool kMax, class Get>
