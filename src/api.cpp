@@ -209,11 +209,11 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
       Vec3<T> n;
       if (id < s.num_spheres) {
         const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
-        const Vec3<T> c{s.sphere_cx[id], s.sphere_cy[id], s.sphere_cz[id]};
+        const Vec3<T> centre{s.sphere_cx[id], s.sphere_cy[id], s.sphere_cz[id]};
         const T r2 = s.sphere_r2[id], m = hit_magnitude(o, ch.t[l]);
-        n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], c, r2).normal
-            : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], c, r2, m).normal
-                                     : sphere_point_along<T>(o, d, ch.t[l], c, m).normal;
+        n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], centre, r2).normal
+            : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], centre, r2, m).normal
+                                     : sphere_point_along<T>(o, d, ch.t[l], centre, m).normal;
       } else {
         const int q = id - s.num_spheres;
         n = {s.plane_nx[q], s.plane_ny[q], s.plane_nz[q]};

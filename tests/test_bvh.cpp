@@ -209,7 +209,9 @@ TEST(Bvh, ReferenceClosestHitMatchesThePlainLoop) {
     const auto a = reference::closest_hit(plain, origin, dir);
     const auto b = reference::closest_hit(tree, origin, dir);
     ASSERT_EQ(a.id, b.id) << "ray " << k;
-    if (a.id >= 0) ASSERT_EQ(a.t, b.t) << "ray " << k;
+    if (a.id >= 0) {
+      ASSERT_EQ(a.t, b.t) << "ray " << k;
+    }
     hits += a.id >= 0 && a.id < plain.num_spheres;
   }
   EXPECT_GT(hits, 1000);  // the rays do meet spheres
@@ -371,7 +373,9 @@ TEST(Bvh, FullRendersShadeTheCameraBlocksHits) {
                    std::to_string(transmit));
       const RenderResult truth = run(s, 1, Accel::none);
       EXPECT_GT(truth.rays.reflected, 0u);
-      if (transmit > 0) EXPECT_GT(truth.rays.refracted, 0u);
+      if (transmit > 0) {
+        EXPECT_GT(truth.rays.refracted, 0u);
+      }
       const auto prepared = prepare<float>(s, Accel::bvh);
       ASSERT_TRUE(prepared.bvh.active());
       std::array<int, 6> cuts = {0, 3, 4, 13, 21, ny};  // bands from rows 0, 3, 4, 13, 21

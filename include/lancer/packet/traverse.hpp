@@ -64,8 +64,6 @@ constexpr PushTables push_tables() {
 }
 inline constexpr PushTables kPush = push_tables();
 
-// What the camera blocks' walk tells a counter (lancer profile's camera blocks): the default
-// counts nothing and compiles to nothing.
 // The camera tiles' register of kBytes bytes (Traversal::TileBounds), named here rather than as
 // a template argument, which would drop the vector type's attributes (-Wignored-attributes).
 template <int kBytes>
@@ -79,6 +77,8 @@ struct TileReg<64> {
   using type = __m512;
 };
 
+// What the camera blocks' walk tells a counter (lancer profile's camera blocks): the default
+// counts nothing and compiles to nothing.
 struct NoWalkCount {
   void block(bool /*together*/) const noexcept {}
   void node() const noexcept {}
@@ -550,9 +550,9 @@ struct Traversal {
     return alone;
   }
 
-  // The tiles `packets` (one sign per axis, the planes of packet `first`) walk together.
+  // The tiles `packets` (one sign per axis, the planes of packet `first`) walk together; full:
+  // every lane of every packet live.
   template <int kN, class Leaf, class Count>
-  // full: every lane of every packet live.
   static void closest_block(const Bvh<T>& h, const M* valid, const Ray* r, int first,
                             unsigned packets, bool full, const B* best_t, Leaf& leaf,
                             Count count) noexcept {
