@@ -160,6 +160,19 @@ struct Traversal {
     pos[0] |= ~x & live, pos[1] |= ~y & live, pos[2] |= ~z & live;
   }
 
+  // add_signs' result as one code: bit a set where the lanes' reciprocal is negative on axis a,
+  // or kMixedSigns where some axis has lanes of both signs.
+  static constexpr unsigned kMixedSigns = 8;
+  static unsigned sign_code(const unsigned* neg, const unsigned* pos) noexcept {
+    if ((neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2])) return kMixedSigns;
+    return unsigned(neg[0] != 0) | unsigned(neg[1] != 0) << 1 | unsigned(neg[2] != 0) << 2;
+  }
+  // r's slab form for the sign code (not kMixedSigns) `code`.
+  static void set_signs(Ray& r, unsigned code) noexcept {
+    for (int a = 0; a < 3; ++a) r.neg[a] = (code >> a & 1u) != 0;
+    set_planes(r);
+  }
+
   // How a traversal tests boxes: padded for rays from beyond the origin limit; signed where
   // every live lane agrees on the direction's signs: each slab's near plane is then known per
   // packet (lo * inv <= hi * inv for inv > 0, rounding being monotonic: the same values as
@@ -488,10 +501,9 @@ struct Traversal {
       // then take part in no bound and no leaf (closest_tiles does not branch on liveness).
       for (int i = 0; i < kN; ++i)
         if (!live[i]) r[i] = r[first];
-      if (!((neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2]))) {
+      if (const unsigned code = sign_code(neg, pos); code != kMixedSigns) {
         // One sign per axis over the block: one slab form for every packet.
-        for (int a = 0; a < 3; ++a) r[first].neg[a] = neg[a] != 0;
-        set_planes(r[first]);  // every packet's (closest_tiles reads only the first's)
+        set_signs(r[first], code);  // every packet's (closest_tiles reads only the first's)
         bool full = true;
         for (int i = 0; i < kN; ++i) full = full && live[i] == (1u << B::size) - 1;
         count.block(true);
@@ -523,17 +535,13 @@ struct Traversal {
   template <int kN, class Leaf, class Count>
   static unsigned walk_sides(const Bvh<T>& h, const M* valid, Ray* r, unsigned packets,
                              const B* best_t, Leaf& leaf, Count count) noexcept {
-    constexpr unsigned kMixed = 8;
     unsigned code[kN], alone = 0;
     for (unsigned t = packets; t; t &= t - 1) {
       const int i = __builtin_ctz(t);
       unsigned neg[3] = {}, pos[3] = {};
       add_signs(r[i], lane_bits(valid[i]), neg, pos);
-      code[i] =
-          (neg[0] && pos[0]) || (neg[1] && pos[1]) || (neg[2] && pos[2])
-              ? kMixed
-              : unsigned(neg[0] != 0) | unsigned(neg[1] != 0) << 1 | unsigned(neg[2] != 0) << 2;
-      if (code[i] == kMixed) alone |= 1u << i;
+      code[i] = sign_code(neg, pos);
+      if (code[i] == kMixedSigns) alone |= 1u << i;
     }
     for (unsigned todo = packets & ~alone; todo;) {
       const int f = __builtin_ctz(todo);
@@ -541,9 +549,8 @@ struct Traversal {
       for (unsigned t = todo; t; t &= t - 1)
         if (code[__builtin_ctz(t)] == code[f]) side |= 1u << __builtin_ctz(t);
       todo &= ~side;
-      for (int a = 0; a < 3; ++a) r[f].neg[a] = (code[f] >> a & 1u) != 0;
-      set_planes(r[f]);  // closest_tiles reads only the first packet's planes
-      M in_side[kN];     // the other packets take part in no bound
+      set_signs(r[f], code[f]);  // closest_tiles reads only the first packet's planes
+      M in_side[kN];             // the other packets take part in no bound
       for (int i = 0; i < kN; ++i) in_side[i] = side >> i & 1u ? valid[i] : M(false);
       closest_block<kN>(h, in_side, r, f, side, false, best_t, leaf, count);
     }
