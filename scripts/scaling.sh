@@ -11,7 +11,7 @@
 # Writes DIR/scaling.csv, DIR/scaling.md and the log-log figure DIR/scaling.{png,svg} (default
 # DIR: out/scaling), and prints the table and
 # the ratios issue 12 sets targets for (lancer / Embree, build time / Embree's, time per ray of
-# the largest size over the smallest, and at 65536 over 1024 from alternated pairs of runs).
+# the largest size over the smallest, and at 65536 over 1024 side by side in one bench run).
 # Needs jq and python3.
 set -euo pipefail
 
@@ -108,21 +108,17 @@ if rows:
 PY
 # Time per ray at 65536 spheres over 1024, measured side by side: the two sizes' runs above
 # are minutes apart, and this VM's speed moves in between, so the ratio of their rows spreads
-# widely. Here `repeat` pairs of runs (each the median of 5), alternated, and the median of the
-# pair ratios.
+# widely. Here both scenes in one bench run (3 x repeat rounds, each scene's run right after
+# the other's in every round) and the median of the rounds' ratios (bench's side_by_side).
 if [ -f "$out/spheres-1024.json" ] && [ -f "$out/spheres-65536.json" ] &&
   [[ " ${sizes[*]} " == *" 1024 "* && " ${sizes[*]} " == *" 65536 "* ]]; then
-  rate() {
-    "$lancer" bench "$1" --mode primary --width "$width" --threads 1 --json --repeat 5 |
-      jq '[.results[] | select(.engine == "lancer") | .mrays_per_s][0]'
-  }
-  for _ in $(seq "$repeat"); do
-    echo "$(rate "$out/spheres-1024.json") $(rate "$out/spheres-65536.json")"
-  done | python3 -c '
-import statistics, sys
-r = sorted(float(a) / float(b) for a, b in (l.split() for l in sys.stdin if l.strip()))
-print(f"- time per ray at 65536 spheres / at 1024, {len(r)} alternated pairs of runs: "
-      f"median {statistics.median(r):.2f}x ({r[0]:.2f}x to {r[-1]:.2f}x)")' >>"$md"
+  "$lancer" bench "$out/spheres-1024.json" "$out/spheres-65536.json" --mode primary \
+    --width "$width" --threads 1 --json --repeat $((3 * repeat)) >"$out/side-by-side.json"
+  jq -r '.side_by_side[] | select(.engine == "lancer") |
+    "- time per ray at 65536 spheres / at 1024, side by side in one run (\(.ratios | length) rounds): " +
+    "median \(.time_per_ray_ratio * 100 | round / 100)x " +
+    "(\(.ratio_min * 100 | round / 100)x to \(.ratio_max * 100 | round / 100)x)"' \
+    "$out/side-by-side.json" >>"$md"
 fi
 # The figure: Mrays/s against spheres, log-log, lancer and Embree's best as two series.
 long="$out/scaling-long.csv"

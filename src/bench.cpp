@@ -26,26 +26,31 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
-  // Peers: their scenes (Embree's BVH, once per setup) are built once, below, untimed. Every
-  // setup runs as a row of its own, interleaved with the rest; the fastest per row is kept.
-  std::vector<peer::EmbreeConfig> setups;
-  for (const std::string& p : opt.peers) {
-    if (p != "embree") throw InputError("--peer: unknown peer '" + p + "' (known: embree)");
-    if (setups.empty()) setups = peer::embree_setups();
-  }
-  const bool have_peer = !setups.empty();
-  if (opt.widths.size() != opt.precisions.size())
-    throw std::logic_error("run_bench: one list of widths per precision");
+namespace {
+
+// One scene's rows and what they run on: its prepared scenes, kernel runs and the peer's scenes.
+struct SceneRun {
+  const Scene* scene = nullptr;
   BenchResult out;
-  std::vector<int> row_setup;  // index into embrees of each row, -1 for lancer's
-  std::vector<BenchRow>& rows = out.rows;
+  std::vector<int> row_setup;            // index into embrees of each row, -1 for lancer's
   std::vector<Precision> row_precision;  // what each row renders with (exact for the peer)
+  std::vector<std::unique_ptr<PrimaryKernelRun>> kernels;
+  std::map<Precision, std::unique_ptr<PreparedRun>> prepared;
+  std::vector<const PreparedRun*> lancer_runs;
+  std::vector<std::unique_ptr<peer::EmbreeScene>> embrees;
+  double first_build = std::numeric_limits<double>::infinity();
+};
+
+// The rows: every precision, mode, width and thread count, each peer setup's rows right after
+// lancer's of the same mode, width and threads. They depend on the options only.
+void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
+               const BenchOptions& opt) {
+  std::vector<BenchRow>& rows = s.out.rows;
   bool peer_rows_added = false;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k) {
     const Precision precision = opt.precisions[k];
     // The peer's rows once, beside lancer's first precision.
-    const bool with_peer = have_peer && !peer_rows_added;
+    const bool with_peer = !setups.empty() && !peer_rows_added;
     peer_rows_added = peer_rows_added || with_peer;
     const std::vector<int> embree_widths =
         with_peer ? peer::embree_widths(opt.widths[k]) : std::vector<int>{};
@@ -60,8 +65,8 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
           r.precision = to_string(precision);
           r.isa = packet::isa_name(width, precision);
           rows.push_back(r);
-          row_precision.push_back(precision);
-          row_setup.push_back(-1);
+          s.row_precision.push_back(precision);
+          s.row_setup.push_back(-1);
           // The peer's rows of the same mode, width and threads right after lancer's.
           if (!kernel &&
               std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
@@ -79,90 +84,158 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
                 continue;
               r.config = how.name();
               rows.push_back(r);
-              row_precision.push_back(Precision::exact);
-              row_setup.push_back(static_cast<int>(e));
+              s.row_precision.push_back(Precision::exact);
+              s.row_setup.push_back(static_cast<int>(e));
             }
           }
         }
   }
+}
 
-  if (rows.empty())
-    throw InputError(
-        "--mode kernel: the kernel alone runs float packets (exact or fast, width 4, 8 or 16): "
-        "nothing to run");
-
-  // The kernel rows' camera rays are made here, once, untimed; the other lancer rows' scene is
-  // prepared here, once per precision, untimed, then the peer's scenes. lancer's first: its
-  // structure is a fraction of Embree's six, and built after them (a million spheres: some GB
-  // resident) lancer's build took 2.5 times as long as in a fresh process (AMD EPYC, Zen 5).
-  // TBB's worker threads started first, so that neither engine's build (both use TBB tasks)
-  // pays for starting them.
-  tbb::parallel_for(0, 1024, [](int) {});
-  std::vector<std::unique_ptr<PrimaryKernelRun>> kernels(rows.size());
-  std::map<Precision, std::unique_ptr<PreparedRun>> prepared;
-  double first_build = std::numeric_limits<double>::infinity();
-  std::vector<const PreparedRun*> lancer_runs(rows.size(), nullptr);
+// lancer's side, untimed: the kernel rows' camera rays, the other rows' scene prepared once per
+// precision.
+void prepare_lancer(SceneRun& s, bool with_peer, const BenchOptions& opt) {
+  const std::vector<BenchRow>& rows = s.out.rows;
+  s.kernels.resize(rows.size());
+  s.lancer_runs.assign(rows.size(), nullptr);
   for (std::size_t k = 0; k < rows.size(); ++k) {
     const BenchRow& row = rows[k];
     if (row.engine != "lancer") continue;
     RenderOptions ro;
     ro.width = row.width;
     ro.threads = row.threads;
-    ro.precision = row_precision[k];
+    ro.precision = s.row_precision[k];
     ro.accel = opt.accel;
     if (row.mode == "kernel") {
-      kernels[k] = std::make_unique<PrimaryKernelRun>(scene, ro);
+      s.kernels[k] = std::make_unique<PrimaryKernelRun>(*s.scene, ro);
     } else {
-      std::unique_ptr<PreparedRun>& p = prepared[ro.precision];
+      std::unique_ptr<PreparedRun>& p = s.prepared[ro.precision];
       if (!p) {
         // Beside a peer, lancer's build time is the faster of two as the peer's is (the first
         // released first: the second reuses what memory the process kept; docs/accel.md,
         // fourteenth round).
-        if (!setups.empty())
-          first_build = std::min(first_build, PreparedRun(scene, ro).structure().build_seconds);
-        p = std::make_unique<PreparedRun>(scene, ro);
+        if (with_peer)
+          s.first_build =
+              std::min(s.first_build, PreparedRun(*s.scene, ro).structure().build_seconds);
+        p = std::make_unique<PreparedRun>(*s.scene, ro);
       }
-      lancer_runs[k] = p.get();
+      s.lancer_runs[k] = p.get();
     }
   }
-  std::vector<std::unique_ptr<peer::EmbreeScene>> embrees;
-  for (const peer::EmbreeConfig& how : setups)
-    embrees.push_back(
-        std::make_unique<peer::EmbreeScene>(scene, peer::plane_mode_from_env(), "", how));
-  for (std::size_t k = 0; k < rows.size(); ++k)
-    if (row_setup[k] >= 0)
-      rows[k].build_seconds = embrees[std::size_t(row_setup[k])]->build_seconds();
+}
 
-  std::vector<std::function<double()>> run;
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    BenchRow& row = rows[k];
-    const PreparedRun* lancer_run = lancer_runs[k];
-    const peer::EmbreeScene* embree = row_setup[k] >= 0 ? embrees[row_setup[k]].get() : nullptr;
-    run.push_back([embree, &row, &out, lancer_run, kernel = kernels[k].get()]() -> double {
-      if (embree) {
-        if (row.mode == "primary") {
-          const PrimaryResult p = embree->primary(row.width, row.threads);
-          return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
-        }
-        const peer::EmbreeScene::RaysResult f = embree->trace_all(row.width, row.threads);
-        return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
-      }
-      if (kernel) {
-        const PrimaryResult p = kernel->run();
-        out.structure = p.structure;
-        return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
-      }
+// The peer's scenes (Embree's BVH, once per setup), untimed.
+void prepare_peer(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups) {
+  for (const peer::EmbreeConfig& how : setups)
+    s.embrees.push_back(
+        std::make_unique<peer::EmbreeScene>(*s.scene, peer::plane_mode_from_env(), "", how));
+  for (std::size_t k = 0; k < s.out.rows.size(); ++k)
+    if (s.row_setup[k] >= 0)
+      s.out.rows[k].build_seconds = s.embrees[std::size_t(s.row_setup[k])]->build_seconds();
+}
+
+// Row k's timed run: one render (or trace) of its configuration, returning its seconds.
+std::function<double()> row_run(SceneRun& s, std::size_t k) {
+  BenchRow& row = s.out.rows[k];
+  BenchResult& out = s.out;
+  const PreparedRun* lancer_run = s.lancer_runs[k];
+  const peer::EmbreeScene* embree =
+      s.row_setup[k] >= 0 ? s.embrees[std::size_t(s.row_setup[k])].get() : nullptr;
+  return [embree, &row, &out, lancer_run, kernel = s.kernels[k].get()]() -> double {
+    if (embree) {
       if (row.mode == "primary") {
-        const PrimaryResult p = lancer_run->primary(row.width, row.threads);
-        out.structure = p.structure;
+        const PrimaryResult p = embree->primary(row.width, row.threads);
         return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
       }
-      const RenderResult f = lancer_run->render(row.width, row.threads);
-      out.structure = f.structure;
-      if (f.structure.kind == "bvh") row.secondary = secondary_walk(f.structure, f.width);
+      const peer::EmbreeScene::RaysResult f = embree->trace_all(row.width, row.threads);
       return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
-    });
+    }
+    if (kernel) {
+      const PrimaryResult p = kernel->run();
+      out.structure = p.structure;
+      return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
+    }
+    if (row.mode == "primary") {
+      const PrimaryResult p = lancer_run->primary(row.width, row.threads);
+      out.structure = p.structure;
+      return row.by_kind = p.rays, row.rays = p.rays.total(), p.seconds;
+    }
+    const RenderResult f = lancer_run->render(row.width, row.threads);
+    out.structure = f.structure;
+    if (f.structure.kind == "bvh") row.secondary = secondary_walk(f.structure, f.width);
+    return row.by_kind = f.rays, row.rays = f.rays.total(), f.seconds;
+  };
+}
+
+// After the timing: of the peer's setups, the fastest of each row stays (all are kept in
+// peer_setups); lancer's build time the faster of two where one precision was prepared.
+void keep_fastest(SceneRun& s) {
+  BenchResult& out = s.out;
+  std::vector<BenchRow> kept;
+  for (BenchRow& row : out.rows) {
+    if (row.engine == "lancer") {
+      kept.push_back(row);
+      continue;
+    }
+    out.peer_setups.push_back(row);
+    BenchRow* same = kept.empty() ? nullptr : &kept.back();
+    const bool same_row = same && same->engine == row.engine && same->mode == row.mode &&
+                          same->width == row.width && same->threads == row.threads;
+    if (!same_row)
+      kept.push_back(row);
+    else if (row.seconds < same->seconds)
+      *same = row;
   }
+  for (const BenchRow& r : kept)
+    if (r.engine != "lancer" && out.peer_build_seconds < 0)
+      out.peer_build_seconds = r.build_seconds;
+  if (s.prepared.size() == 1 && out.structure.kind == "bvh")
+    out.structure.build_seconds = std::min(out.structure.build_seconds, s.first_build);
+  out.rows = std::move(kept);
+}
+
+}  // namespace
+
+BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
+  return std::move(run_bench(std::vector<const Scene*>{&scene}, opt).front());
+}
+
+std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
+                                   const BenchOptions& opt) {
+  // Peers: every setup runs as a row of its own, interleaved with the rest; the fastest per row
+  // is kept.
+  std::vector<peer::EmbreeConfig> setups;
+  for (const std::string& p : opt.peers) {
+    if (p != "embree") throw InputError("--peer: unknown peer '" + p + "' (known: embree)");
+    if (setups.empty()) setups = peer::embree_setups();
+  }
+  if (opt.widths.size() != opt.precisions.size())
+    throw std::logic_error("run_bench: one list of widths per precision");
+  if (scenes.empty()) throw std::logic_error("run_bench: no scene");
+  std::vector<SceneRun> runs(scenes.size());
+  for (std::size_t i = 0; i < scenes.size(); ++i) {
+    runs[i].scene = scenes[i];
+    plan_rows(runs[i], setups, opt);
+  }
+  const std::size_t n_rows = runs[0].out.rows.size();
+  if (n_rows == 0)
+    throw InputError(
+        "--mode kernel: the kernel alone runs float packets (exact or fast, width 4, 8 or 16): "
+        "nothing to run");
+
+  // lancer's scenes first, then the peer's: lancer's structure is a fraction of Embree's six,
+  // and built after them (a million spheres: some GB resident) lancer's build took 2.5 times as
+  // long as in a fresh process (AMD EPYC, Zen 5). TBB's worker threads started first, so that
+  // neither engine's build (both use TBB tasks) pays for starting them.
+  tbb::parallel_for(0, 1024, [](int) {});
+  for (SceneRun& s : runs) prepare_lancer(s, !setups.empty(), opt);
+  for (SceneRun& s : runs) prepare_peer(s, setups);
+
+  // Each configuration's scenes one after the other within a round, so that a ratio between
+  // scenes (bench_side_by_side) compares runs seconds apart.
+  std::vector<std::function<double()>> run;
+  for (std::size_t k = 0; k < n_rows; ++k)
+    for (SceneRun& s : runs) run.push_back(row_run(s, k));
 
   // The peaks: each ISA's FMA and mul+add chains as configurations of the same rounds.
   struct PeakRun {
@@ -170,18 +243,19 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
     bool fma;
     double flops = 0;
   };
+  std::vector<PeakRow> peaks;
   std::vector<PeakRun> peak_runs;
   if (opt.peak) {
     std::vector<int> widths = packet::supported_widths();
     std::sort(widths.begin(), widths.end());
     for (int w : widths) {
-      out.peaks.push_back({w, packet::isa_name(w), 0, 0});
+      peaks.push_back({w, packet::isa_name(w), 0, 0});
       for (bool fma : {true, false})
-        if (fma || w >= 8) peak_runs.push_back({out.peaks.size() - 1, fma});
+        if (fma || w >= 8) peak_runs.push_back({peaks.size() - 1, fma});
     }
   }
   for (PeakRun& p : peak_runs) {
-    const PeakKernel kernel = peak_kernel(out.peaks[p.row].width, p.fma);
+    const PeakKernel kernel = peak_kernel(peaks[p.row].width, p.fma);
     run.push_back([kernel, &p]() -> double {
       const auto start = std::chrono::steady_clock::now();
       p.flops = kernel(kPeakBatch);
@@ -191,40 +265,45 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& opt) {
 
   const std::vector<std::vector<double>> samples =
       time_interleaved_samples(run, opt.repeat, opt.min_seconds);
-  std::vector<double> seconds;
-  for (const auto& t : samples) seconds.push_back(median(t));
-  for (std::size_t k = 0; k < rows.size(); ++k)
-    rows[k].seconds = seconds[k], rows[k].samples = samples[k];
-  // Of the peer's setups, the fastest of each row stays; all are kept in peer_setups.
-  std::vector<BenchRow> kept;
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    if (rows[k].engine == "lancer") {
-      kept.push_back(rows[k]);
-      continue;
+  for (std::size_t k = 0; k < n_rows; ++k)
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      BenchRow& row = runs[i].out.rows[k];
+      row.samples = samples[k * runs.size() + i];
+      row.seconds = median(row.samples);
     }
-    out.peer_setups.push_back(rows[k]);
-    BenchRow* same = kept.empty() ? nullptr : &kept.back();
-    const bool same_row = same && same->engine == rows[k].engine && same->mode == rows[k].mode &&
-                          same->width == rows[k].width && same->threads == rows[k].threads;
-    if (!same_row)
-      kept.push_back(rows[k]);
-    else if (rows[k].seconds < same->seconds)
-      *same = rows[k];
-  }
-  for (const BenchRow& r : kept)
-    if (r.engine != "lancer" && out.peer_build_seconds < 0)
-      out.peer_build_seconds = r.build_seconds;
-  // One structure is reported: the faster of two only where one precision was prepared.
-  if (prepared.size() == 1 && out.structure.kind == "bvh")
-    out.structure.build_seconds = std::min(out.structure.build_seconds, first_build);
   for (std::size_t k = 0; k < peak_runs.size(); ++k) {
     const PeakRun& p = peak_runs[k];
-    const double gflops = p.flops / seconds[rows.size() + k] * 1e-9;  // before rows shrink
-    PeakRow& peak = out.peaks[p.row];
+    const double gflops = p.flops / median(samples[n_rows * runs.size() + k]) * 1e-9;
+    PeakRow& peak = peaks[p.row];
     (p.fma ? peak.gflops : peak.muladd_gflops) = gflops;
     if (peak.width < 8) peak.muladd_gflops = peak.gflops;  // one kernel: mul+add
   }
-  rows = std::move(kept);
+  std::vector<BenchResult> out;
+  for (SceneRun& s : runs) {
+    keep_fastest(s);
+    s.out.peaks = peaks;
+    out.push_back(std::move(s.out));
+  }
+  return out;
+}
+
+std::vector<SideBySide> bench_side_by_side(const std::vector<BenchResult>& results) {
+  std::vector<SideBySide> out;
+  if (results.empty()) return out;
+  for (std::size_t i = 1; i < results.size(); ++i)
+    for (std::size_t k = 0; k < results[i].rows.size() && k < results[0].rows.size(); ++k) {
+      const BenchRow& a = results[0].rows[k];
+      const BenchRow& b = results[i].rows[k];
+      if (a.rays == 0 || b.rays == 0 || a.samples.size() != b.samples.size()) continue;
+      SideBySide r;
+      r.scene = i, r.row = k;
+      for (std::size_t rep = 0; rep < a.samples.size(); ++rep)
+        r.ratios.push_back((b.samples[rep] / double(b.rays)) / (a.samples[rep] / double(a.rays)));
+      r.median = median(r.ratios);
+      r.min = *std::min_element(r.ratios.begin(), r.ratios.end());
+      r.max = *std::max_element(r.ratios.begin(), r.ratios.end());
+      out.push_back(r);
+    }
   return out;
 }
 

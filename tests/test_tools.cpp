@@ -154,6 +154,89 @@ TEST(BenchGbench, HasTheFieldsCompareNeeds) {
   EXPECT_EQ(b[4]["aggregate_name"], "median");
 }
 
+// Ratios between scenes are taken round by round, per ray: a round where the machine ran slow
+// for both scenes gives the same ratio as a fast one.
+TEST(BenchSideBySide, TimePerRayRoundByRound) {
+  auto result = [](std::uint64_t rays, std::vector<std::vector<double>> samples) {
+    BenchResult r;
+    for (auto& s : samples) {
+      BenchRow row;
+      row.rays = rays;
+      row.samples = s;
+      r.rows.push_back(row);
+    }
+    return r;
+  };
+  // Scene 2 has twice the rays: its seconds per ray are half its seconds per render's share.
+  const std::vector<BenchResult> results{
+      result(100, {{1.0, 2.0, 1.0}, {4.0, 4.0, 4.0}}),
+      result(200, {{6.0, 12.0, 8.0}, {8.0, 8.0, 16.0}}),
+      result(100, {{1.0, 2.0, 1.0}, {4.0, 4.0, 4.0}})};
+  const std::vector<SideBySide> s = bench_side_by_side(results);
+  ASSERT_EQ(s.size(), 4u);
+  EXPECT_EQ(s[0].scene, 1u);
+  EXPECT_EQ(s[0].row, 0u);
+  EXPECT_EQ(s[0].ratios, (std::vector<double>{3.0, 3.0, 4.0}));
+  EXPECT_DOUBLE_EQ(s[0].median, 3.0);
+  EXPECT_DOUBLE_EQ(s[0].min, 3.0);
+  EXPECT_DOUBLE_EQ(s[0].max, 4.0);
+  EXPECT_EQ(s[1].row, 1u);
+  EXPECT_EQ(s[1].ratios, (std::vector<double>{1.0, 1.0, 2.0}));
+  EXPECT_EQ(s[2].scene, 2u);
+  EXPECT_DOUBLE_EQ(s[2].median, 1.0);
+  EXPECT_TRUE(bench_side_by_side({results[0]}).empty());
+}
+
+// Several scenes in one run: each its own rows and structure, in the order given, and the
+// side-by-side ratios those rows' own samples give.
+TEST(BenchCliSeveralScenes, RowsPerSceneAndRatiosFromTheirSamples) {
+  const std::string small = source_path("scenes/lorenzi-diffuse.json");
+  const std::string large = source_path("scenes/many-spheres.json");
+  const auto r = run_command(cli() + " bench " + small + " " + large +
+                             " --resolution 24x16 --width 1,4 --repeat 3 --mode primary --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["scenes"].size(), 2u);
+  EXPECT_EQ(j["scenes"][0]["scene"], small);
+  EXPECT_EQ(j["scenes"][1]["scene"], large);
+  EXPECT_LT(j["scenes"][0]["structure"]["objects"].get<int>(),
+            j["scenes"][1]["structure"]["objects"].get<int>());
+  ASSERT_EQ(j["side_by_side"].size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    const auto& a = j["scenes"][0]["results"][k];
+    const auto& b = j["scenes"][1]["results"][k];
+    const auto& s = j["side_by_side"][k];
+    EXPECT_EQ(s["scene"], large);
+    EXPECT_EQ(s["against"], small);
+    EXPECT_EQ(s["width"], a["width"]);
+    EXPECT_EQ(s["width"], b["width"]);
+    ASSERT_EQ(s["ratios"].size(), 3u);
+    for (int rep = 0; rep < 3; ++rep) {
+      const double ta = a["samples_seconds"][rep].get<double>() / a["rays"].get<double>();
+      const double tb = b["samples_seconds"][rep].get<double>() / b["rays"].get<double>();
+      EXPECT_DOUBLE_EQ(s["ratios"][rep].get<double>(), tb / ta);
+    }
+  }
+  // The table names both scenes and the side-by-side lines.
+  const auto t = run_command(cli() + " bench " + small + " " + large +
+                             " --resolution 24x16 --width 4 --repeat 1 --mode primary");
+  ASSERT_EQ(t.status, 0) << t.out;
+  EXPECT_NE(t.out.find("side by side"), std::string::npos) << t.out;
+  EXPECT_NE(t.out.find(large), std::string::npos) << t.out;
+}
+
+TEST(BenchCliSeveralScenes, BadInputNamesItsPlace) {
+  const std::string small = source_path("scenes/lorenzi-diffuse.json");
+  const auto missing =
+      run_command(cli() + " bench " + small + " /nonexistent/scene.json --repeat 1");
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.out.find("/nonexistent/scene.json"), std::string::npos) << missing.out;
+  const auto gbench =
+      run_command(cli() + " bench " + small + " " + small + " --repeat 1 --format gbench");
+  EXPECT_EQ(gbench.status, 2);
+  EXPECT_NE(gbench.out.find("--format gbench"), std::string::npos) << gbench.out;
+}
+
 TEST(BenchCliFormat, BadFormatIsAnInputError) {
   const auto r =
       run_command(cli() + " bench " + source_path("scenes/lorenzi-diffuse.json") + " --format xml");

@@ -78,6 +78,22 @@ struct BenchResult {
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);
+// Several scenes timed in the same rounds: within each round every configuration runs on each
+// scene in turn, so that figures of two scenes are seconds apart. One result per scene, in
+// order, each with the same rows (and the same peaks).
+std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
+                                   const BenchOptions& options);
+
+// Time per ray of a scene against the first scene's, row by row, per round of one run
+// (results from run_bench over several scenes): a ratio between scene sizes that the machine's
+// drift from minute to minute does not reach.
+struct SideBySide {
+  std::size_t scene = 0;  // index into the results (1 and up)
+  std::size_t row = 0;    // the row's index, the same in every result
+  std::vector<double> ratios;  // per round: (seconds / rays) / the first scene's
+  double median = 0, min = 0, max = 0;
+};
+std::vector<SideBySide> bench_side_by_side(const std::vector<BenchResult>& results);
 
 double median(std::vector<double> v);
 

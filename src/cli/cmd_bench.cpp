@@ -19,7 +19,7 @@ namespace lancer::cli {
 namespace {
 struct BenchArgs {
   std::string accel = "auto";
-  std::string scene;
+  std::vector<std::string> scenes;
   std::vector<std::string> widths{"all"};
   std::vector<std::string> threads{"1"};
   std::vector<std::string> modes{"primary", "full"};
@@ -123,8 +123,8 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
         "kernel the intersection\n  kernel alone, over camera rays made beforehand.\n");
 }
 
-void print_json(const std::string& scene, const BenchResult& result,
-                const std::vector<PeakRow>* peaks) {
+nlohmann::json result_json(const std::string& scene, const BenchResult& result,
+                           const std::vector<PeakRow>* peaks) {
   const std::vector<BenchRow>& rows = result.rows;
   const StructureInfo& st = result.structure;
   nlohmann::json out;
@@ -175,7 +175,48 @@ void print_json(const std::string& scene, const BenchResult& result,
                              {"gflops", p.gflops},
                              {"muladd_gflops", p.muladd_gflops}});
   }
-  std::printf("%s\n", out.dump(2).c_str());
+  return out;
+}
+
+// A row's configuration, as the side-by-side lines name it.
+std::string row_label(const BenchRow& r) {
+  return r.engine + " " + r.mode + " " + r.precision + " w" + std::to_string(r.width) + " " +
+         std::to_string(r.threads) + (r.threads == 1 ? " thread" : " threads");
+}
+
+void print_side_by_side(const std::vector<std::string>& scenes,
+                        const std::vector<BenchResult>& results,
+                        const std::vector<SideBySide>& ratios) {
+  std::printf(
+      "side by side: time per ray against %s, per round of this run (the scenes of a "
+      "configuration run one after the other in each round): median (min..max) of %d rounds\n",
+      scenes[0].c_str(), ratios.empty() ? 0 : int(ratios[0].ratios.size()));
+  for (const SideBySide& r : ratios) {
+    const BenchRow& row = results[r.scene].rows[r.row];
+    std::printf("  %-44s %-40s %7.3fx (%.3f..%.3f)\n", scenes[r.scene].c_str(),
+                row_label(row).c_str(), r.median, r.min, r.max);
+  }
+}
+
+nlohmann::json side_by_side_json(const std::vector<std::string>& scenes,
+                                 const std::vector<BenchResult>& results,
+                                 const std::vector<SideBySide>& ratios) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const SideBySide& r : ratios) {
+    const BenchRow& row = results[r.scene].rows[r.row];
+    out.push_back({{"scene", scenes[r.scene]},
+                   {"against", scenes[0]},
+                   {"engine", row.engine},
+                   {"mode", row.mode},
+                   {"precision", row.precision},
+                   {"width", row.width},
+                   {"threads", row.threads},
+                   {"time_per_ray_ratio", r.median},
+                   {"ratio_min", r.min},
+                   {"ratio_max", r.max},
+                   {"ratios", r.ratios}});
+  }
+  return out;
 }
 
 // Under mpirun: full renders on 1..N ranks (src/mpi, docs/mpi.md), one precision and width
@@ -188,12 +229,15 @@ void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
     throw InputError(
         "bench under mpirun: measures full renders across ranks at one --precision and one "
         "--width, without --peer or --peak");
+  if (a.scenes.size() != 1)
+    throw InputError("bench under mpirun: one scene at a time (" +
+                     std::to_string(a.scenes.size()) + " given)");
   job.load = [&a] {
-    Scene s = load_scene(a.scene);
+    Scene s = load_scene(a.scenes[0]);
     apply_overrides(s, a.overrides);
     return s;
   };
-  job.scene_path = a.scene;
+  job.scene_path = a.scenes[0];
   job.precision = opt.precisions[0];
   job.width = default_width ? 0 : opt.widths[0][0];
   job.threads_list = opt.threads;
@@ -203,8 +247,6 @@ void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
 }
 
 void run_bench_cmd(const BenchArgs& a) {
-  Scene scene = load_scene(a.scene);
-  apply_overrides(scene, a.overrides);
   BenchOptions opt;
   opt.precisions.clear();
   for (const std::string& p : split_list(a.precisions)) {
@@ -247,16 +289,43 @@ void run_bench_cmd(const BenchArgs& a) {
     throw InputError("--format: must be table, json or gbench, not '" + a.format + "'");
   if (a.json && !a.format.empty() && a.format != "json")
     throw InputError("--json: conflicts with --format " + a.format);
+  if (a.format == "gbench" && a.scenes.size() > 1)
+    throw InputError("--format gbench: one scene at a time (Google Benchmark's JSON has one "
+                     "context); table or json for several");
   if (mpi::launch_from_environment().size > 1) return run_bench_mpi(a, opt);
-  BenchResult result = run_bench(scene, opt);
-  if (a.peak) add_flops(scene, result.structure, result.peaks, result.rows);
+  std::vector<Scene> scenes;
+  scenes.reserve(a.scenes.size());
+  for (const std::string& path : a.scenes) {
+    scenes.push_back(load_scene(path));
+    apply_overrides(scenes.back(), a.overrides);
+  }
+  std::vector<const Scene*> ptrs;
+  for (const Scene& s : scenes) ptrs.push_back(&s);
+  std::vector<BenchResult> results = run_bench(ptrs, opt);
+  if (a.peak)
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      add_flops(scenes[i], results[i].structure, results[i].peaks, results[i].rows);
+  const std::vector<SideBySide> ratios = bench_side_by_side(results);
+  const bool json = a.json || a.format == "json";
   if (a.format == "gbench") {
-    std::printf("%s\n", gbench_json(result, a.scene, "lancer bench").c_str());
-  } else if (a.json || a.format == "json") {
-    print_json(a.scene, result, a.peak ? &result.peaks : nullptr);
+    std::printf("%s\n", gbench_json(results[0], a.scenes[0], "lancer bench").c_str());
+  } else if (json && scenes.size() == 1) {
+    std::printf("%s\n", result_json(a.scenes[0], results[0], a.peak ? &results[0].peaks : nullptr)
+                            .dump(2)
+                            .c_str());
+  } else if (json) {
+    nlohmann::json out;
+    out["scenes"] = nlohmann::json::array();
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      out["scenes"].push_back(result_json(a.scenes[i], results[i], nullptr));
+    if (a.peak) out["peak"] = result_json(a.scenes[0], results[0], &results[0].peaks)["peak"];
+    out["side_by_side"] = side_by_side_json(a.scenes, results, ratios);
+    std::printf("%s\n", out.dump(2).c_str());
   } else {
-    print_table(a.scene, result.rows, result.structure, a.repeat, a.peak);
-    if (a.peak) print_peaks(result.peaks);
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      print_table(a.scenes[i], results[i].rows, results[i].structure, a.repeat, a.peak);
+    if (scenes.size() > 1) print_side_by_side(a.scenes, results, ratios);
+    if (a.peak) print_peaks(results[0].peaks);
   }
 }
 }  // namespace
@@ -265,7 +334,12 @@ void add_bench(CLI::App& app) {
   auto args = std::make_shared<BenchArgs>();
   CLI::App* cmd = app.add_subcommand(
       "bench", "Rays per second of each width, primary rays and full renders, side by side");
-  cmd->add_option("scene", args->scene, "Scene file")->required();
+  cmd->add_option("scenes", args->scenes,
+                  "Scene file; with several, each configuration runs on every scene in the same "
+                  "rounds, and each scene's time per ray is given against the first's, round by "
+                  "round")
+      ->required()
+      ->expected(1, -1);
   cmd->add_option("--accel", args->accel,
                   "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop) "
                   "or bvh")
