@@ -168,10 +168,9 @@ TEST(BenchSideBySide, TimePerRayRoundByRound) {
     return r;
   };
   // Scene 2 has twice the rays: its seconds per ray are half its seconds per render's share.
-  const std::vector<BenchResult> results{
-      result(100, {{1.0, 2.0, 1.0}, {4.0, 4.0, 4.0}}),
-      result(200, {{6.0, 12.0, 8.0}, {8.0, 8.0, 16.0}}),
-      result(100, {{1.0, 2.0, 1.0}, {4.0, 4.0, 4.0}})};
+  const std::vector<BenchResult> results{result(100, {{1.0, 2.0, 1.0}, {4.0, 4.0, 4.0}}),
+                                         result(200, {{6.0, 12.0, 8.0}, {8.0, 8.0, 16.0}}),
+                                         result(100, {{1.0, 2.0, 1.0}, {4.0, 4.0, 4.0}})};
   const std::vector<SideBySide> s = bench_side_by_side(results);
   ASSERT_EQ(s.size(), 4u);
   EXPECT_EQ(s[0].scene, 1u);

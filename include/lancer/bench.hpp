@@ -88,8 +88,8 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
 // (results from run_bench over several scenes): a ratio between scene sizes that the machine's
 // drift from minute to minute does not reach.
 struct SideBySide {
-  std::size_t scene = 0;  // index into the results (1 and up)
-  std::size_t row = 0;    // the row's index, the same in every result
+  std::size_t scene = 0;       // index into the results (1 and up)
+  std::size_t row = 0;         // the row's index, the same in every result
   std::vector<double> ratios;  // per round: (seconds / rays) / the first scene's
   double median = 0, min = 0, max = 0;
 };

@@ -230,8 +230,8 @@ void run_bench_mpi(const BenchArgs& a, const BenchOptions& opt) {
         "bench under mpirun: measures full renders across ranks at one --precision and one "
         "--width, without --peer or --peak");
   if (a.scenes.size() != 1)
-    throw InputError("bench under mpirun: one scene at a time (" +
-                     std::to_string(a.scenes.size()) + " given)");
+    throw InputError("bench under mpirun: one scene at a time (" + std::to_string(a.scenes.size()) +
+                     " given)");
   job.load = [&a] {
     Scene s = load_scene(a.scenes[0]);
     apply_overrides(s, a.overrides);
@@ -290,8 +290,9 @@ void run_bench_cmd(const BenchArgs& a) {
   if (a.json && !a.format.empty() && a.format != "json")
     throw InputError("--json: conflicts with --format " + a.format);
   if (a.format == "gbench" && a.scenes.size() > 1)
-    throw InputError("--format gbench: one scene at a time (Google Benchmark's JSON has one "
-                     "context); table or json for several");
+    throw InputError(
+        "--format gbench: one scene at a time (Google Benchmark's JSON has one "
+        "context); table or json for several");
   if (mpi::launch_from_environment().size > 1) return run_bench_mpi(a, opt);
   std::vector<Scene> scenes;
   scenes.reserve(a.scenes.size());
@@ -310,9 +311,9 @@ void run_bench_cmd(const BenchArgs& a) {
   if (a.format == "gbench") {
     std::printf("%s\n", gbench_json(results[0], a.scenes[0], "lancer bench").c_str());
   } else if (json && scenes.size() == 1) {
-    std::printf("%s\n", result_json(a.scenes[0], results[0], a.peak ? &results[0].peaks : nullptr)
-                            .dump(2)
-                            .c_str());
+    std::printf(
+        "%s\n",
+        result_json(a.scenes[0], results[0], a.peak ? &results[0].peaks : nullptr).dump(2).c_str());
   } else if (json) {
     nlohmann::json out;
     out["scenes"] = nlohmann::json::array();
