@@ -88,6 +88,7 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
     cb.leaf_pops = double(cb.totals.leaf_pops) / n;
     cb.box_tests = double(cb.totals.box_tests) / n;
     cb.leaf_calls = double(cb.totals.leaf_calls) / n;
+    cb.tiles_alone = double(cb.totals.tiles_alone) / n;
   }
   if (cb.totals.leaf_calls)
     cb.leaf_occupancy =

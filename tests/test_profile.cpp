@@ -254,6 +254,43 @@ TEST(Profile, CentreLineBlocksWalkTogetherBySide) {
   }
 }
 
+// A subtree that one tile of a camera block alone goes on into is walked by that tile as its
+// own packet, with the block's slab form and its own best t: the hits stay the plain loop's,
+// for cameras whose rays go either way along each axis.
+TEST(Profile, OneTileSubtreesWalkedAsThatTilesPacket) {
+  generate::Options g;
+  g.spheres = 8192, g.seed = 6, g.nx = 64, g.ny = 48;
+  const Scene cloud = parse_scene(generate::scene_json(g), "cloud");
+  const Vec3<double> centre{0, 2.5, -10};  // of the generator's box of spheres
+  for (const Vec3<double>& eye : {Vec3<double>{0, 2.5, 5}, Vec3<double>{-12, 5, -18},
+                                  Vec3<double>{12, 1, -3}, Vec3<double>{8, 0.5, -22}}) {
+    SCOPED_TRACE("eye " + std::to_string(eye.x) + " " + std::to_string(eye.y) + " " +
+                 std::to_string(eye.z));
+    Scene s = cloud;
+    s.camera.position = eye;
+    s.camera.direction = {centre.x - eye.x, centre.y - eye.y, centre.z - eye.z};
+    RenderOptions po;
+    po.width = 1, po.accel = Accel::none;
+    const PrimaryResult plain = render_primary_with_ids(s, po);
+    int hits = 0;
+    for (std::int32_t id : plain.id) hits += id >= 0 && id < g.spheres;
+    EXPECT_GT(hits, 500);
+    for (int width : packet_widths()) {
+      SCOPED_TRACE("width " + std::to_string(width));
+      const auto& b = profile_render(s, width).camera_blocks.totals;
+      // Width 4's block interval keeps every packet in the walk (Block4: no tile bits).
+      if (width == 4)
+        EXPECT_EQ(b.tiles_alone, 0u);
+      else
+        EXPECT_GT(b.tiles_alone, 0u);
+      po.width = width, po.accel = Accel::bvh;
+      const PrimaryResult tree = render_primary_with_ids(s, po);
+      EXPECT_EQ(plain.t, tree.t);
+      EXPECT_EQ(plain.id, tree.id);
+    }
+  }
+}
+
 // Counting changes nothing: the profiled primary path's hits are the exact kernel's, bit for
 // bit; and a scene without a hierarchy has no camera blocks.
 TEST(Profile, CountedCameraBlocksFindTheSameHits) {

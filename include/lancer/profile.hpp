@@ -50,6 +50,9 @@ struct StageProfile {
   struct Blocks {
     std::uint64_t together = 0, alone = 0, nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0,
                   leaf_lanes = 0;
+    // Subtrees that one tile alone went on into, walked by that tile as its own packet (their
+    // nodes and leaves are not in the counts above).
+    std::uint64_t tiles_alone = 0;
     int block_w = 0, block_h = 0;
   } blocks;
 };
@@ -79,7 +82,8 @@ struct ProfileResult {
     double seconds = 0;  // the profiled run, counters included
     std::uint64_t rays = 0;
     StageProfile::Blocks totals;
-    double nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0;  // per block walked together
+    // per block walked together
+    double nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0, tiles_alone = 0;
     double leaf_occupancy = 0;  // live lanes / width over the leaf calls (0: none)
   } camera_blocks;
 };

@@ -67,11 +67,13 @@ void run_profile(const ProfileArgs& a) {
           {"leaf_pops", bt.leaf_pops},
           {"tile_leaf_box_tests", bt.box_tests},
           {"leaf_calls", bt.leaf_calls},
-          {"leaf_call_lanes", bt.leaf_lanes}}},
+          {"leaf_call_lanes", bt.leaf_lanes},
+          {"subtrees_walked_by_one_tile", bt.tiles_alone}}},
         {"per_block", bt.together ? nlohmann::json{{"node_tests", cb.nodes},
                                                    {"leaf_pops", cb.leaf_pops},
                                                    {"tile_leaf_box_tests", cb.box_tests},
-                                                   {"leaf_calls", cb.leaf_calls}}
+                                                   {"leaf_calls", cb.leaf_calls},
+                                                   {"subtrees_walked_by_one_tile", cb.tiles_alone}}
                                   : nlohmann::json()},
         {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()}};
     std::printf("%s\n", out.dump(2).c_str());
@@ -136,8 +138,10 @@ void run_profile(const ProfileArgs& a) {
   if (bt.together)
     std::printf(
         "    per block walked together: %.2f node tests, %.2f leaf pops, %.2f tile-leaf box "
-        "tests, %.2f leaf calls at %.1f%% lane occupancy\n",
-        cb.nodes, cb.leaf_pops, cb.box_tests, cb.leaf_calls, 100 * cb.leaf_occupancy);
+        "tests, %.2f leaf calls at %.1f%% lane occupancy; %.2f subtrees that one tile alone "
+        "went on into, walked by it as its own packet\n",
+        cb.nodes, cb.leaf_pops, cb.box_tests, cb.leaf_calls, 100 * cb.leaf_occupancy,
+        cb.tiles_alone);
 }
 }  // namespace
 

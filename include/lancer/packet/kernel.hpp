@@ -688,6 +688,7 @@ struct Kernel {
       ++b->leaf_calls;
       b->leaf_lanes += unsigned(__builtin_popcount(lanes));
     }
+    void tile_alone() const noexcept { ++b->tiles_alone; }
   };
 
   // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)

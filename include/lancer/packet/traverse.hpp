@@ -85,6 +85,7 @@ struct NoWalkCount {
   void leaf_pop() const noexcept {}
   void box_test() const noexcept {}
   void leaf_call(unsigned /*lanes*/) const noexcept {}
+  void tile_alone() const noexcept {}
 };
 
 template <class Arch, class T>
@@ -927,6 +928,22 @@ struct Traversal {
     }
   };
 
+  // Tile i of a camera block walks the subtree of inner node `start` alone, with the block's
+  // slab form (that of packet `signs`, one sign per axis for the block) and its own lanes and
+  // best t. Inlined into the block walk: out of line measured 1-2% slower at 65536 spheres.
+  template <class Leaf>
+  [[gnu::always_inline]] static void tile_alone(const Bvh<T>& h, const M& valid, const Ray& tile,
+                                                const Ray& signs, unsigned code, std::int32_t start,
+                                                const B& best_t, int i, Leaf& leaf) noexcept {
+    Ray r = tile;
+    std::copy(signs.neg, signs.neg + 3, r.neg);
+    std::copy(signs.near, signs.near + 3, r.near);
+    std::copy(signs.far, signs.far + 3, r.far);
+    auto one = [&](std::int32_t f, std::int32_t c, const M& lanes) { leaf(i, f, c, lanes); };
+    PacketsOnly none;
+    closest_from<Slab::signed_>(h, valid, r, code, start, best_t, one, none);
+  }
+
   // Inner nodes by the layout's interval test (Tiles16, Tiles8, Block4); a leaf by each lane's
   // own test of its box, so the spheres see only the lanes that meet it. The stack holds boxes
   // (node index * kWidth + slot: the child's reference and box are read from its parent when
@@ -984,6 +1001,16 @@ struct Traversal {
         const int k = int(unsigned(box[sp]) % kW);
         if constexpr (Tiles::kPerTile) in = unsigned(who[sp]);
         if (parent.count[k] < 0) {
+          // A subtree one tile alone goes on into: the tile walks it as its own packet, each
+          // lane tested against each child, the descent a branch (closest_with), rather than
+          // with the block's bounds and registers.
+          if (Tiles::kPerTile && !(in & (in - 1))) {
+            const int i = __builtin_ctz(in);
+            count.tile_alone();
+            tile_alone(h, valid[i], r[i], r[first], code, parent.child[k], best_t[i], i, leaf);
+            tiles.bounds(valid, best_t);
+            continue;
+          }
           node = parent.child[k];
           break;
         }
@@ -1018,8 +1045,15 @@ struct Traversal {
     const unsigned code = kSlab == Slab::signed_ ? unsigned(!r.neg[0]) | unsigned(!r.neg[1]) << 1 |
                                                        unsigned(!r.neg[2]) << 2
                                                  : direction_code(valid, d);
+    closest_from<kSlab>(h, valid, r, code, 0, best_t, leaf, one);
+  }
+  // closest_with's walk of the subtree of inner node `start` (0: the whole hierarchy), children
+  // in the order of direction code `code`.
+  template <Slab kSlab, class Leaf, class One>
+  static void closest_from(const Bvh<T>& h, const M& valid, const Ray& r, unsigned code,
+                           std::int32_t start, const B& best_t, Leaf& leaf, One& one) noexcept {
     Stack st;
-    std::int32_t child = 0, count = -1;
+    std::int32_t child = start, count = -1;
     M mask = valid;
     for (;;) {
       if constexpr (One::kMaxLanes > 0) {
