@@ -123,6 +123,16 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
         "kernel the intersection\n  kernel alone, over camera rays made beforehand.\n");
 }
 
+nlohmann::json peaks_json(const std::vector<PeakRow>& peaks) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const PeakRow& p : peaks)
+    out.push_back({{"width", p.width},
+                   {"isa", p.isa},
+                   {"gflops", p.gflops},
+                   {"muladd_gflops", p.muladd_gflops}});
+  return out;
+}
+
 nlohmann::json result_json(const std::string& scene, const BenchResult& result,
                            const std::vector<PeakRow>* peaks) {
   const std::vector<BenchRow>& rows = result.rows;
@@ -167,14 +177,7 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
                                     {"build_seconds", r.build_seconds},
                                     {"mrays_per_s", r.mrays_per_s()}});
   }
-  if (peaks) {
-    out["peak"] = nlohmann::json::array();
-    for (const PeakRow& p : *peaks)
-      out["peak"].push_back({{"width", p.width},
-                             {"isa", p.isa},
-                             {"gflops", p.gflops},
-                             {"muladd_gflops", p.muladd_gflops}});
-  }
+  if (peaks) out["peak"] = peaks_json(*peaks);
   return out;
 }
 
@@ -319,7 +322,7 @@ void run_bench_cmd(const BenchArgs& a) {
     out["scenes"] = nlohmann::json::array();
     for (std::size_t i = 0; i < scenes.size(); ++i)
       out["scenes"].push_back(result_json(a.scenes[i], results[i], nullptr));
-    if (a.peak) out["peak"] = result_json(a.scenes[0], results[0], &results[0].peaks)["peak"];
+    if (a.peak) out["peak"] = peaks_json(results[0].peaks);
     out["side_by_side"] = side_by_side_json(a.scenes, results, ratios);
     std::printf("%s\n", out.dump(2).c_str());
   } else {
