@@ -299,9 +299,8 @@ std::vector<SideBySide> bench_side_by_side(const std::vector<BenchResult>& resul
       r.scene = i, r.row = k;
       for (std::size_t rep = 0; rep < a.samples.size(); ++rep)
         r.ratios.push_back((b.samples[rep] / double(b.rays)) / (a.samples[rep] / double(a.rays)));
-      r.median = median(r.ratios);
-      r.min = *std::min_element(r.ratios.begin(), r.ratios.end());
-      r.max = *std::max_element(r.ratios.begin(), r.ratios.end());
+      const Spread sp = spread(r.ratios);
+      r.median = sp.median, r.min = sp.min, r.max = sp.max;
       out.push_back(r);
     }
   return out;
