@@ -38,7 +38,7 @@ template <class T>
 std::size_t Bvh<T>::bytes() const {
   return nodes.size() * sizeof(Node) +
          (cx.size() + cy.size() + cz.size() + r2.size() + eye_fx.size() + eye_fy.size() +
-          eye_fz.size() + eye_c.size()) *
+          eye_fz.size() + eye_c.size() + eye_reach.size()) *
              sizeof(T) +
          id.size() * sizeof(std::int32_t);
 }

@@ -78,6 +78,19 @@ Accel resolve_accel(const Scene& scene, Accel accel) {
 
 namespace {
 
+// A sphere's reach for the camera tiles' cones (packet/cones.hpp): its radius plus a margin past
+// which no ray's computed discriminant is >= 0. The exact test's r^2 - |f - b d|^2 rounds to a
+// few ulps of |f| (RTG ch. 7): 2^-16 (|f| + r) is some 30 times that. Fast mode's textbook
+// b^2 - c (where naive_spheres_hold) rounds to about 2^-20 |f|^2, which moves the sphere's edge
+// by up to that over 2r: 2^-18 |f|^2 / r more, twice that bound.
+float eye_reach(float fx, float fy, float fz, float r2, bool naive) {
+  const double f = std::sqrt(double(fx) * fx + double(fy) * fy + double(fz) * fz);
+  const double r = std::sqrt(double(r2));
+  double margin = 0x1p-16 * (f + r);
+  if (naive) margin += 0x1p-18 * f * f / r;
+  return float(r + margin);
+}
+
 // The hierarchy, with the spheres copied in its leaf order (their original ids kept).
 template <class T>
 void add_bvh(PreparedScene<T>& p) {
@@ -95,25 +108,31 @@ void add_bvh(PreparedScene<T>& p) {
   // Fresh arrays, their pages huge and present before the first write (lancer/huge_pages.hpp):
   // at one million spheres, 15 ms instead of 55 for these nine arrays on a VM.
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) reserve_prepared(*v, n), v->resize(n);
+  const bool cones = eye && std::is_same_v<T, float>;
   if (eye)
     for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c})
       reserve_prepared(*v, n), v->resize(n);
+  if (cones) reserve_prepared(h.eye_reach, n), h.eye_reach.resize(n);
   reserve_prepared(h.id, n);
   h.id.assign(order.begin(), order.end());
   // A gather: each entry written once from its own sphere, so any split over threads gives the
   // same arrays. In parallel, as the build: at 2^20 spheres its random reads were a tenth of it.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t j = r.begin(); j < r.end(); ++j) {
-                        const std::size_t k = std::size_t(order[j]);
-                        h.cx[j] = p.sphere_cx[k], h.cy[j] = p.sphere_cy[k];
-                        h.cz[j] = p.sphere_cz[k], h.r2[j] = p.sphere_r2[k];
-                        if (eye) {
-                          h.eye_fx[j] = p.eye.fx[k], h.eye_fy[j] = p.eye.fy[k];
-                          h.eye_fz[j] = p.eye.fz[k], h.eye_c[j] = p.eye.c[k];
-                        }
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 16384), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t j = r.begin(); j < r.end(); ++j) {
+          const std::size_t k = std::size_t(order[j]);
+          h.cx[j] = p.sphere_cx[k], h.cy[j] = p.sphere_cy[k];
+          h.cz[j] = p.sphere_cz[k], h.r2[j] = p.sphere_r2[k];
+          if (eye) {
+            h.eye_fx[j] = p.eye.fx[k], h.eye_fy[j] = p.eye.fy[k];
+            h.eye_fz[j] = p.eye.fz[k], h.eye_c[j] = p.eye.c[k];
+          }
+          if constexpr (std::is_same_v<T, float>)
+            if (cones)
+              h.eye_reach[j] =
+                  eye_reach(h.eye_fx[j], h.eye_fy[j], h.eye_fz[j], h.r2[j], p.naive_spheres_hold);
+        }
+      });
   // The build time covers the copy too: the structure is not usable before it.
   h.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -86,10 +86,12 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   if (const double n = double(cb.totals.together); n > 0) {
     cb.nodes = double(cb.totals.nodes) / n;
     cb.leaf_pops = double(cb.totals.leaf_pops) / n;
-    cb.box_tests = double(cb.totals.box_tests) / n;
+    cb.tile_tests = double(cb.totals.tile_tests) / n;
     cb.leaf_calls = double(cb.totals.leaf_calls) / n;
     cb.tiles_alone = double(cb.totals.tiles_alone) / n;
   }
+  if (cb.totals.cone_pairs)
+    cb.cone_kept = double(cb.totals.cone_kept) / double(cb.totals.cone_pairs);
   if (cb.totals.leaf_calls)
     cb.leaf_occupancy =
         double(cb.totals.leaf_lanes) / (double(cb.totals.leaf_calls) * double(res.width));

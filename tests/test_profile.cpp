@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <random>
 
 #include "lancer/compare.hpp"
 #include "lancer/generate.hpp"
@@ -215,7 +216,7 @@ TEST(Profile, CameraBlocksAreCountedOnTheirPath) {
     EXPECT_GT(b.together, 0u);
     EXPECT_GE(b.nodes, b.together);
     EXPECT_GT(b.leaf_pops, 0u);
-    EXPECT_LE(b.leaf_calls, b.box_tests);
+    EXPECT_LE(b.leaf_calls, b.tile_tests);
     EXPECT_GE(b.leaf_lanes, b.leaf_calls);
     EXPECT_LE(b.leaf_lanes, b.leaf_calls * std::uint64_t(width));
     EXPECT_EQ(r.camera_blocks.rays, std::uint64_t(s.camera.nx) * std::uint64_t(s.camera.ny));
@@ -288,6 +289,58 @@ TEST(Profile, OneTileSubtreesWalkedAsThatTilesPacket) {
       EXPECT_EQ(plain.t, tree.t);
       EXPECT_EQ(plain.id, tree.id);
     }
+  }
+}
+
+// The camera tiles' cones (widths 16 and 8) pass a sphere on to a tile's per-lane tests
+// wherever one of its rays may meet it. Seeded: spheres grazing the rays through tile corners
+// (the extreme lanes), hit or missed by 1e-7 to 1e-2 of their radius, radii 1e-4 to 0.3 of their
+// distance (0.5 to 200), a tenth behind the eye, and the eye inside a sphere around them all.
+// The hits stay the plain loop's at every width, and the cones do cut pairs (so the comparison
+// is not vacuous). Fails with each cone's angle taken over half of its tile's lanes.
+TEST(Profile, TileConesKeepEverySphereARayMeets) {
+  generate::Options g;
+  g.spheres = 16, g.seed = 7, g.nx = 64, g.ny = 48;
+  Scene s = parse_scene(generate::scene_json(g), "cloud");
+  const Vec3<double> eye{0.3, -0.2, 4};
+  s.camera.position = eye, s.camera.direction = {0, 0, -1};  // basis: x right, y up
+  s.spheres.clear();
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> unit(0, 1);
+  auto log_uniform = [&](double lo, double hi) { return lo * std::pow(hi / lo, unit(rng)); };
+  const int grazing = 600;
+  for (int k = 0; k < grazing; ++k) {
+    const int px = 4 * int(unit(rng) * (s.camera.nx / 4)) + (k & 1) * 3;
+    const int py = 4 * int(unit(rng) * (s.camera.ny / 4)) + (k >> 1 & 1) * 3;
+    const auto& c = s.camera;
+    const Vec3<double> d =
+        normalize(Vec3<double>{c.xmin + (px + 0.5) * (c.xmax - c.xmin) / c.nx,
+                               c.ymax - (py + 0.5) * (c.ymax - c.ymin) / c.ny, -c.distance});
+    const Vec3<double> side =
+        normalize(cross(d, Vec3<double>{unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5}));
+    const double dist = log_uniform(0.5, 200), r = dist * log_uniform(1e-4, 0.3);
+    const double off = (k % 3 ? 1 : -1) * log_uniform(1e-7, 1e-2);
+    const double along = k % 10 == 0 ? -dist : dist;
+    s.spheres.push_back({eye + d * along + side * (r * (1 + off)), r, 0});
+  }
+  s.spheres.push_back({eye + Vec3<double>{0.1, 0, 0}, 1e3, 0});
+  RenderOptions po;
+  po.width = 1, po.accel = Accel::none;
+  const PrimaryResult plain = render_primary_with_ids(s, po);
+  int grazed = 0;
+  for (std::int32_t id : plain.id) grazed += id >= 0 && id < grazing;
+  EXPECT_GT(grazed, 200);
+  for (int width : packet_widths()) {
+    SCOPED_TRACE("width " + std::to_string(width));
+    const auto& b = profile_render(s, width).camera_blocks.totals;
+    if (width != 4) {
+      EXPECT_GT(b.cone_pairs, 0u);
+      EXPECT_LT(b.cone_kept, b.cone_pairs);
+    }
+    po.width = width, po.accel = Accel::bvh;
+    const PrimaryResult tree = render_primary_with_ids(s, po);
+    EXPECT_EQ(plain.t, tree.t);
+    EXPECT_EQ(plain.id, tree.id);
   }
 }
 

@@ -69,6 +69,9 @@ struct Bvh {
   // (Plain vectors, their pages prepared by prepare(): with BigVector's type here GCC compiled
   // the course scenes' AVX2 shading loop differently, 2% more instructions.)
   std::vector<T> cx, cy, cz, r2, eye_fx, eye_fy, eye_fz, eye_c;
+  // Float pinhole cameras: each sphere's radius plus the margin the camera tiles' cones keep
+  // (packet/cones.hpp; prepare.cpp's eye_reach).
+  std::vector<T> eye_reach;
   std::vector<std::int32_t> id;
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).

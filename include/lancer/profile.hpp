@@ -45,14 +45,19 @@ struct StageProfile {
   // The camera blocks' walk (primary mode's path, Traversal::closest_coherent): blocks whose
   // tiles walked the hierarchy together (on the image's centre lines, one walk per side, a tile
   // a line crosses alone) or packet by packet (width 4's blocks on the centre lines, double
-  // precision), and in the walks together: inner nodes tested, leaves popped, tile-by-leaf box
-  // tests, leaf calls and the lanes live in them. block_w x block_h: the blocks' pixels.
+  // precision), and in the walks together: inner nodes tested, leaves popped, tile-by-leaf
+  // tests (each lane against the leaf's box at width 4, the tile's cone against each sphere at
+  // widths 16 and 8), leaf calls and the lanes live in them. block_w x block_h: the blocks'
+  // pixels.
   struct Blocks {
-    std::uint64_t together = 0, alone = 0, nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0,
+    std::uint64_t together = 0, alone = 0, nodes = 0, leaf_pops = 0, tile_tests = 0, leaf_calls = 0,
                   leaf_lanes = 0;
     // Subtrees that one tile alone went on into, walked by that tile as its own packet (their
     // nodes and leaves are not in the counts above).
     std::uint64_t tiles_alone = 0;
+    // Widths 16 and 8: at the leaves (the lone tiles' too), tile-sphere pairs whose cone test
+    // ran, and those whose cone may meet the sphere, which alone go on to the per-lane tests.
+    std::uint64_t cone_pairs = 0, cone_kept = 0;
     int block_w = 0, block_h = 0;
   } blocks;
 };
@@ -83,7 +88,8 @@ struct ProfileResult {
     std::uint64_t rays = 0;
     StageProfile::Blocks totals;
     // per block walked together
-    double nodes = 0, leaf_pops = 0, box_tests = 0, leaf_calls = 0, tiles_alone = 0;
+    double nodes = 0, leaf_pops = 0, tile_tests = 0, leaf_calls = 0, tiles_alone = 0;
+    double cone_kept = 0;       // the share of tile-sphere pairs the cones kept (0: no cones)
     double leaf_occupancy = 0;  // live lanes / width over the leaf calls (0: none)
   } camera_blocks;
 };

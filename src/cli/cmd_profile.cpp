@@ -65,17 +65,20 @@ void run_profile(const ProfileArgs& a) {
         {"totals",
          {{"node_tests", bt.nodes},
           {"leaf_pops", bt.leaf_pops},
-          {"tile_leaf_box_tests", bt.box_tests},
+          {"tile_leaf_tile_tests", bt.tile_tests},
           {"leaf_calls", bt.leaf_calls},
           {"leaf_call_lanes", bt.leaf_lanes},
-          {"subtrees_walked_by_one_tile", bt.tiles_alone}}},
+          {"subtrees_walked_by_one_tile", bt.tiles_alone},
+          {"tile_sphere_cone_tests", bt.cone_pairs},
+          {"tile_sphere_pairs_kept", bt.cone_kept}}},
         {"per_block", bt.together ? nlohmann::json{{"node_tests", cb.nodes},
                                                    {"leaf_pops", cb.leaf_pops},
-                                                   {"tile_leaf_box_tests", cb.box_tests},
+                                                   {"tile_leaf_tile_tests", cb.tile_tests},
                                                    {"leaf_calls", cb.leaf_calls},
                                                    {"subtrees_walked_by_one_tile", cb.tiles_alone}}
                                   : nlohmann::json()},
-        {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()}};
+        {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()},
+        {"cone_kept", bt.cone_pairs ? nlohmann::json(cb.cone_kept) : nlohmann::json()}};
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }
@@ -137,11 +140,16 @@ void run_profile(const ProfileArgs& a) {
       bt.block_w, bt.block_h, (unsigned long long)bt.together, (unsigned long long)bt.alone);
   if (bt.together)
     std::printf(
-        "    per block walked together: %.2f node tests, %.2f leaf pops, %.2f tile-leaf box "
+        "    per block walked together: %.2f node tests, %.2f leaf pops, %.2f tile-leaf %s "
         "tests, %.2f leaf calls at %.1f%% lane occupancy; %.2f subtrees that one tile alone "
         "went on into, walked by it as its own packet\n",
-        cb.nodes, cb.leaf_pops, cb.box_tests, cb.leaf_calls, 100 * cb.leaf_occupancy,
-        cb.tiles_alone);
+        cb.nodes, cb.leaf_pops, cb.tile_tests, bt.cone_pairs ? "cone" : "box", cb.leaf_calls,
+        100 * cb.leaf_occupancy, cb.tiles_alone);
+  if (bt.cone_pairs)
+    std::printf(
+        "    the tiles' cones passed %.1f%% of tile-sphere pairs on to the per-lane sphere "
+        "tests\n",
+        100 * cb.cone_kept);
 }
 }  // namespace
 

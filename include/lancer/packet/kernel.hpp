@@ -319,11 +319,13 @@ struct Kernel {
   // where a hit wins. kIdOrder: the spheres come in id order, so a nearer t alone decides (the
   // sequential loop's result); else, in any order, the lexicographic minimum of (t, id).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
+  // which: only the spheres begin + j of its bits j (a camera tile's cone, cones.hpp); ~0u: all.
   template <bool kFromEye, bool kIdOrder>
   [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin,
                                                      int end, M valid, const V& o, const V& d,
                                                      B& best_t, I& best_id, RayCounts& counts,
-                                                     const I& leaving) noexcept {
+                                                     const I& leaving,
+                                                     std::uint32_t which = ~0u) noexcept {
     const B eps(s.epsilon);
     const T no_c(0);
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
@@ -345,6 +347,18 @@ struct Kernel {
       return kFromEye ? V{B(sp.efx[j]), B(sp.efy[j]), B(sp.efz[j])}
                       : o - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
     };
+    auto one = [&](int j) __attribute__((always_inline)) {
+      tests(counts, valid, true);
+      const B r2(sp.r2[j]);
+      const V f = offset(j);
+      const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, kFromEye ? sp.ec[j] : no_c);
+      const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, sp.object(j));
+      if (xsimd::any(m)) update(j, f, r2, sd, m);
+    };
+    if (which != ~0u) {  // few spheres, most of which some lane meets: no group test
+      for (; which; which &= which - 1) one(begin + __builtin_ctz(which));
+      return;
+    }
     // kGroup spheres per early-out test: most rays miss most spheres, and one branch then
     // skips the group. Hits are still taken in sphere order: the sequential loop's result.
     constexpr int kGroup = 4;
@@ -368,14 +382,7 @@ struct Kernel {
         if (xsimd::any(m)) update(j + g, f[g], B(sp.r2[j + g]), sd[g], m);
       }
     }
-    for (; j < end; ++j) {
-      tests(counts, valid, true);
-      const B r2(sp.r2[j]);
-      const V f = offset(j);
-      const SphereDisc<B> sd = disc_of(s, f, d, r2, kFromEye, kFromEye ? sp.ec[j] : no_c);
-      const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, sp.object(j));
-      if (xsimd::any(m)) update(j, f, r2, sd, m);
-    }
+    for (; j < end; ++j) one(j);
   }
 
   // The spheres through the hierarchy (reach 0 or 1: Traversal::reach). Out of line: inlined
@@ -663,10 +670,10 @@ struct Kernel {
                                                            I* best_id, RayCounts& counts) noexcept {
     const Spheres sp = leaf_spheres(s);
     const I none(Id(-1));
-    auto leaf = [&](int i, int first, int n, const M& m) {
+    auto leaf = [&](int i, int first, int n, const M& m, std::uint32_t which = ~0u) {
       leaf_visit(counts, m);
       spheres_closest<true, false>(s, sp, first, first + n, m, o[i], d[i], best_t[i], best_id[i],
-                                   counts, none);
+                                   counts, none, which);
     };
     if constexpr (kProfile)
       Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf,
@@ -683,12 +690,15 @@ struct Kernel {
     }
     void node() const noexcept { ++b->nodes; }
     void leaf_pop() const noexcept { ++b->leaf_pops; }
-    void box_test() const noexcept { ++b->box_tests; }
+    void tile_test() const noexcept { ++b->tile_tests; }
     void leaf_call(unsigned lanes) const noexcept {
       ++b->leaf_calls;
       b->leaf_lanes += unsigned(__builtin_popcount(lanes));
     }
     void tile_alone() const noexcept { ++b->tiles_alone; }
+    void cones(int pairs, int kept) const noexcept {
+      b->cone_pairs += unsigned(pairs), b->cone_kept += unsigned(kept);
+    }
   };
 
   // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)

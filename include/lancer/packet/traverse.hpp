@@ -19,10 +19,12 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/bvh.hpp"
+#include "lancer/packet/cones.hpp"
 #include "lancer/packet/fused.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/vec3.hpp"
@@ -83,9 +85,10 @@ struct NoWalkCount {
   void block(bool /*together*/) const noexcept {}
   void node() const noexcept {}
   void leaf_pop() const noexcept {}
-  void box_test() const noexcept {}
+  void tile_test() const noexcept {}
   void leaf_call(unsigned /*lanes*/) const noexcept {}
   void tile_alone() const noexcept {}
+  void cones(int /*pairs*/, int /*kept*/) const noexcept {}
 };
 
 template <class Arch, class T>
@@ -472,6 +475,12 @@ struct Traversal {
   static constexpr bool kTiles16 = kN % 4 == 0 && kAvx512<Arch>;
   template <int kN>
   static constexpr bool kTiles8 = B::size == 8 && kN % 2 == 0 && kFusedFmsub<Arch>;
+  // Tile cones (cones.hpp): a block of one tile a lane, in the per-tile layouts.
+  static constexpr bool kConesFit =
+      std::is_same_v<T, float> && (B::size == 16 || B::size == 8) && kFusedFmsub<Arch>;
+  template <int kN>
+  static constexpr bool kTileCones = std::is_same_v<T, float>&& kN == int(B::size) &&
+                                     (kTiles16<kN> || kTiles8<kN>);
 
   // kN camera packets at once (tiles side by side): leaf(i, first, count, mask) tests leaf-order
   // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i].
@@ -498,6 +507,12 @@ struct Traversal {
     if (first < 0) return;
     unsigned alone = packets;  // the packets that walk by themselves
     if constexpr (std::is_same_v<T, float>) {
+      // Each tile's cone (widths 16 and 8: a tile a lane), where the eye's table is there.
+      using Cones = TileCones<Arch>;
+      std::optional<Cones> cones_of;
+      if constexpr (kTileCones<kN>)
+        if (!h.eye_reach.empty()) cones_of.emplace(d, valid);
+      const Cones* cones = cones_of ? &*cones_of : nullptr;
       // A packet without live lanes takes the first one's ray: its lanes, all outside `valid`,
       // then take part in no bound and no leaf (closest_tiles does not branch on liveness).
       for (int i = 0; i < kN; ++i)
@@ -508,14 +523,14 @@ struct Traversal {
         bool full = true;
         for (int i = 0; i < kN; ++i) full = full && live[i] == (1u << B::size) - 1;
         count.block(true);
-        return closest_block<kN>(h, valid, r, first, packets, full, best_t, leaf, count);
+        return closest_block<kN>(h, valid, r, first, packets, full, best_t, leaf, count, cones);
       }
       // A block on the image's centre lines. With each tile's own interval (widths 16 and 8)
       // the tiles on each side of the lines walk together, a tile a line crosses alone; the
       // block's one interval (width 4) is loose there (the reciprocals of near-zero directions
       // spread widely: 8% slower at 65536 spheres), so every packet walks alone.
       if constexpr (kTiles16<kN> || kTiles8<kN>)
-        alone = walk_sides<kN>(h, valid, r, packets, best_t, leaf, count);
+        alone = walk_sides<kN>(h, valid, r, packets, best_t, leaf, count, cones);
     }
     count.block(alone != packets);  // some of its packets walked together
     for (unsigned t = alone; t; t &= t - 1) {
@@ -535,7 +550,8 @@ struct Traversal {
   // left to walk alone.
   template <int kN, class Leaf, class Count>
   static unsigned walk_sides(const Bvh<T>& h, const M* valid, Ray* r, unsigned packets,
-                             const B* best_t, Leaf& leaf, Count count) noexcept {
+                             const B* best_t, Leaf& leaf, Count count,
+                             const TileCones<Arch>* cones) noexcept {
     unsigned code[kN], alone = 0;
     for (unsigned t = packets; t; t &= t - 1) {
       const int i = __builtin_ctz(t);
@@ -553,25 +569,26 @@ struct Traversal {
       set_signs(r[f], code[f]);  // closest_tiles reads only the first packet's planes
       M in_side[kN];             // the other packets take part in no bound
       for (int i = 0; i < kN; ++i) in_side[i] = side >> i & 1u ? valid[i] : M(false);
-      closest_block<kN>(h, in_side, r, f, side, false, best_t, leaf, count);
+      closest_block<kN>(h, in_side, r, f, side, false, best_t, leaf, count, cones);
     }
     return alone;
   }
 
   // The tiles `packets` (one sign per axis, the planes of packet `first`) walk together; full:
   // every lane of every packet live.
+  // cones: the tiles' cones (null: none; widths 16 and 8 only).
   template <int kN, class Leaf, class Count>
   static void closest_block(const Bvh<T>& h, const M* valid, const Ray* r, int first,
-                            unsigned packets, bool full, const B* best_t, Leaf& leaf,
-                            Count count) noexcept {
+                            unsigned packets, bool full, const B* best_t, Leaf& leaf, Count count,
+                            const TileCones<Arch>* cones) noexcept {
     constexpr bool k16 = kTiles16<kN>, k8 = kTiles8<kN>;
     if constexpr (k16 || k8) {
       using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
       using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
-      if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf, count);
-      return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf, count);
+      if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf, count, cones);
+      return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf, count, cones);
     }
-    return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf, count);
+    return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf, count, nullptr);
   }
 
  public:
@@ -932,13 +949,27 @@ struct Traversal {
   // and best t and the block's slab form, from the block's direction code (bit a set where the
   // rays go up axis a: the complement of its sign code). Inlined into the block walk: out of
   // line measured 1-2% slower at 65536 spheres.
-  template <class Leaf>
+  // With the tiles' cones, a leaf's spheres go to the tile only where its cone may meet them.
+  template <class Leaf, class Count>
   [[gnu::always_inline]] static void tile_alone(const Bvh<T>& h, const M& valid, const Ray& tile,
                                                 unsigned code, std::int32_t start, const B& best_t,
-                                                int i, Leaf& leaf) noexcept {
+                                                int i, Leaf& leaf, const TileCones<Arch>* cones,
+                                                Count count) noexcept {
     Ray r = tile;
     set_signs(r, ~code & 7u);
-    auto one = [&](std::int32_t f, std::int32_t c, const M& lanes) { leaf(i, f, c, lanes); };
+    auto one = [&](std::int32_t f, std::int32_t c, const M& lanes) {
+      if constexpr (kConesFit) {
+        if (cones) {
+          alignas(64) std::uint32_t which[TileCones<Arch>::kTiles];
+          const unsigned tiles = cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
+                                             h.eye_reach.data(), f, c, which);
+          count.cones(c, __builtin_popcount(which[i]));
+          if (tiles >> i & 1u) leaf(i, f, c, lanes, which[i]);
+          return;
+        }
+      }
+      leaf(i, f, c, lanes);
+    };
     PacketsOnly none;
     closest_from<Slab::signed_>(h, valid, r, code, start, best_t, one, none);
   }
@@ -955,7 +986,8 @@ struct Traversal {
   template <class Tiles, class Leaf, class Count>
   [[gnu::noinline]] static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r,
                                               int first, unsigned packets, const B* best_t,
-                                              Leaf&& leaf, Count count) noexcept {
+                                              Leaf&& leaf, Count count,
+                                              const TileCones<Arch>* cones) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
     static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
     Tiles tiles(r, valid);
@@ -971,6 +1003,23 @@ struct Traversal {
     const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
     std::int32_t node = 0;
     unsigned in = packets;  // the tiles that met the node's box
+    // The tiles of `in` against leaf-order spheres [first, first + n) by their cones, each tile
+    // then testing the spheres its cone may meet with all its live lanes (no per-lane box test).
+    auto cone_leaf = [&](std::int32_t first_sphere, std::int32_t n) {
+      alignas(64) std::uint32_t which[TileCones<Arch>::kTiles];
+      const unsigned meet = in & cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
+                                             h.eye_reach.data(), first_sphere, n, which);
+      for (unsigned ps = in; ps; ps &= ps - 1) {
+        count.tile_test();
+        count.cones(n, __builtin_popcount(which[__builtin_ctz(ps)]));
+      }
+      for (unsigned ps = meet; ps; ps &= ps - 1) {
+        const int i = __builtin_ctz(ps);
+        count.leaf_call(lane_bits(valid[i]));
+        leaf(i, first_sphere, n, valid[i], which[i]);
+      }
+      if (meet) tiles.bounds(valid, best_t);
+    };
     for (;;) {
       count.node();
       const Node& n = h.nodes[std::size_t(node)];
@@ -1006,23 +1055,46 @@ struct Traversal {
           if (Tiles::kPerTile && !(in & (in - 1))) {
             const int i = __builtin_ctz(in);
             count.tile_alone();
-            tile_alone(h, valid[i], r[i], code, parent.child[k], best_t[i], i, leaf);
+            tile_alone(h, valid[i], r[i], code, parent.child[k], best_t[i], i, leaf, cones, count);
             tiles.bounds(valid, best_t);
             continue;
           }
           node = parent.child[k];
+          if constexpr (kConesFit) {
+            // A node of leaves only: its spheres (consecutive in leaf order) as one leaf.
+            if (cones) {
+              const Node& c = h.nodes[std::size_t(node)];
+              std::uint32_t counts;
+              std::memcpy(&counts, c.count, sizeof counts);
+              const std::uint32_t used = 0xFFFFFFFFu >> (32 - 8 * c.arity);
+              if (!(counts & used & 0x80808080u)) {
+                count.leaf_pop();
+                int n = 0;
+                for (int q = 0; q < c.arity; ++q) n += c.count[q];
+                cone_leaf(c.child[0], n);
+                continue;
+              }
+            }
+          }
           break;
         }
         bool tested = false;
         count.leaf_pop();
+        const std::int32_t first_sphere = parent.child[k], spheres = parent.count[k];
+        if constexpr (kConesFit) {
+          if (cones) {
+            cone_leaf(first_sphere, spheres);
+            continue;
+          }
+        }
         for (unsigned ps = in; ps; ps &= ps - 1) {
           const int i = __builtin_ctz(ps);
           B tn_leaf;
-          count.box_test();
+          count.tile_test();
           const M lanes = signed_hit(parent, k, near, far, r[i], valid[i], best_t[i], tn_leaf);
           if (xsimd::any(lanes)) {
             count.leaf_call(lane_bits(lanes));
-            leaf(i, parent.child[k], std::int32_t(parent.count[k]), lanes);
+            leaf(i, first_sphere, spheres, lanes);
             tested = true;
           }
         }
