@@ -36,7 +36,7 @@ const char* to_string(Accel a) {
 
 template <class T>
 std::size_t Bvh<T>::bytes() const {
-  return nodes.size() * sizeof(Node) +
+  return nodes.size() * sizeof(Node) + first_sphere.size() * sizeof(std::int32_t) +
          (cx.size() + cy.size() + cz.size() + r2.size() + eye_fx.size() + eye_fy.size() +
           eye_fz.size() + eye_c.size() + eye_reach.size()) *
              sizeof(T) +
@@ -106,12 +106,13 @@ struct Prim {
   V4<T> centroid() const { return box.lo + box.hi; }
 };
 
-constexpr int kBins = 32;               // per axis, at most (min(kBins, n)); docs/accel.md
-constexpr int kMaxLeaf = 4;             // always a leaf at or below
-constexpr int kMaxSahLeaf = 8;          // a leaf up to here where the SAH says a split does not pay
-constexpr double kTraversalCost = 1.0;  // per node, in units of one sphere test
-constexpr int kParallelMin = 4096;      // subtrees at least this large build as parallel tasks
-static_assert(kMaxSahLeaf <= 127, "a wide node's counts are 8 bits");
+constexpr int kBins = 32;  // per axis, at most (min(kBins, n)); docs/accel.md
+// Always a leaf at or below (Bvh::max_leaf); else split. kLargeLeaf from kLargeLeafMinSpheres
+// (bvh.hpp).
+constexpr int kSmallLeaf = 4, kLargeLeaf = 8;
+constexpr int kParallelMin = 4096;  // subtrees at least this large build as parallel tasks
+// A bottom node's spheres (Bvh::Node::count): an 8-bit count, the cones' 32-bit masks.
+static_assert(Bvh<float>::kWidth * kLargeLeaf <= 32, "a wide node's counts are 8 bits");
 
 // Top-down binned SAH over prims_/idx_ (partitioned in place, in lockstep). Which spheres a
 // subtree holds depends on the input only; where its nodes sit in nodes_ depends on the tasks'
@@ -123,8 +124,8 @@ class Builder {
  public:
   using Node = BinaryNode<T>;
   static constexpr int kChunk = 64;
-  Builder(BigVector<Prim<T>>& prims, std::vector<std::int32_t>& idx)
-      : prims_(prims), idx_(idx), nodes_(capacity(prims.size())) {}
+  Builder(BigVector<Prim<T>>& prims, std::vector<std::int32_t>& idx, int max_leaf)
+      : prims_(prims), idx_(idx), max_leaf_(max_leaf), nodes_(capacity(prims.size())) {}
 
   // A task's slots: [next, end) of its chunk; and the deepest child depth it made (the root's
   // children: 1), merged into its parent task's after it, so no shared state per node.
@@ -184,12 +185,8 @@ class Builder {
     set_box(p, k, box);
     const int n = end - begin;
     slots.deepest = std::max(slots.deepest, depth);
-    if (n <= kMaxLeaf) return leaf(p, k, begin, n);
+    if (n <= max_leaf_) return leaf(p, k, begin, n);
     const Split s = depth < Bvh<T>::kMaxDepth - 40 ? best_split(begin, end, cbox) : Split{};
-    // A small set that no split improves on stays a leaf.
-    if (s.axis >= 0 && n <= kMaxSahLeaf &&
-        s.cost + kTraversalCost * box.half_area() >= double(n) * box.half_area())
-      return leaf(p, k, begin, n);
     const int free = take(slots);
     p.child[k] = free, p.count[k] = -1;
     inner(slots, free, begin, end, s, depth);
@@ -311,6 +308,7 @@ class Builder {
  private:
   BigVector<Prim<T>>& prims_;
   std::vector<std::int32_t>& idx_;
+  int max_leaf_;
   BigArray<Node> nodes_;
   std::atomic<int> count_{0};
 };
@@ -323,7 +321,9 @@ template <class T>
 class Collapse {
  public:
   using Node = typename Bvh<T>::Node;
-  Collapse(const BigArray<BinaryNode<T>>& bin, BigVector<Node>& out) : bin_(bin), out_(out) {}
+  Collapse(const BigArray<BinaryNode<T>>& bin, BigVector<Node>& out,
+           std::vector<std::int32_t>& first)
+      : bin_(bin), out_(out), first_(first) {}
 
   // The wide node over binary node b at wide depth `depth`: returns its index.
   std::int32_t node(int b, int depth) {
@@ -353,6 +353,7 @@ class Collapse {
       if (inner(e[i]) || at(e[i]).count[e[i].k] > 0) e[arity++] = e[i];
     const auto self = static_cast<std::int32_t>(out_.size());
     out_.emplace_back();  // value-initialized: padding and unused slots are zero
+    first_.push_back(-1);
     std::int32_t child[kW] = {};
     for (int i = 0; i < arity; ++i)
       child[i] = inner(e[i]) ? node(at(e[i]).child[e[i].k], depth + 1) : at(e[i]).child[e[i].k];
@@ -364,8 +365,11 @@ class Collapse {
       w.lo_x[i] = p.lo_x[k], w.lo_y[i] = p.lo_y[k], w.lo_z[i] = p.lo_z[k];
       w.hi_x[i] = p.hi_x[k], w.hi_y[i] = p.hi_y[k], w.hi_z[i] = p.hi_z[k];
       w.child[i] = child[i];
-      w.count[i] = static_cast<std::int8_t>(inner(e[i]) ? -1 : p.count[k]);
+      w.count[i] = static_cast<std::int8_t>(inner(e[i]) ? -1 - bottom(child[i]) : p.count[k]);
     }
+    bool leaves_only = true;
+    for (int i = 0; i < arity; ++i) leaves_only = leaves_only && !inner(e[i]);
+    if (leaves_only) first_[std::size_t(self)] = w.child[0];
     // Per direction code u, the slots in the binary traversal's near-first order.
     for (unsigned u = 0; u < 8; ++u) {
       int p = 0;
@@ -405,8 +409,21 @@ class Collapse {
     }
   }
 
+  // 1 + its spheres where wide node c's children are leaves only (consecutive in leaf order),
+  // else 0: the count its parent gives it is -1 minus this.
+  int bottom(std::int32_t c) const {
+    const Node& n = out_[std::size_t(c)];
+    int spheres = 0;
+    for (int q = 0; q < n.arity; ++q) {
+      if (n.count[q] < 0 || n.child[q] != n.child[0] + spheres) return 0;
+      spheres += n.count[q];
+    }
+    return 1 + spheres;
+  }
+
   const BigArray<BinaryNode<T>>& bin_;
   BigVector<Node>& out_;
+  std::vector<std::int32_t>& first_;
 };
 
 // Padding per unit of magnitude: 2^8 ulps of T, far above the rounding of the sphere test
@@ -470,7 +487,8 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
     call.grow(q.centroid());
     order[k] = i;
   }
-  Builder<T> builder(prims, order);
+  bvh.max_leaf = n >= kLargeLeafMinSpheres ? kLargeLeaf : kSmallLeaf;
+  Builder<T> builder(prims, order, bvh.max_leaf);
   typename Builder<T>::Slots slots;
   const int root = builder.take(slots);  // slot 0
   // One sphere: the root's child 0 holds it, child 1 is empty.
@@ -484,7 +502,8 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
   }
   LANCER_CHECK(std::max(1, slots.deepest) < Bvh<T>::kMaxDepth);
   bvh.nodes.reserve(std::size_t(builder.used()) / 2 + 1);
-  Collapse<T> collapse(builder.nodes(), bvh.nodes);
+  bvh.first_sphere.reserve(bvh.nodes.capacity());
+  Collapse<T> collapse(builder.nodes(), bvh.nodes, bvh.first_sphere);
   collapse.node(root, 1);
   bvh.depth = collapse.deepest;
   set_spread_scale(bvh, all);

@@ -37,16 +37,22 @@ inline constexpr int kCoherentLeaves = 8;
 // The camera hits' shadow rays, coherent, stay packets.
 inline constexpr int kOneRayShadowMinSpheres = 1024;
 inline constexpr int kOneRayShadowLanes = 1;
+// Leaves of up to 8 spheres rather than 4 from this many spheres (Bvh::max_leaf; docs/accel.md,
+// seventeenth round): with the camera tiles' cones, which test a leaf's spheres for every tile
+// at once, and the bottom nodes taken as leaves, 0.90x the time of camera rays at 65536 spheres
+// (width 16) and 0.93x of full renders; at 1024 spheres, 1.05x at width 4.
+inline constexpr int kLargeLeafMinSpheres = 8192;
 
 template <class T>
 struct Bvh {
   // A kWidth-wide node: a binary SAH tree collapsed (docs/accel.md). Child slot k < arity:
-  // count[k] < 0: child[k] is an inner node; else a leaf of count[k] spheres from leaf-order
-  // index child[k]. Slots hold the binary tree's depth-first order, so children visited in slot
-  // order meet the leaves in the binary tree's fixed order.
-  // order[u], per packet direction code u (bit a set: the rays go up along axis a): the slots
-  // nearest first (kOrderBits each, the first lowest; the binary splits' near-first rule), the
-  // slots >= arity last. Aligned to 64-byte cache lines.
+  // count[k] < 0: child[k] is an inner node (-1; -2 - n where its own children are leaves only,
+  // of n spheres in all: a bottom node, whose first sphere is first_sphere[child[k]]); else a
+  // leaf of count[k] spheres from leaf-order index child[k]. Slots hold the binary tree's
+  // depth-first order, so children visited in slot order meet the leaves in the binary tree's fixed
+  // order. order[u], per packet direction code u (bit a set: the rays go up along axis a): the
+  // slots nearest first (kOrderBits each, the first lowest; the binary splits' near-first rule),
+  // the slots >= arity last. Aligned to 64-byte cache lines.
   static constexpr int kWidth = 4;  // 8 measured: no faster at 65536 spheres, slower at 16384
   static constexpr int kOrderBits = kWidth == 4 ? 2 : 3;
   using Order = std::conditional_t<kWidth == 4, std::uint8_t, std::uint32_t>;
@@ -65,6 +71,10 @@ struct Bvh {
   }
   static constexpr unsigned kSlotOrder = slot_order();
   BigVector<Node> nodes;  // nodes[0] is the root; empty: no hierarchy (plain loop)
+  // Per node: where its children are leaves only, its spheres' first leaf-order index (they are
+  // consecutive: the leaves keep the depth-first order); else -1. The camera tiles' walk takes
+  // such a node as one leaf (packet/cones.hpp) without reading it.
+  std::vector<std::int32_t> first_sphere;
   // The spheres in leaf order: centre, r^2, the eye's table (pinhole cameras) and object id.
   // (Plain vectors, their pages prepared by prepare(): with BigVector's type here GCC compiled
   // the course scenes' AVX2 shading loop differently, 2% more instructions.)
@@ -81,6 +91,7 @@ struct Bvh {
   // enter (0: packets only; 16 or more: every lane alone from the root). Set by prepare() from
   // the sphere count (kOneRayMinSpheres: 0 or kMaxLanes); read by exact float packets only.
   int one_ray_lanes = 0;
+  int max_leaf = 4;  // a leaf's spheres at most (build_bvh, by kLargeLeafMinSpheres)
   // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
   int shadow_one_ray_lanes = 0;
   // Where secondary rays go one at a time, a packet whose live lanes stay together walks whole:

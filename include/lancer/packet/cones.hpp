@@ -19,28 +19,31 @@
 
 namespace lancer::packet {
 
-// The cones of a camera block's tiles, one tile a lane (16 4x4 tiles in a zmm, 8 4x2 tiles in a
-// ymm). Tile i's rays d (unit, from the eye) make angles of at most theta with its axis a
-// (unit): cos(theta) >= cos_bound and sin(theta) <= sin_bound. From the chord: for unit d and
-// a, |d - a|^2 = 2 - 2 cos, sin <= |d - a|, so the greatest |d - a|^2 over the tile's live
-// lanes, E, gives cos >= 1 - E / 2 and sin <= sqrt(E) without the cancellation of 1 - cos^2
-// (a tile spans a few thousandths of a radian). kSlack covers |d| and |a| off 1 by their
-// rounding and the rounding of E.
-template <class Arch>
+// The cones of a camera block's kTiles tiles, one tile a lane: 16 4x4 tiles in a zmm (width 16),
+// 8 4x2 tiles in a ymm (width 8), 16 2x2 tiles in four xmm (width 4). Tile i's rays d (unit,
+// from the eye) make angles of at most theta with its axis a (unit): cos(theta) >= cos_bound and
+// sin(theta) <= sin_bound. From the chord: for unit d and a, |d - a|^2 = 2 - 2 cos and
+// sin <= |d - a|, so the greatest |d - a|^2 over the tile's live lanes, E, gives
+// cos >= 1 - E / 2 and sin <= sqrt(E) without the cancellation of 1 - cos^2 (a tile spans a few
+// thousandths of a radian). kSlack covers |d| and |a| off 1 by their rounding and the rounding
+// of E.
+template <class Arch, int kTiles>
 struct TileCones {
   using B = xsimd::batch<float, Arch>;
   using M = xsimd::batch_bool<float, Arch>;
   using V = Vec3<B>;
-  static constexpr int kTiles = int(B::size);  // 16 or 8 (Traversal::kTileCones)
-  // The two lanes whose directions' sum points through the tile's centre (4x4: (1,1) and (2,2);
-  // 4x2: (1,0) and (2,1)).
-  static constexpr int kLane1 = kTiles == 16 ? 5 : 1, kLane2 = kTiles == 16 ? 10 : 6;
+  using R = typename B::register_type;
+  static constexpr int kW = int(B::size);
+  static constexpr int kRegs = kTiles > kW ? kTiles / kW : 1;  // (whole: Traversal::kTileCones)
+  // The two lanes whose directions' sum points through a tile's centre (4x4: (1,1) and (2,2);
+  // 4x2: (1,0) and (2,1); 2x2: (0,0) and (1,1)).
+  static constexpr int kLane1 = kW == 16 ? 5 : kW == 8 ? 1 : 0;
+  static constexpr int kLane2 = kW == 16 ? 10 : kW == 8 ? 6 : 3;
   static constexpr float kSlack = 0x1p-19f;
 
-  using R = typename B::register_type;
   // Lane i: the greatest lane of x[i] (a transposed reduction, one vector per lane).
   static R greatest_per_lane(const R* x) noexcept {
-    if constexpr (kTiles == 16) {
+    if constexpr (kW == 16) {
       // Per four vectors, v[q]'s greatest in lanes 4q .. 4q + 3 (halves, quarters, within).
       auto quad = [](const R* v) {
         auto op = [](R a, R b) { return _mm512_max_ps(a, b); };
@@ -58,7 +61,7 @@ struct TileCones {
           _mm512_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28, 0, 4, 8, 12, 16, 20, 24, 28);
       return _mm512_mask_blend_ps(__mmask16(0xFF00), _mm512_permutex2var_ps(q0, pick, q1),
                                   _mm512_permutex2var_ps(q2, pick, q3));
-    } else {
+    } else if constexpr (kW == 8) {
       // Per two vectors, x[2p]'s greatest in lanes 0-3 and x[2p + 1]'s in lanes 4-7.
       R g[4];
       for (int p = 0; p < 4; ++p) {
@@ -71,40 +74,48 @@ struct TileCones {
       const R t01 = _mm256_shuffle_ps(g[0], g[1], 0), t23 = _mm256_shuffle_ps(g[2], g[3], 0);
       const R t = _mm256_shuffle_ps(t01, t23, _MM_SHUFFLE(2, 0, 2, 0));
       return _mm256_permutevar8x32_ps(t, _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
+    } else {
+      R t0 = x[0], t1 = x[1], t2 = x[2], t3 = x[3];
+      _MM_TRANSPOSE4_PS(t0, t1, t2, t3);
+      return _mm_max_ps(_mm_max_ps(t0, t1), _mm_max_ps(t2, t3));
     }
   }
 
-  B ax, ay, az, cos2, sin_bound;  // cos2: cos_bound^2 (0: this tile culls nothing)
+  // Per register g, tiles g kW .. g kW + kW - 1; cos2: cos_bound^2 (0: the tile culls nothing).
+  B ax[kRegs], ay[kRegs], az[kRegs], cos2[kRegs], sin_bound[kRegs];
 
   // d[i], valid[i]: tile i's rays and live lanes (i < kTiles).
   TileCones(const V* d, const M* valid) noexcept {
-    alignas(64) float x[kTiles], y[kTiles], z[kTiles];
     auto at = [](const B& v, int l) {
       float f;
       std::memcpy(&f, reinterpret_cast<const char*>(&v) + sizeof(float) * std::size_t(l), sizeof f);
       return f;
     };
-    for (int i = 0; i < kTiles; ++i) {
-      x[i] = at(d[i].x, kLane1) + at(d[i].x, kLane2);
-      y[i] = at(d[i].y, kLane1) + at(d[i].y, kLane2);
-      z[i] = at(d[i].z, kLane1) + at(d[i].z, kLane2);
+    for (int g = 0; g < kRegs; ++g) {
+      const V* dg = d + g * kW;
+      alignas(64) float x[kW], y[kW], z[kW];
+      for (int i = 0; i < kW; ++i) {
+        x[i] = at(dg[i].x, kLane1) + at(dg[i].x, kLane2);
+        y[i] = at(dg[i].y, kLane1) + at(dg[i].y, kLane2);
+        z[i] = at(dg[i].z, kLane1) + at(dg[i].z, kLane2);
+      }
+      const B bx = B::load_aligned(x), by = B::load_aligned(y), bz = B::load_aligned(z);
+      const B len = xsimd::sqrt(bx * bx + by * by + bz * bz);
+      ax[g] = bx / len, ay[g] = by / len, az[g] = bz / len;
+      ax[g].store_aligned(x), ay[g].store_aligned(y), az[g].store_aligned(z);
+      R e[kW];
+      for (int i = 0; i < kW; ++i) {
+        const B ex = dg[i].x - B(x[i]), ey = dg[i].y - B(y[i]), ez = dg[i].z - B(z[i]);
+        e[i] = R(xsimd::select(valid[g * kW + i], ex * ex + ey * ey + ez * ez, B(0.0f)));
+      }
+      const B chord2 = B(greatest_per_lane(e));
+      const B cos_bound = B(1.0f) - chord2 * B(0.5f) - B(kSlack);
+      // A cone of 60 degrees or more (a tile a few pixels wide never is): no cull.
+      const M narrow = cos_bound >= B(0.5f);
+      cos2[g] = xsimd::select(narrow, cos_bound * cos_bound, B(0.0f));
+      sin_bound[g] =
+          xsimd::select(narrow, xsimd::min(xsimd::sqrt(chord2) + B(kSlack), B(1.0f)), B(1.0f));
     }
-    B bx = B::load_aligned(x), by = B::load_aligned(y), bz = B::load_aligned(z);
-    const B len = xsimd::sqrt(bx * bx + by * by + bz * bz);
-    ax = bx / len, ay = by / len, az = bz / len;
-    ax.store_aligned(x), ay.store_aligned(y), az.store_aligned(z);
-    R e[kTiles];
-    for (int i = 0; i < kTiles; ++i) {
-      const B ex = d[i].x - B(x[i]), ey = d[i].y - B(y[i]), ez = d[i].z - B(z[i]);
-      e[i] = R(xsimd::select(valid[i], ex * ex + ey * ey + ez * ez, B(0.0f)));
-    }
-    const B chord2 = B(greatest_per_lane(e));
-    const B cos_bound = B(1.0f) - chord2 * B(0.5f) - B(kSlack);
-    // A cone of 60 degrees or more (a tile a few pixels wide never is): no cull.
-    const M narrow = cos_bound >= B(0.5f);
-    cos2 = xsimd::select(narrow, cos_bound * cos_bound, B(0.0f));
-    sin_bound =
-        xsimd::select(narrow, xsimd::min(xsimd::sqrt(chord2) + B(kSlack), B(1.0f)), B(1.0f));
   }
 
   // The tiles (bit i) whose cone may meet some sphere of leaf-order [first, first + n), and per
@@ -116,25 +127,30 @@ struct TileCones {
   // P = |V x a| = |V| sin(phi) and A = V . a = |V| cos(phi), that is cos(theta) P - sin(theta) A
   // >= cos_bound P - sin_bound max(A, 0). A tile whose bound exceeds the reach misses the
   // sphere; compared squared (both sides >= 0).
+  // regs: the registers of tiles to test (bit g: tiles g kW ..); the others' tiles keep nothing.
   unsigned keep(const float* fx, const float* fy, const float* fz, const float* reach, int first,
-                int n, std::uint32_t* which) const noexcept {
+                int n, std::uint32_t* which, unsigned regs = ~0u) const noexcept {
     unsigned tiles = 0;
-    B bits(0.0f);  // which, as float lanes' bits (only ORed and selected)
+    B bits[kRegs];  // which, as float lanes' bits (only ORed and selected)
+    for (int g = 0; g < kRegs; ++g) bits[g] = B(0.0f);
     for (int j = 0; j < n; ++j) {
-      const B X(fx[first + j]), Y(fy[first + j]), Z(fz[first + j]);
-      const B along = X * ax + Y * ay + Z * az;  // -A
-      const B cx = Y * az - Z * ay, cy = Z * ax - X * az, cz = X * ay - Y * ax;
-      const B p2 = cx * cx + cy * cy + cz * cz;
-      const B r = sin_bound * xsimd::max(-along, B(0.0f)) + B(reach[first + j]);
-      const M meets = cos2 * p2 <= r * r;
-      tiles |= lane_bits(meets);
+      const B X(fx[first + j]), Y(fy[first + j]), Z(fz[first + j]), reach_j(reach[first + j]);
       float bit;
       const std::uint32_t one = 1u << j;
       std::memcpy(&bit, &one, sizeof bit);
-      bits = xsimd::select(meets, bits | B(bit), bits);
+      for (int g = 0; g < kRegs; ++g) {
+        if (kRegs > 1 && !(regs >> g & 1u)) continue;
+        const B along = X * ax[g] + Y * ay[g] + Z * az[g];  // -A
+        const B cx = Y * az[g] - Z * ay[g], cy = Z * ax[g] - X * az[g], cz = X * ay[g] - Y * ax[g];
+        const B p2 = cx * cx + cy * cy + cz * cz;
+        const B r = sin_bound[g] * xsimd::max(-along, B(0.0f)) + reach_j;
+        const M meets = cos2[g] * p2 <= r * r;
+        tiles |= lane_bits(meets) << (g * kW);
+        bits[g] = xsimd::select(meets, bits[g] | B(bit), bits[g]);
+      }
     }
     alignas(64) float out[kTiles];
-    bits.store_aligned(out);
+    for (int g = 0; g < kRegs; ++g) bits[g].store_aligned(out + g * kW);
     std::memcpy(which, out, sizeof out);
     return tiles;
   }

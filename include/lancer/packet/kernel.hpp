@@ -319,13 +319,13 @@ struct Kernel {
   // where a hit wins. kIdOrder: the spheres come in id order, so a nearer t alone decides (the
   // sequential loop's result); else, in any order, the lexicographic minimum of (t, id).
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
-  // which: only the spheres begin + j of its bits j (a camera tile's cone, cones.hpp); ~0u: all.
-  template <bool kFromEye, bool kIdOrder>
+  // kSome: only the spheres begin + j of which's bits j (a camera tile's cone, cones.hpp).
+  template <bool kFromEye, bool kIdOrder, bool kSome = false>
   [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin,
                                                      int end, M valid, const V& o, const V& d,
                                                      B& best_t, I& best_id, RayCounts& counts,
                                                      const I& leaving,
-                                                     std::uint32_t which = ~0u) noexcept {
+                                                     std::uint32_t which = 0) noexcept {
     const B eps(s.epsilon);
     const T no_c(0);
     // The tests of sphere j, given its discriminant: the nearest root beyond epsilon, kept
@@ -355,7 +355,7 @@ struct Kernel {
       const M m = skip<kFromEye>(valid & (sd.disc >= B(0)), leaving, sp.object(j));
       if (xsimd::any(m)) update(j, f, r2, sd, m);
     };
-    if (which != ~0u) {  // few spheres, most of which some lane meets: no group test
+    if constexpr (kSome) {  // few spheres, most of which some lane meets: no group test
       for (; which; which &= which - 1) one(begin + __builtin_ctz(which));
       return;
     }
@@ -670,16 +670,26 @@ struct Kernel {
                                                            I* best_id, RayCounts& counts) noexcept {
     const Spheres sp = leaf_spheres(s);
     const I none(Id(-1));
-    auto leaf = [&](int i, int first, int n, const M& m, std::uint32_t which = ~0u) {
+    auto leaf = [&](int i, int first, int n, const M& m) {
       leaf_visit(counts, m);
       spheres_closest<true, false>(s, sp, first, first + n, m, o[i], d[i], best_t[i], best_id[i],
-                                   counts, none, which);
+                                   counts, none);
     };
+    // The spheres of [first, first + n) that tile i's cone may meet (bits of which).
+    auto some = [&](int i, int first, int n, const M& m, std::uint32_t which) {
+      leaf_visit(counts, m);
+      spheres_closest<true, false, true>(s, sp, first, first + n, m, o[i], d[i], best_t[i],
+                                         best_id[i], counts, none, which);
+    };
+    // One functor, two calls: all of a leaf's spheres, or those of a mask.
+    struct Leaves : decltype(leaf), decltype(some) {
+      using decltype(leaf)::operator(), decltype(some)::operator();
+    } leaves{leaf, some};
     if constexpr (kProfile)
-      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf,
+      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaves,
                                         WalkCount{&counts.profile->blocks});
     else
-      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaf);
+      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaves);
   }
   // The camera blocks' walk counted into the profile (ProfiledMode only).
   struct WalkCount {

@@ -475,12 +475,13 @@ struct Traversal {
   static constexpr bool kTiles16 = kN % 4 == 0 && kAvx512<Arch>;
   template <int kN>
   static constexpr bool kTiles8 = B::size == 8 && kN % 2 == 0 && kFusedFmsub<Arch>;
-  // Tile cones (cones.hpp): a block of one tile a lane, in the per-tile layouts.
+  // Tile cones (cones.hpp): float blocks of whole registers of tiles, one tile a lane.
   static constexpr bool kConesFit =
-      std::is_same_v<T, float> && (B::size == 16 || B::size == 8) && kFusedFmsub<Arch>;
+      std::is_same_v<T, float> && (B::size == 16 || B::size == 8 || B::size == 4);
   template <int kN>
-  static constexpr bool kTileCones = std::is_same_v<T, float>&& kN == int(B::size) &&
-                                     (kTiles16<kN> || kTiles8<kN>);
+  static constexpr bool kTileCones = kConesFit&& kN % int(B::size) == 0 && kN <= 32;
+  template <int kN>
+  using Cones = TileCones<Arch, kN>;
 
   // kN camera packets at once (tiles side by side): leaf(i, first, count, mask) tests leaf-order
   // spheres [first, first + count) for the lanes `mask` of packet i, lowering best_t[i].
@@ -508,11 +509,13 @@ struct Traversal {
     unsigned alone = packets;  // the packets that walk by themselves
     if constexpr (std::is_same_v<T, float>) {
       // Each tile's cone (widths 16 and 8: a tile a lane), where the eye's table is there.
-      using Cones = TileCones<Arch>;
-      std::optional<Cones> cones_of;
+      std::conditional_t<kTileCones<kN>, std::optional<Cones<kN>>, char> cones_of{};
+      const Cones<kN>* cones = nullptr;
+      // Width 4's (four registers a sphere, after each tile's box test) pay only with a large
+      // scene's large leaves (Bvh::max_leaf): 1.2x the time at 1024 spheres.
       if constexpr (kTileCones<kN>)
-        if (!h.eye_reach.empty()) cones_of.emplace(d, valid);
-      const Cones* cones = cones_of ? &*cones_of : nullptr;
+        if (!h.eye_reach.empty() && (B::size > 4 || h.max_leaf > 4))
+          cones = &cones_of.emplace(d, valid);
       // A packet without live lanes takes the first one's ray: its lanes, all outside `valid`,
       // then take part in no bound and no leaf (closest_tiles does not branch on liveness).
       for (int i = 0; i < kN; ++i)
@@ -551,7 +554,7 @@ struct Traversal {
   template <int kN, class Leaf, class Count>
   static unsigned walk_sides(const Bvh<T>& h, const M* valid, Ray* r, unsigned packets,
                              const B* best_t, Leaf& leaf, Count count,
-                             const TileCones<Arch>* cones) noexcept {
+                             const Cones<kN>* cones) noexcept {
     unsigned code[kN], alone = 0;
     for (unsigned t = packets; t; t &= t - 1) {
       const int i = __builtin_ctz(t);
@@ -576,19 +579,27 @@ struct Traversal {
 
   // The tiles `packets` (one sign per axis, the planes of packet `first`) walk together; full:
   // every lane of every packet live.
-  // cones: the tiles' cones (null: none; widths 16 and 8 only).
+  // cones: the tiles' cones (null: none), each walk instantiated with and without them.
   template <int kN, class Leaf, class Count>
   static void closest_block(const Bvh<T>& h, const M* valid, const Ray* r, int first,
                             unsigned packets, bool full, const B* best_t, Leaf& leaf, Count count,
-                            const TileCones<Arch>* cones) noexcept {
+                            const Cones<kN>* cones) noexcept {
     constexpr bool k16 = kTiles16<kN>, k8 = kTiles8<kN>;
+    auto walk = [&](auto layout) {
+      using Tiles = typename decltype(layout)::type;
+      if constexpr (kTileCones<kN>)
+        if (cones)
+          return closest_tiles<Tiles, true>(h, valid, r, first, packets, best_t, leaf, count,
+                                            cones);
+      return closest_tiles<Tiles, false>(h, valid, r, first, packets, best_t, leaf, count, cones);
+    };
     if constexpr (k16 || k8) {
       using Full = std::conditional_t<k16, Tiles16<kN / 4, true>, Tiles8<kN / 2, true>>;
       using Cut = std::conditional_t<k16, Tiles16<kN / 4, false>, Tiles8<kN / 2, false>>;
-      if (full) return closest_tiles<Full>(h, valid, r, first, packets, best_t, leaf, count, cones);
-      return closest_tiles<Cut>(h, valid, r, first, packets, best_t, leaf, count, cones);
+      if (full) return walk(std::common_type<Full>{});
+      return walk(std::common_type<Cut>{});
     }
-    return closest_tiles<Block4<kN>>(h, valid, r, first, packets, best_t, leaf, count, nullptr);
+    return walk(std::common_type<Block4<kN>>{});
   }
 
  public:
@@ -724,6 +735,7 @@ struct Traversal {
   // with every live packet (closest_tiles' layout of one part).
   template <int kN>
   struct Block4 {
+    static constexpr int kTiles = kN;
     static constexpr bool kPerTile = false;  // every live packet goes on with every met child
     Frustum f;
     F4 tmax;
@@ -801,6 +813,7 @@ struct Traversal {
   // Width 16: kG zmm of four 4x4 tiles each.
   template <int kG, bool kFull>
   struct Tiles16 : TileBounds<Tiles16<kG, kFull>, 64, kG> {
+    static constexpr int kTiles = 4 * kG;
     using F16 = __m512;
     using TileBounds<Tiles16, 64, kG>::TileBounds;
     using TileBounds<Tiles16, 64, kG>::f;
@@ -885,6 +898,7 @@ struct Traversal {
   // Width 8 (AVX2): kG ymm of two 4x2 tiles each.
   template <int kG, bool kFull>
   struct Tiles8 : TileBounds<Tiles8<kG, kFull>, 32, kG> {
+    static constexpr int kTiles = 2 * kG;
     using F8 = __m256;
     using TileBounds<Tiles8, 32, kG>::TileBounds;
     using TileBounds<Tiles8, 32, kG>::f;
@@ -950,17 +964,17 @@ struct Traversal {
   // rays go up axis a: the complement of its sign code). Inlined into the block walk: out of
   // line measured 1-2% slower at 65536 spheres.
   // With the tiles' cones, a leaf's spheres go to the tile only where its cone may meet them.
-  template <class Leaf, class Count>
+  template <class Leaf, class Count, class Cn>
   [[gnu::always_inline]] static void tile_alone(const Bvh<T>& h, const M& valid, const Ray& tile,
                                                 unsigned code, std::int32_t start, const B& best_t,
-                                                int i, Leaf& leaf, const TileCones<Arch>* cones,
+                                                int i, Leaf& leaf, const Cn* cones,
                                                 Count count) noexcept {
     Ray r = tile;
     set_signs(r, ~code & 7u);
     auto one = [&](std::int32_t f, std::int32_t c, const M& lanes) {
       if constexpr (kConesFit) {
         if (cones) {
-          alignas(64) std::uint32_t which[TileCones<Arch>::kTiles];
+          alignas(64) std::uint32_t which[32];
           const unsigned tiles = cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
                                              h.eye_reach.data(), f, c, which);
           count.cones(c, __builtin_popcount(which[i]));
@@ -983,11 +997,11 @@ struct Traversal {
   // ones only; which children a block meets is what a branch predictor cannot learn (at 65536
   // spheres mispredictions, not instructions, grew most with the scene).
   // Out of line, as GCC chose before the walk took a counter (which changed its choice).
-  template <class Tiles, class Leaf, class Count>
+  template <class Tiles, bool kCones, class Leaf, class Count>
   [[gnu::noinline]] static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r,
                                               int first, unsigned packets, const B* best_t,
                                               Leaf&& leaf, Count count,
-                                              const TileCones<Arch>* cones) noexcept {
+                                              const Cones<Tiles::kTiles>* cones) noexcept {
     constexpr int kW = Bvh<T>::kWidth;
     static_assert(kW == 4 && sizeof(typename Bvh<T>::Order) == 1);
     Tiles tiles(r, valid);
@@ -1005,18 +1019,32 @@ struct Traversal {
     unsigned in = packets;  // the tiles that met the node's box
     // The tiles of `in` against leaf-order spheres [first, first + n) by their cones, each tile
     // then testing the spheres its cone may meet with all its live lanes (no per-lane box test).
-    auto cone_leaf = [&](std::int32_t first_sphere, std::int32_t n) {
-      alignas(64) std::uint32_t which[TileCones<Arch>::kTiles];
-      const unsigned meet = in & cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
-                                             h.eye_reach.data(), first_sphere, n, which);
-      for (unsigned ps = in; ps; ps &= ps - 1) {
+    // Width 4's block interval has no tiles per child: there each tile first tests the box of
+    // (parent, k) with its lanes, and only the registers of the tiles that meet it test cones.
+    auto cone_leaf = [&](std::int32_t first_sphere, std::int32_t n, const Node& parent, int k) {
+      alignas(64) std::uint32_t which[Tiles::kTiles];
+      unsigned tested = in, regs = ~0u;
+      M lanes[Tiles::kPerTile ? 1 : Tiles::kTiles];
+      if constexpr (!Tiles::kPerTile) {
+        tested = 0, regs = 0;
+        for (unsigned ps = in; ps; ps &= ps - 1) {
+          const int i = __builtin_ctz(ps);
+          B tn_leaf;
+          lanes[i] = signed_hit(parent, k, near, far, r[i], valid[i], best_t[i], tn_leaf);
+          if (xsimd::any(lanes[i])) tested |= 1u << i, regs |= 1u << (i / int(B::size));
+        }
+      }
+      const unsigned meet = tested & cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
+                                                 h.eye_reach.data(), first_sphere, n, which, regs);
+      for (unsigned ps = tested; ps; ps &= ps - 1) {
         count.tile_test();
         count.cones(n, __builtin_popcount(which[__builtin_ctz(ps)]));
       }
       for (unsigned ps = meet; ps; ps &= ps - 1) {
         const int i = __builtin_ctz(ps);
-        count.leaf_call(lane_bits(valid[i]));
-        leaf(i, first_sphere, n, valid[i], which[i]);
+        const M& m = Tiles::kPerTile ? valid[i] : lanes[Tiles::kPerTile ? 0 : i];
+        count.leaf_call(lane_bits(m));
+        leaf(i, first_sphere, n, m, which[i]);
       }
       if (meet) tiles.bounds(valid, best_t);
     };
@@ -1049,43 +1077,35 @@ struct Traversal {
         const int k = int(unsigned(box[sp]) % kW);
         if constexpr (Tiles::kPerTile) in = unsigned(who[sp]);
         if (parent.count[k] < 0) {
+          node = parent.child[k];
+          if constexpr (kCones) {
+            // A node of leaves only: its spheres (consecutive in leaf order) as one leaf, the
+            // node itself not read.
+            if (parent.count[k] < -1) {
+              count.leaf_pop();
+              cone_leaf(h.first_sphere[std::size_t(node)], -2 - parent.count[k], parent, k);
+              continue;
+            }
+          }
           // A subtree one tile alone goes on into: the tile walks it as its own packet, each
           // lane tested against each child, the descent a branch (closest_with), rather than
           // with the block's bounds and registers.
           if (Tiles::kPerTile && !(in & (in - 1))) {
             const int i = __builtin_ctz(in);
             count.tile_alone();
-            tile_alone(h, valid[i], r[i], code, parent.child[k], best_t[i], i, leaf, cones, count);
+            tile_alone(h, valid[i], r[i], code, node, best_t[i], i, leaf, kCones ? cones : nullptr,
+                       count);
             tiles.bounds(valid, best_t);
             continue;
-          }
-          node = parent.child[k];
-          if constexpr (kConesFit) {
-            // A node of leaves only: its spheres (consecutive in leaf order) as one leaf.
-            if (cones) {
-              const Node& c = h.nodes[std::size_t(node)];
-              std::uint32_t counts;
-              std::memcpy(&counts, c.count, sizeof counts);
-              const std::uint32_t used = 0xFFFFFFFFu >> (32 - 8 * c.arity);
-              if (!(counts & used & 0x80808080u)) {
-                count.leaf_pop();
-                int n = 0;
-                for (int q = 0; q < c.arity; ++q) n += c.count[q];
-                cone_leaf(c.child[0], n);
-                continue;
-              }
-            }
           }
           break;
         }
         bool tested = false;
         count.leaf_pop();
         const std::int32_t first_sphere = parent.child[k], spheres = parent.count[k];
-        if constexpr (kConesFit) {
-          if (cones) {
-            cone_leaf(first_sphere, spheres);
-            continue;
-          }
+        if constexpr (kCones) {
+          cone_leaf(first_sphere, spheres, parent, k);
+          continue;
         }
         for (unsigned ps = in; ps; ps &= ps - 1) {
           const int i = __builtin_ctz(ps);
