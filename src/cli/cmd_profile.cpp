@@ -65,7 +65,7 @@ void run_profile(const ProfileArgs& a) {
         {"totals",
          {{"node_tests", bt.nodes},
           {"leaf_pops", bt.leaf_pops},
-          {"tile_leaf_tile_tests", bt.tile_tests},
+          {"tile_leaf_tests", bt.tile_tests},
           {"leaf_calls", bt.leaf_calls},
           {"leaf_call_lanes", bt.leaf_lanes},
           {"subtrees_walked_by_one_tile", bt.tiles_alone},
@@ -73,7 +73,7 @@ void run_profile(const ProfileArgs& a) {
           {"tile_sphere_pairs_kept", bt.cone_kept}}},
         {"per_block", bt.together ? nlohmann::json{{"node_tests", cb.nodes},
                                                    {"leaf_pops", cb.leaf_pops},
-                                                   {"tile_leaf_tile_tests", cb.tile_tests},
+                                                   {"tile_leaf_tests", cb.tile_tests},
                                                    {"leaf_calls", cb.leaf_calls},
                                                    {"subtrees_walked_by_one_tile", cb.tiles_alone}}
                                   : nlohmann::json()},

@@ -44,18 +44,8 @@ struct TileCones {
   // Lane i: the greatest lane of x[i] (a transposed reduction, one vector per lane).
   static R greatest_per_lane(const R* x) noexcept {
     if constexpr (kW == 16) {
-      // Per four vectors, v[q]'s greatest in lanes 4q .. 4q + 3 (halves, quarters, within).
-      auto quad = [](const R* v) {
-        auto op = [](R a, R b) { return _mm512_max_ps(a, b); };
-        const R a = op(_mm512_shuffle_f32x4(v[0], v[1], _MM_SHUFFLE(1, 0, 1, 0)),
-                       _mm512_shuffle_f32x4(v[0], v[1], _MM_SHUFFLE(3, 2, 3, 2)));
-        const R b = op(_mm512_shuffle_f32x4(v[2], v[3], _MM_SHUFFLE(1, 0, 1, 0)),
-                       _mm512_shuffle_f32x4(v[2], v[3], _MM_SHUFFLE(3, 2, 3, 2)));
-        R u = op(_mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(2, 0, 2, 0)),
-                 _mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(3, 1, 3, 1)));
-        u = op(u, _mm512_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
-        return op(u, _mm512_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
-      };
+      // Per four vectors, x[4q + p]'s greatest in lanes 4p .. 4p + 3 of q's.
+      auto quad = [](const R* v) { return fold_quarters<true>(v); };
       const R q0 = quad(x), q1 = quad(x + 4), q2 = quad(x + 8), q3 = quad(x + 12);
       const __m512i pick =
           _mm512_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28, 0, 4, 8, 12, 16, 20, 24, 28);

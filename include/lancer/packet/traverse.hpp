@@ -819,19 +819,10 @@ struct Traversal {
     using TileBounds<Tiles16, 64, kG>::f;
     using TileBounds<Tiles16, 64, kG>::tmax;
     static constexpr bool kPerTile = true;  // a child goes on with the tiles that meet it
-    // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3: a transposed reduction
-    // (two packets' halves folded in one operation, then their quarters, then within quarters).
+    // The least (kMax: greatest) lane of x[p], in lanes 4p to 4p + 3 (lanes.hpp).
     template <bool kMax>
     static F16 reduce(const F16* x) noexcept {
-      auto op = [](F16 a, F16 b) { return kMax ? _mm512_max_ps(a, b) : _mm512_min_ps(a, b); };
-      const F16 a = op(_mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(1, 0, 1, 0)),
-                       _mm512_shuffle_f32x4(x[0], x[1], _MM_SHUFFLE(3, 2, 3, 2)));
-      const F16 b = op(_mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(1, 0, 1, 0)),
-                       _mm512_shuffle_f32x4(x[2], x[3], _MM_SHUFFLE(3, 2, 3, 2)));
-      F16 u = op(_mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(2, 0, 2, 0)),
-                 _mm512_shuffle_f32x4(a, b, _MM_SHUFFLE(3, 1, 3, 1)));
-      u = op(u, _mm512_permute_ps(u, _MM_SHUFFLE(2, 3, 0, 1)));
-      return op(u, _mm512_permute_ps(u, _MM_SHUFFLE(1, 0, 3, 2)));
+      return fold_quarters<kMax>(x);
     }
     template <bool kMax, class Get>
     static F16 bound(const M* valid, int g, Get get) noexcept {
