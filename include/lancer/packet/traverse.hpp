@@ -508,7 +508,8 @@ struct Traversal {
     if (first < 0) return;
     unsigned alone = packets;  // the packets that walk by themselves
     if constexpr (std::is_same_v<T, float>) {
-      // Each tile's cone (widths 16 and 8: a tile a lane), where the eye's table is there.
+      // Each tile's cone (cones.hpp: a tile a lane), where the eye's table is there (float
+      // pinhole cameras).
       std::conditional_t<kTileCones<kN>, std::optional<Cones<kN>>, char> cones_of{};
       const Cones<kN>* cones = nullptr;
       // Width 4's (four registers a sphere, after each tile's box test) pay only with a large
