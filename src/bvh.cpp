@@ -367,9 +367,7 @@ class Collapse {
       w.child[i] = child[i];
       w.count[i] = static_cast<std::int8_t>(inner(e[i]) ? -1 - bottom(child[i]) : p.count[k]);
     }
-    bool leaves_only = true;
-    for (int i = 0; i < arity; ++i) leaves_only = leaves_only && !inner(e[i]);
-    if (leaves_only) first_[std::size_t(self)] = w.child[0];
+    if (bottom(self)) first_[std::size_t(self)] = w.child[0];  // what its parent will mark
     // Per direction code u, the slots in the binary traversal's near-first order.
     for (unsigned u = 0; u < 8; ++u) {
       int p = 0;

@@ -225,6 +225,22 @@ TEST(Profile, CameraBlocksAreCountedOnTheirPath) {
   }
 }
 
+// The plain loop's camera hits of s (one ray at a time, no hierarchy): what every camera
+// block walk below must find.
+PrimaryResult plain_camera_hits(const Scene& s) {
+  RenderOptions po;
+  po.width = 1, po.accel = Accel::none;
+  return render_primary_with_ids(s, po);
+}
+// s's camera hits through the hierarchy at `width`, bit for bit the plain loop's.
+void expect_tree_hits(const Scene& s, int width, const PrimaryResult& plain) {
+  RenderOptions po;
+  po.width = width, po.accel = Accel::bvh;
+  const PrimaryResult tree = render_primary_with_ids(s, po);
+  EXPECT_EQ(plain.t, tree.t);
+  EXPECT_EQ(plain.id, tree.id);
+}
+
 // Blocks on the image's centre lines: looking straight down -z at 48x24 pixels, x changes sign
 // between columns 23 and 24 and y between rows 11 and 12, tile boundaries at widths 16 and 8,
 // inside blocks (32x8 at width 16: both lines; 8x8 at width 8: the row). There each side's
@@ -235,9 +251,7 @@ TEST(Profile, CentreLineBlocksWalkTogetherBySide) {
   g.spheres = 2048, g.seed = 5, g.nx = 48, g.ny = 24;
   Scene s = parse_scene(generate::scene_json(g), "cloud");
   s.camera.direction = {0, 0, -1};
-  RenderOptions po;
-  po.width = 1, po.accel = Accel::none;
-  const PrimaryResult plain = render_primary_with_ids(s, po);
+  const PrimaryResult plain = plain_camera_hits(s);
   int hits = 0;
   for (float id : plain.id) hits += id >= 0 && id < 2048;
   EXPECT_GT(hits, 100);
@@ -249,10 +263,7 @@ TEST(Profile, CentreLineBlocksWalkTogetherBySide) {
     else
       EXPECT_EQ(b.alone, 0u);
     EXPECT_GT(b.together, 0u);
-    po.width = width, po.accel = Accel::bvh;
-    const PrimaryResult tree = render_primary_with_ids(s, po);
-    EXPECT_EQ(plain.t, tree.t);
-    EXPECT_EQ(plain.id, tree.id);
+    expect_tree_hits(s, width, plain);
   }
 }
 
@@ -271,9 +282,7 @@ TEST(Profile, OneTileSubtreesWalkedAsThatTilesPacket) {
     Scene s = cloud;
     s.camera.position = eye;
     s.camera.direction = {centre.x - eye.x, centre.y - eye.y, centre.z - eye.z};
-    RenderOptions po;
-    po.width = 1, po.accel = Accel::none;
-    const PrimaryResult plain = render_primary_with_ids(s, po);
+    const PrimaryResult plain = plain_camera_hits(s);
     int hits = 0;
     for (std::int32_t id : plain.id) hits += id >= 0 && id < g.spheres;
     EXPECT_GT(hits, 500);
@@ -285,10 +294,7 @@ TEST(Profile, OneTileSubtreesWalkedAsThatTilesPacket) {
         EXPECT_EQ(b.tiles_alone, 0u);
       else
         EXPECT_GT(b.tiles_alone, 0u);
-      po.width = width, po.accel = Accel::bvh;
-      const PrimaryResult tree = render_primary_with_ids(s, po);
-      EXPECT_EQ(plain.t, tree.t);
-      EXPECT_EQ(plain.id, tree.id);
+      expect_tree_hits(s, width, plain);
     }
   }
 }
@@ -330,9 +336,7 @@ TEST(Profile, TileConesKeepEverySphereARayMeets) {
     s.spheres.push_back({eye + behind * 50.0, 0.05, 0});
   }
   s.spheres.push_back({eye + Vec3<double>{0.1, 0, 0}, 1e3, 0});
-  RenderOptions po;
-  po.width = 1, po.accel = Accel::none;
-  const PrimaryResult plain = render_primary_with_ids(s, po);
+  const PrimaryResult plain = plain_camera_hits(s);
   int grazed = 0;
   for (std::int32_t id : plain.id) grazed += id >= 0 && id < grazing;
   EXPECT_GT(grazed, 200);
@@ -341,10 +345,7 @@ TEST(Profile, TileConesKeepEverySphereARayMeets) {
     const auto& b = profile_render(s, width).camera_blocks.totals;
     EXPECT_GT(b.cone_pairs, 0u);
     EXPECT_LT(b.cone_kept, b.cone_pairs);
-    po.width = width, po.accel = Accel::bvh;
-    const PrimaryResult tree = render_primary_with_ids(s, po);
-    EXPECT_EQ(plain.t, tree.t);
-    EXPECT_EQ(plain.id, tree.id);
+    expect_tree_hits(s, width, plain);
   }
 }
 
