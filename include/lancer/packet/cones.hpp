@@ -4,7 +4,7 @@
 // on to the exact per-lane tests with only the spheres its cone may meet. The cull is
 // conservative by a margin far above the sphere test's rounding (docs/accel.md, "Tile cones"),
 // so every hit the plain loop finds survives it. Include only from code built for the batch's
-// ISA (packet/traverse.hpp).
+// ISA (packet/traversal.hpp).
 #pragma once
 
 #include <immintrin.h>

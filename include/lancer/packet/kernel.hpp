@@ -23,7 +23,7 @@
 #include "lancer/packet/api.hpp"
 #include "lancer/packet/fused.hpp"
 #include "lancer/packet/lanes.hpp"
-#include "lancer/packet/traverse.hpp"
+#include "lancer/packet/traversal.hpp"
 #include "lancer/profile.hpp"
 
 namespace lancer::packet {

@@ -1,0 +1,162 @@
+// One ray over the wide nodes, the hybrid's step below a packet's thinned lanes (Benthin et al.):
+// a packet's lanes that go on alone walk a subtree each by itself, their steps interleaved.
+// Include only from code built for the batch's ISA.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <type_traits>
+#include <xsimd/xsimd.hpp>
+
+#include "lancer/packet/push_tables.hpp"
+#include "lancer/packet/walk_packet.hpp"
+
+namespace lancer::packet {
+
+template <class Arch, class T>
+struct OneRayWalk : PacketWalk<Arch, T> {
+  using Base = PacketWalk<Arch, T>;
+  using typename Base::Node;
+
+  // One ray (float) walks the subtree (child, count) alone: a node's four children tested at
+  // once in an xmm (slab values lo * inv - o * inv, as the reference's, padded by pad per axis),
+  // the met ones taken in the node's order for the ray's own direction code, nearest first,
+  // depth first; a popped entry is culled where it starts beyond the ray's best t.
+  struct OneRay4 {
+    __m128 inv[3], oi[3], pad[3];
+    std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
+    unsigned code;
+  };
+  static OneRay4 one_ray(const T* o, const T* d, bool padded) noexcept {
+    static_assert(std::is_same_v<T, float> && Bvh<T>::kWidth == 4);
+    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
+    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
+    OneRay4 r;
+    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+    for (int a = 0; a < 3; ++a) {
+      // As slab_ray: a zero direction component becomes 2^-64.
+      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
+      r.inv[a] = _mm_set1_ps(inv);
+      r.oi[a] = _mm_set1_ps(o[a] * inv);
+      r.pad[a] = _mm_set1_ps(padded ? m * T(Bvh<T>::kOriginPad) * std::fabs(inv) : T(0));
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
+      r.near[a] = inv < T(0) ? hi[a] : lo[a];
+      r.far[a] = inv < T(0) ? lo[a] : hi[a];
+    }
+    r.code = unsigned(d[0] >= T(0)) | unsigned(d[1] >= T(0)) << 1 | unsigned(d[2] >= T(0)) << 2;
+    return r;
+  }
+  // n <= kN rays walk the subtree (child, count), each alone as above, their steps interleaved:
+  // a step tests one ray's node and pops its stack (leaves included) down to its next inner
+  // node, then the next ray's step runs while that node's lines are on their way (a lone walk
+  // waits for every node it loads: at 65536 spheres and more the nodes come from L3 or memory).
+  // The order of a ray's own steps is that of its lone walk, so nothing it finds changes.
+  // best_t[i]: ray i's best t; leaf(i, first, count) tests leaf-order spheres
+  // [first, first + count) for ray i, lowering *best_t[i].
+  template <bool kPadded, int kN, class Leaf>
+  static void closest_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,
+                          std::int32_t count, const T* const* best_t, Leaf&& leaf) noexcept {
+    walk_one<kPadded, false, kN>(h, r, n, child, count, best_t,
+                                 [&](int i, std::int32_t first, std::int32_t c) {
+                                   leaf(i, first, c);
+                                   return false;
+                                 });
+  }
+  // The any-hit walks of up to kN rays before their tmax[i]: the nodes' fixed slot order (the
+  // reference's, which a product of transmits depends on), no cull. leaf(i, first, count) ->
+  // true when ray i is done.
+  template <bool kPadded, int kN, class Leaf>
+  static void any_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,
+                      std::int32_t count, const T* const* tmax, Leaf&& leaf) noexcept {
+    walk_one<kPadded, true, kN>(h, r, n, child, count, tmax, leaf);
+  }
+
+ private:
+  // A lone ray's stack: the met children's references and counts (as the node's child and
+  // count) and their entry distances, pushed as shuffled, compacted vectors (PushTables), the
+  // nearest on top; a pop reads its child from here, not from the parent node.
+  struct OneStack {
+    static constexpr int kSize = Bvh<T>::kStack + Bvh<T>::kWidth;
+    alignas(16) std::int32_t ref[kSize], cnt[kSize];
+    alignas(16) T tnear[kSize];
+    int sp;
+    std::int32_t node;
+  };
+  // Tests node n's children for ray r and pushes the met ones (nearest on top; kAny: slot order).
+  template <bool kPadded, bool kAny>
+  static void push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
+    const char* base = reinterpret_cast<const char*>(&n);
+    auto plane = [&](std::size_t off) {
+      return _mm_load_ps(reinterpret_cast<const T*>(base + off));
+    };
+    __m128 tn = _mm_setzero_ps(), tf = _mm_set1_ps(best_t);
+    for (int a = 0; a < 3; ++a) {
+      __m128 t0 = _mm_sub_ps(_mm_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
+      __m128 t1 = _mm_sub_ps(_mm_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+      if constexpr (kPadded) t0 = _mm_sub_ps(t0, r.pad[a]), t1 = _mm_add_ps(t1, r.pad[a]);
+      tn = _mm_max_ps(tn, t0);
+      tf = _mm_min_ps(tf, t1);
+    }
+    const unsigned met = unsigned(_mm_movemask_ps(_mm_and_ps(
+        _mm_cmple_ps(tn, tf),
+        _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
+    const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
+    const __m128i order =
+        _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
+    const int m = kPush.reorder[order_byte][met];
+    const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
+    auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
+    std::int32_t counts;
+    std::memcpy(&counts, n.count, sizeof counts);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(st.ref + st.sp),
+                     push(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(st.cnt + st.sp),
+                     push(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(counts))));
+    if constexpr (!kAny)
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.tnear + st.sp), push(_mm_castps_si128(tn)));
+    st.sp += kPush.count[m];
+  }
+  template <bool kPadded, bool kAny, int kN, class Leaf>
+  static void walk_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,
+                       std::int32_t count, const T* const* best_t, Leaf&& leaf) noexcept {
+    if (count >= 0) {  // a leaf: nothing to walk
+      for (int i = 0; i < n; ++i) leaf(i, child, count);
+      return;
+    }
+    OneStack st[kN];
+    for (int i = 0; i < n; ++i) st[i].sp = 0, st[i].node = child;
+    unsigned live = (1u << n) - 1;
+    while (live) {
+      for (unsigned each = live; each; each &= each - 1) {
+        const int i = __builtin_ctz(each);
+        OneStack& s = st[i];
+        push_met<kPadded, kAny>(h.nodes[std::size_t(s.node)], r[i], *best_t[i], s);
+        for (;;) {
+          if (s.sp == 0) {
+            live &= ~(1u << i);
+            break;
+          }
+          const int q = --s.sp;
+          if (!kAny && s.tnear[q] > *best_t[i]) continue;
+          if (s.cnt[q] < 0) {
+            s.node = s.ref[q];
+            break;
+          }
+          if (leaf(i, s.ref[q], s.cnt[q])) {
+            live &= ~(1u << i);
+            break;
+          }
+        }
+      }
+    }
+  }
+
+ public:
+};
+
+}  // namespace lancer::packet
