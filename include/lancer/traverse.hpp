@@ -1,5 +1,5 @@
 // One-ray traversal of the sphere hierarchy (lancer/bvh.hpp), for the reference: the same visiting
-// rules as the packets' (packet/traverse.hpp), the primitive tests left to the caller's leaf
+// rules as the packets' (packet/traversal.hpp), the primitive tests left to the caller's leaf
 // functor. Closest hit: nearer children first by the ray's direction; the caller keeps the
 // lexicographic minimum of (t, object id), so the order cannot change the result. Any hit: the
 // children's fixed slot order, depth first, as every packet visits them.
