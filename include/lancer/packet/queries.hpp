@@ -7,14 +7,14 @@
 #include <limits>
 
 #include "lancer/packet/hybrid.hpp"
-#include "lancer/packet/prim/plane.hpp"
+#include "lancer/packet/primitives.hpp"
 
 namespace lancer::packet {
 
 template <class Arch, class Real, class Mode>
-struct Queries : Hybrid<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode> {
+struct Queries : Hybrid<Arch, Real, Mode> {
   using Hy = Hybrid<Arch, Real, Mode>;
-  using Pl = PlanePackets<Arch, Real, Mode>;
+  using Prims = Primitives<Arch, Real, Mode>;
   using Hy::all_spheres;
   using Hy::bits;
   using Hy::count;
@@ -46,8 +46,6 @@ struct Queries : Hybrid<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode> {
   using Hy::together;
   using Hy::W;
   using Hy::walk_choice;
-  using Pl::plane_t;
-  using Pl::planes_closest;
   using typename Hy::B;
   using typename Hy::I;
   using typename Hy::Id;
@@ -73,7 +71,7 @@ struct Queries : Hybrid<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode> {
                                               B& best_t, I& best_id, RayCounts& counts,
                                               const I& leaving = I(Id(-1)),
                                               bool camera = false) noexcept {
-    if (s.features.spheres) {
+    if (Prims::Bounded::present(s)) {
       const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
       if (reach < 2) {
         Hy::template closest_in_hierarchy<kFromEye>(s, reach, valid, o, d, best_t, best_id, counts,
@@ -84,8 +82,18 @@ struct Queries : Hybrid<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode> {
       }
     }
 
-    if (s.features.planes) planes_closest(s, valid, o, d, best_t, best_id, counts);
+    unbounded_closest(s, valid, o, d, best_t, best_id, counts);
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
+  }
+
+  // The unbounded kinds' part of closest_hit, after the hierarchy (their ids are higher).
+  [[gnu::always_inline]] static void unbounded_closest(const Scene& s, const M& valid, const V& o,
+                                                       const V& d, B& best_t, I& best_id,
+                                                       RayCounts& counts) noexcept {
+    Prims::Unbounded::each([&](auto kind) __attribute__((always_inline)) {
+      using K = KindOf<decltype(kind)>;
+      if (K::present(s)) K::closest(s, valid, o, d, best_t, best_id, counts);
+    });
   }
 
   // The spheres of kN pinhole camera packets through the hierarchy at once
@@ -146,26 +154,13 @@ struct Queries : Hybrid<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode> {
   [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
                                           const B& dist, RayCounts& counts, const I& leaving,
                                           Step&& step) noexcept {
-    const B eps(s.epsilon);
+    using Bounded = typename Prims::Bounded;
     auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
-      for (int j = begin; j < end; ++j) {
-        const M live = mask & pending;
-        tests(counts, live, true);
-        const V f = p - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
-        const B r2(sp.r2[j]);
-        const SphereDisc<B> sd = disc_of(s, f, l, r2, false, T(0));
-        M m = skip(live & (sd.disc >= B(0)), leaving, sp.object(j));
-        if (!xsimd::any(m)) continue;
-        const B t = first_root(s, sd, f, r2, false, T(0), eps);
-        m = m & (t > eps) & (t < dist);
-        if (!xsimd::any(m)) continue;
-        pending = step(sp.object(j), m, pending);
-        if (!xsimd::any(pending)) break;
-      }
-      return pending;
+      return Bounded::spheres_any(s, sp, begin, end, mask, pending, p, l, dist, leaving, counts,
+                                  step);
     };
     M pending = valid;
-    if (s.features.spheres) {
+    if (Bounded::present(s)) {
       const int reach = s.bvh.active() ? Tr::reach(s.bvh, valid, p) : 2;
       if (reach < 2) {
         const Spheres sp = leaf_spheres(s);
@@ -185,15 +180,13 @@ struct Queries : Hybrid<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode> {
       }
       if (!xsimd::any(pending)) return pending;
     }
-    for (int k = 0; k < s.num_planes; ++k) {
-      tests(counts, pending, false);
-      B denom;
-      const B t = plane_t(s, k, p, l, denom);
-      const M m = pending & (denom != B(0)) & (t > eps) & (t < dist);
-      if (!xsimd::any(m)) continue;
-      pending = step(Id(s.num_spheres + k), m, pending);
-      if (!xsimd::any(pending)) return pending;
-    }
+    bool done = false;  // no lane pending: the kinds after are not tested
+    Prims::Unbounded::each([&](auto kind) __attribute__((always_inline)) {
+      using K = KindOf<decltype(kind)>;
+      if (done || !K::present(s)) return;
+      pending = K::any(s, pending, p, l, dist, counts, step);
+      done = !xsimd::any(pending);
+    });
     return pending;
   }
 

@@ -39,12 +39,12 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   using Ra::leaf_visit;
   using Ra::load_ids;
   using Ra::occupancy;
-  using Ra::planes_closest;
   using Ra::select3;
   using Ra::store_ids;
   using Ra::tests;
   using Ra::to_m;
   using Ra::to_mi;
+  using Ra::unbounded_closest;
   using Ra::W;
   using Ra::walk_choice;
   using typename Ra::B;
@@ -296,7 +296,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
             t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
           Ra::template closest_group_in_hierarchy<n>(s, valid, o, d, t, id, counts);
           for (int g = 0; g < n; ++g) {
-            if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
+            unbounded_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
             sum[g] = sum[g] + t[g];
             if (first) first_id[g] = id[g];
           }
@@ -358,7 +358,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
           }
           Ra::template closest_group_in_hierarchy<kGroup>(s, valid, o, d, t, id, counts);
           for (int g = 0; g < kGroup; ++g) {
-            if (s.features.planes) planes_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
+            unbounded_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
             t[g].store_unaligned(t_out + (p + g) * W);
           }
         }

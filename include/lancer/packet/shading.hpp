@@ -14,6 +14,7 @@ namespace lancer::packet {
 template <class Arch, class Real, class Mode>
 struct Shading : Queries<Arch, Real, Mode> {
   using Q = Queries<Arch, Real, Mode>;
+  using Prims = Primitives<Arch, Real, Mode>;
   using Q::closest_hit;
   using Q::count;
   using Q::gather;
@@ -235,38 +236,10 @@ struct Shading : Queries<Arch, Real, Mode> {
     B delta = offset_delta<T>(magnitude);
     const I id = xsimd::select(to_mi(hit), best_id, I(0));
     V n{B(0), B(0), B(0)};
-    if (s.features.spheres) {
-      const I sid = xsimd::min(id, I(Id(s.num_spheres - 1)));
-      const int ns = s.num_spheres;
-      const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
-                gather(s.sphere_cz, sid, ns)};
-      if constexpr (kFast) {  // (p - c) / r, the contract's normal, by a multiplication
-        n = (p - c) * gather(s.sphere_inv_r, sid, ns);
-      } else {
-        n = sphere_normal<Mth>(p, c);
-        const B r2 = gather(s.sphere_r2, sid, ns);
-        const M small = hit & to_m(best_id < I(Id(ns))) & sphere_is_small(r2, magnitude);
-        if (xsimd::any(small)) {
-          const SurfacePoint<B> at = sphere_point_local<T, Mth>(o, d, best_t, c, r2);
-          p = select3(small, at.p, p);
-          n = select3(small, at.normal, n);
-          delta = xsimd::select(small, at.delta, delta);
-        }
-        const M large = hit & to_m(best_id < I(Id(ns))) & sphere_is_large(r2, magnitude);
-        if (xsimd::any(large)) {
-          const SurfacePoint<B> at = sphere_point_large<T, Mth>(o, d, best_t, c, r2, magnitude);
-          p = select3(large, at.p, p);
-          n = select3(large, at.normal, n);
-        }
-      }
-    }
-    if (s.features.planes) {
-      const I pid = xsimd::max(id - I(Id(s.num_spheres)), I(0));
-      const int np = s.num_planes;
-      const V pn{gather(s.plane_nx, pid, np), gather(s.plane_ny, pid, np),
-                 gather(s.plane_nz, pid, np)};
-      n = s.features.spheres ? select3(to_m(best_id < I(Id(s.num_spheres))), n, pn) : pn;
-    }
+    Prims::All::each([&](auto kind) __attribute__((always_inline)) {
+      using K = KindOf<decltype(kind)>;
+      if (K::present(s)) K::surface(s, hit, best_id, id, o, d, best_t, magnitude, p, n, delta);
+    });
     // The geometric normal's side: the ray enters the object where cos_in < 0 (step 7).
     const B cos_in = Mth::dot(n, d);
     const M inside = cos_in > B(0);
@@ -275,9 +248,8 @@ struct Shading : Queries<Arch, Real, Mode> {
     // The sphere hit from outside, which this level's shadow rays and reflections leave.
     I here(Id(-1));
     if constexpr (kFast)
-      if (s.features.spheres)
-        here =
-            xsimd::select(to_mi(hit & ~inside) & (best_id < I(Id(s.num_spheres))), best_id, here);
+      if (Prims::Bounded::present(s))
+        here = Prims::Bounded::left_from_outside(s, hit & ~inside, best_id);
 
     const bool secondary = depth > 0;
     const Shade sum =

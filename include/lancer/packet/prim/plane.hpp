@@ -10,7 +10,10 @@ namespace lancer::packet {
 template <class Arch, class Real, class Mode>
 struct PlanePackets : Lanes<Arch, Real, Mode> {
   using L = Lanes<Arch, Real, Mode>;
+  using L::gather;
+  using L::select3;
   using L::tests;
+  using L::to_m;
   using L::to_mi;
   using typename L::B;
   using typename L::I;
@@ -29,10 +32,14 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
                     denom);
   }
 
-  // The planes' part of closest_hit: after the spheres, in id order (their ids are higher).
-  [[gnu::always_inline]] static void planes_closest(const Scene& s, const M& valid, const V& o,
-                                                    const V& d, B& best_t, I& best_id,
-                                                    RayCounts& counts) noexcept {
+  // Whether the scene has planes.
+  static bool present(const Scene& s) noexcept { return s.features.planes; }
+  // The first plane's object id: planes come after the bounded kinds, in file order.
+  static int first_id(const Scene& s) noexcept { return s.num_spheres; }
+
+  // Closest hit over the planes for the lanes of `valid`, in id order: a nearer t wins.
+  [[gnu::always_inline]] static void closest(const Scene& s, const M& valid, const V& o, const V& d,
+                                             B& best_t, I& best_id, RayCounts& counts) noexcept {
     const B eps(s.epsilon);
     for (int k = 0; k < s.num_planes; ++k) {
       tests(counts, valid, false);
@@ -40,8 +47,38 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
       const B t = plane_t(s, k, o, d, denom);
       const M m = valid & (denom != B(0)) & (t > eps) & (t < best_t);
       best_t = xsimd::select(m, t, best_t);
-      best_id = xsimd::select(to_mi(m), I(Id(s.num_spheres + k)), best_id);
+      best_id = xsimd::select(to_mi(m), I(Id(first_id(s) + k)), best_id);
     }
+  }
+
+  // Any hit over the planes for the lanes still pending, from p along unit l before `dist`:
+  // step(id, lanes, pending) for each plane the lanes meet, in id order, until none is pending.
+  template <class Step>
+  [[gnu::always_inline]] static M any(const Scene& s, M pending, const V& p, const V& l,
+                                      const B& dist, RayCounts& counts, Step& step) noexcept {
+    const B eps(s.epsilon);
+    for (int k = 0; k < s.num_planes; ++k) {
+      tests(counts, pending, false);
+      B denom;
+      const B t = plane_t(s, k, p, l, denom);
+      const M m = pending & (denom != B(0)) & (t > eps) & (t < dist);
+      if (!xsimd::any(m)) continue;
+      pending = step(Id(first_id(s) + k), m, pending);
+      if (!xsimd::any(pending)) return pending;
+    }
+    return pending;
+  }
+
+  // The surface at the hits: plane id - first_id's normal, for the lanes whose hit is a plane.
+  [[gnu::always_inline]] static void surface(const Scene& s, const M& hit, const I& best_id,
+                                             const I& id, const V& o, const V& d, const B& best_t,
+                                             const B& magnitude, V& p, V& n, B& delta) noexcept {
+    const int first = first_id(s);
+    const I pid = xsimd::max(id - I(Id(first)), I(0));
+    const int np = s.num_planes;
+    const V pn{gather(s.plane_nx, pid, np), gather(s.plane_ny, pid, np),
+               gather(s.plane_nz, pid, np)};
+    n = first > 0 ? select3(to_m(best_id < I(Id(first))), n, pn) : pn;
   }
 };
 

@@ -15,8 +15,9 @@ namespace lancer::packet {
 template <class Arch, class Real, class Mode>
 struct SpherePackets : Lanes<Arch, Real, Mode> {
   using L = Lanes<Arch, Real, Mode>;
+  using L::gather;
   using L::kFast;
-  using L::kGroup;
+  using L::select3;
   using L::tests;
   using L::to_m;
   using L::to_mi;
@@ -211,6 +212,73 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
       if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
       return false;
     });
+  }
+
+  // Whether the scene has spheres (a scene pays only for the kinds it has).
+  static bool present(const Scene& s) noexcept { return s.features.spheres; }
+
+  // Any hit over spheres [begin, end) of `sp` for the lanes of `mask` still pending, from p along
+  // unit l before `dist`: step(id, lanes, pending) for each sphere the lanes meet, in the run's
+  // order, until none is pending. `leaving` as for skip().
+  template <class Step>
+  [[gnu::always_inline]] static M spheres_any(const Scene& s, const Spheres& sp, int begin, int end,
+                                              const M& mask, M pending, const V& p, const V& l,
+                                              const B& dist, const I& leaving, RayCounts& counts,
+                                              Step& step) noexcept {
+    const B eps(s.epsilon);
+    for (int j = begin; j < end; ++j) {
+      const M live = mask & pending;
+      tests(counts, live, true);
+      const V f = p - V{B(sp.cx[j]), B(sp.cy[j]), B(sp.cz[j])};
+      const B r2(sp.r2[j]);
+      const SphereDisc<B> sd = disc_of(s, f, l, r2, false, T(0));
+      M m = skip(live & (sd.disc >= B(0)), leaving, sp.object(j));
+      if (!xsimd::any(m)) continue;
+      const B t = first_root(s, sd, f, r2, false, T(0), eps);
+      m = m & (t > eps) & (t < dist);
+      if (!xsimd::any(m)) continue;
+      pending = step(sp.object(j), m, pending);
+      if (!xsimd::any(pending)) break;
+    }
+    return pending;
+  }
+
+  // The surface at the hits (contract step 3): the geometric normal (p - c) / r, computed as
+  // the reference computes it: p relative to the sphere where it is small against the hit's
+  // magnitude, t recomputed where it is huge (formulas.hpp). The first kind in id order: it
+  // writes every lane (its normal from sphere min(id, last)); later kinds overwrite theirs.
+  [[gnu::always_inline]] static void surface(const Scene& s, const M& hit, const I& best_id,
+                                             const I& id, const V& o, const V& d, const B& best_t,
+                                             const B& magnitude, V& p, V& n, B& delta) noexcept {
+    const I sid = xsimd::min(id, I(Id(s.num_spheres - 1)));
+    const int ns = s.num_spheres;
+    const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
+              gather(s.sphere_cz, sid, ns)};
+    if constexpr (kFast) {  // (p - c) / r, the contract's normal, by a multiplication
+      n = (p - c) * gather(s.sphere_inv_r, sid, ns);
+    } else {
+      n = sphere_normal<Mth>(p, c);
+      const B r2 = gather(s.sphere_r2, sid, ns);
+      const M small = hit & to_m(best_id < I(Id(ns))) & sphere_is_small(r2, magnitude);
+      if (xsimd::any(small)) {
+        const SurfacePoint<B> at = sphere_point_local<T, Mth>(o, d, best_t, c, r2);
+        p = select3(small, at.p, p);
+        n = select3(small, at.normal, n);
+        delta = xsimd::select(small, at.delta, delta);
+      }
+      const M large = hit & to_m(best_id < I(Id(ns))) & sphere_is_large(r2, magnitude);
+      if (xsimd::any(large)) {
+        const SurfacePoint<B> at = sphere_point_large<T, Mth>(o, d, best_t, c, r2, magnitude);
+        p = select3(large, at.p, p);
+        n = select3(large, at.normal, n);
+      }
+    }
+  }
+
+  // Fast mode: the sphere each lane of `outside` hit from outside (-1: none or not a sphere),
+  // which that level's shadow rays and reflections leave and so skip (skip()).
+  static I left_from_outside(const Scene& s, const M& outside, const I& best_id) noexcept {
+    return xsimd::select(to_mi(outside) & (best_id < I(Id(s.num_spheres))), best_id, I(Id(-1)));
   }
 };
 
