@@ -186,7 +186,7 @@ class Builder {
     const int n = end - begin;
     slots.deepest = std::max(slots.deepest, depth);
     if (n <= max_leaf_) return leaf(p, k, begin, n);
-    const Split s = depth < Bvh<T>::kMaxDepth - 40 ? best_split(begin, end, cbox) : Split{};
+    const Split s = depth < Bvh<T>::kMaxTreeDepth - 40 ? best_split(begin, end, cbox) : Split{};
     const int free = take(slots);
     p.child[k] = free, p.count[k] = -1;
     inner(slots, free, begin, end, s, depth);
@@ -498,7 +498,7 @@ Bvh<T> build_bvh(const std::vector<T>& cx, const std::vector<T>& cy, const std::
   } else {  // the root holds the two top subtrees' boxes, whatever their size
     builder.inner(slots, root, 0, n, builder.best_split(0, n, call), 0);
   }
-  LANCER_CHECK(std::max(1, slots.deepest) < Bvh<T>::kMaxDepth);
+  LANCER_CHECK(std::max(1, slots.deepest) < Bvh<T>::kMaxTreeDepth);
   bvh.nodes.reserve(std::size_t(builder.used()) / 2 + 1);
   bvh.first_sphere.reserve(bvh.nodes.capacity());
   Collapse<T> collapse(builder.nodes(), bvh.nodes, bvh.first_sphere);

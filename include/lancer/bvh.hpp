@@ -86,7 +86,7 @@ struct Bvh {
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).
   T origin_limit = T(0);
-  int depth = 0;  // deepest wide node (root: 1); at most kMaxDepth / 2
+  int depth = 0;  // deepest wide node (root: 1); at most kMaxTreeDepth / 2
   // Secondary packets' lanes go on one ray at a time into a subtree at most this many of them
   // enter (0: packets only; 16 or more: every lane alone from the root). Set by prepare() from
   // the sphere count (kOneRayMinSpheres: 0 or kMaxLanes); read by exact float packets only.
@@ -103,8 +103,8 @@ struct Bvh {
 
   // The binary tree's depth bound; every inner child of a wide node lies two binary levels down,
   // so a traversal stack (at most kWidth - 1 entries per wide level, + 1) holds kStack entries.
-  static constexpr int kMaxDepth = 96;
-  static constexpr int kStack = (kWidth - 1) * (kMaxDepth / 2) + 2;
+  static constexpr int kMaxTreeDepth = 96;
+  static constexpr int kStack = (kWidth - 1) * (kMaxTreeDepth / 2) + 2;
   // Rays from beyond origin_limit traverse boxes grown by kOriginPad |origin| (max-norm), up to
   // kFarLimit; beyond that they loop over all spheres. The slab products stay finite below it.
   static constexpr double kOriginPad = 1024.0 * (sizeof(T) == 4 ? 0x1p-24 : 0x1p-53);

@@ -15,73 +15,100 @@ struct ProfileArgs {
   SceneOverrides overrides;
 };
 
-void run_profile(const ProfileArgs& a) {
-  Scene scene = load_scene(a.scene);
-  apply_overrides(scene, a.overrides);
-  const ProfileResult r =
-      profile_render(scene, parse_width(a.width, "--width"), parse_accel(a.accel, "--accel"));
-  double staged = 0;
-  for (const auto& st : r.stages) staged += st.seconds;
-  if (a.json) {
-    nlohmann::json out;
-    out["scene"] = a.scene;
-    out["width"] = r.width;
-    out["isa"] = r.isa;
-    out["total_seconds"] = r.total_seconds;
-    out["rays"] = {{"camera", r.camera_rays},
-                   {"shadow", r.shadow_rays},
-                   {"reflected", r.reflected_rays},
-                   {"refracted", r.refracted_rays}};
-    out["tests_per_ray"] = r.tests_per_ray;
-    out["stages"] = nlohmann::json::array();
-    for (const auto& st : r.stages) {
-      // A stage with no packets counted (output) has no occupancy: null, not 0.
-      bool measured = false;
-      for (std::uint64_t h : st.histogram) measured = measured || h > 0;
-      const auto or_null = [measured](const auto& v) {
-        return measured ? nlohmann::json(v) : nlohmann::json();
-      };
-      out["stages"].push_back(
-          {{"name", st.name},
-           {"seconds", st.seconds},
-           {"rays", st.rays},
-           {"lane_occupancy", or_null(st.lane_occupancy)},
-           {"leaf_visits", st.leaves},
-           // No leaves visited (no hierarchy, or not this stage's): null.
-           {"leaf_occupancy", st.leaves ? nlohmann::json(st.leaf_occupancy) : nlohmann::json()},
-           {"packets_walked_whole", st.walked_whole},
-           {"packets_walked_apart", st.walked_apart},
-           {"lane_histogram", or_null(st.histogram)}});
-    }
-    const auto& cb = r.camera_blocks;
-    const auto& bt = cb.totals;
-    out["camera_blocks"] = {
-        {"seconds", cb.seconds},
-        {"rays", cb.rays},
-        {"block",
-         bt.together + bt.alone ? nlohmann::json{bt.block_w, bt.block_h} : nlohmann::json()},
-        {"walked_together", bt.together},
-        {"walked_packet_by_packet", bt.alone},
-        {"totals",
-         {{"node_tests", bt.nodes},
-          {"leaf_pops", bt.leaf_pops},
-          {"tile_leaf_tests", bt.tile_tests},
-          {"leaf_calls", bt.leaf_calls},
-          {"leaf_call_lanes", bt.leaf_lanes},
-          {"subtrees_walked_by_one_tile", bt.tiles_alone},
-          {"tile_sphere_cone_tests", bt.cone_pairs},
-          {"tile_sphere_pairs_kept", bt.cone_kept}}},
-        {"per_block", bt.together ? nlohmann::json{{"node_tests", cb.nodes},
-                                                   {"leaf_pops", cb.leaf_pops},
-                                                   {"tile_leaf_tests", cb.tile_tests},
-                                                   {"leaf_calls", cb.leaf_calls},
-                                                   {"subtrees_walked_by_one_tile", cb.tiles_alone}}
-                                  : nlohmann::json()},
-        {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()},
-        {"cone_kept", bt.cone_pairs ? nlohmann::json(cb.cone_kept) : nlohmann::json()}};
-    std::printf("%s\n", out.dump(2).c_str());
+// The profile as one JSON object.
+void print_profile_json(const ProfileArgs& a, const ProfileResult& r) {
+  nlohmann::json out;
+  out["scene"] = a.scene;
+  out["width"] = r.width;
+  out["isa"] = r.isa;
+  out["total_seconds"] = r.total_seconds;
+  out["rays"] = {{"camera", r.camera_rays},
+                 {"shadow", r.shadow_rays},
+                 {"reflected", r.reflected_rays},
+                 {"refracted", r.refracted_rays}};
+  out["tests_per_ray"] = r.tests_per_ray;
+  out["stages"] = nlohmann::json::array();
+  for (const auto& st : r.stages) {
+    // A stage with no packets counted (output) has no occupancy: null, not 0.
+    bool measured = false;
+    for (std::uint64_t h : st.histogram) measured = measured || h > 0;
+    const auto or_null = [measured](const auto& v) {
+      return measured ? nlohmann::json(v) : nlohmann::json();
+    };
+    out["stages"].push_back(
+        {{"name", st.name},
+         {"seconds", st.seconds},
+         {"rays", st.rays},
+         {"lane_occupancy", or_null(st.lane_occupancy)},
+         {"leaf_visits", st.leaves},
+         // No leaves visited (no hierarchy, or not this stage's): null.
+         {"leaf_occupancy", st.leaves ? nlohmann::json(st.leaf_occupancy) : nlohmann::json()},
+         {"packets_walked_whole", st.walked_whole},
+         {"packets_walked_apart", st.walked_apart},
+         {"lane_histogram", or_null(st.histogram)}});
+  }
+  const auto& cb = r.camera_blocks;
+  const auto& bt = cb.totals;
+  out["camera_blocks"] = {
+      {"seconds", cb.seconds},
+      {"rays", cb.rays},
+      {"block", bt.together + bt.alone ? nlohmann::json{bt.block_w, bt.block_h} : nlohmann::json()},
+      {"walked_together", bt.together},
+      {"walked_packet_by_packet", bt.alone},
+      {"totals",
+       {{"node_tests", bt.nodes},
+        {"leaf_pops", bt.leaf_pops},
+        {"tile_leaf_tests", bt.tile_tests},
+        {"leaf_calls", bt.leaf_calls},
+        {"leaf_call_lanes", bt.leaf_lanes},
+        {"subtrees_walked_by_one_tile", bt.tiles_alone},
+        {"tile_sphere_cone_tests", bt.cone_pairs},
+        {"tile_sphere_pairs_kept", bt.cone_kept}}},
+      {"per_block", bt.together ? nlohmann::json{{"node_tests", cb.nodes},
+                                                 {"leaf_pops", cb.leaf_pops},
+                                                 {"tile_leaf_tests", cb.tile_tests},
+                                                 {"leaf_calls", cb.leaf_calls},
+                                                 {"subtrees_walked_by_one_tile", cb.tiles_alone}}
+                                : nlohmann::json()},
+      {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()},
+      {"cone_kept", bt.cone_pairs ? nlohmann::json(cb.cone_kept) : nlohmann::json()}};
+  std::printf("%s\n", out.dump(2).c_str());
+}
+
+// The camera blocks' part of the table: primary mode's path, which full renders do not use.
+void print_camera_blocks(const ProfileResult& r) {
+  const auto& cb = r.camera_blocks;
+  const auto& bt = cb.totals;
+  std::printf(
+      "  camera rays alone, as bench --mode primary traces them: %.5f s (profiled), %llu rays\n",
+      cb.seconds, (unsigned long long)cb.rays);
+  if (bt.together + bt.alone == 0) {
+    std::printf(
+        "    camera blocks: none (no hierarchy, or not a pinhole camera: packets one by one)\n");
     return;
   }
+  std::printf(
+      "    camera blocks of %dx%d pixels: %llu walked the hierarchy together, %llu packet by "
+      "packet (on the image's centre lines)\n",
+      bt.block_w, bt.block_h, (unsigned long long)bt.together, (unsigned long long)bt.alone);
+  if (bt.together)
+    std::printf(
+        "    per block walked together: %.2f node tests, %.2f leaf pops, %.2f tile-leaf %s "
+        "tests, %.2f leaf calls at %.1f%% lane occupancy; %.2f subtrees that one tile alone "
+        "went on into, walked by it as its own packet\n",
+        cb.nodes, cb.leaf_pops, cb.tile_tests, bt.cone_pairs ? "cone" : "box", cb.leaf_calls,
+        100 * cb.leaf_occupancy, cb.tiles_alone);
+  if (bt.cone_pairs)
+    std::printf(
+        "    the tiles' cones passed %.1f%% of tile-sphere pairs on to the per-lane sphere "
+        "tests\n",
+        100 * cb.cone_kept);
+}
+
+// The profile as a table: per stage, then the hierarchy's leaves and the camera blocks.
+void print_profile_table(const ProfileArgs& a, const ProfileResult& r) {
+  double staged = 0;
+  for (const auto& st : r.stages) staged += st.seconds;
   std::printf("lancer profile: %s, width %d (%s), exact precision, 1 thread\n", a.scene.c_str(),
               r.width, r.isa.c_str());
   std::printf(
@@ -123,33 +150,18 @@ void run_profile(const ProfileArgs& a) {
     }
   std::printf("  %-22s %10.5f %6.1f%%   (stages add up to %.1f%% of the total)\n", "total",
               r.total_seconds, 100.0, r.total_seconds > 0 ? 100 * staged / r.total_seconds : 0);
-  // Primary mode's path: its camera blocks, which full renders (above) do not use.
-  const auto& cb = r.camera_blocks;
-  const auto& bt = cb.totals;
-  std::printf(
-      "  camera rays alone, as bench --mode primary traces them: %.5f s (profiled), %llu rays\n",
-      cb.seconds, (unsigned long long)cb.rays);
-  if (bt.together + bt.alone == 0) {
-    std::printf(
-        "    camera blocks: none (no hierarchy, or not a pinhole camera: packets one by one)\n");
-    return;
-  }
-  std::printf(
-      "    camera blocks of %dx%d pixels: %llu walked the hierarchy together, %llu packet by "
-      "packet (on the image's centre lines)\n",
-      bt.block_w, bt.block_h, (unsigned long long)bt.together, (unsigned long long)bt.alone);
-  if (bt.together)
-    std::printf(
-        "    per block walked together: %.2f node tests, %.2f leaf pops, %.2f tile-leaf %s "
-        "tests, %.2f leaf calls at %.1f%% lane occupancy; %.2f subtrees that one tile alone "
-        "went on into, walked by it as its own packet\n",
-        cb.nodes, cb.leaf_pops, cb.tile_tests, bt.cone_pairs ? "cone" : "box", cb.leaf_calls,
-        100 * cb.leaf_occupancy, cb.tiles_alone);
-  if (bt.cone_pairs)
-    std::printf(
-        "    the tiles' cones passed %.1f%% of tile-sphere pairs on to the per-lane sphere "
-        "tests\n",
-        100 * cb.cone_kept);
+  print_camera_blocks(r);
+}
+
+void run_profile(const ProfileArgs& a) {
+  Scene scene = load_scene(a.scene);
+  apply_overrides(scene, a.overrides);
+  const ProfileResult r =
+      profile_render(scene, parse_width(a.width, "--width"), parse_accel(a.accel, "--accel"));
+  if (a.json)
+    print_profile_json(a, r);
+  else
+    print_profile_table(a, r);
 }
 }  // namespace
 

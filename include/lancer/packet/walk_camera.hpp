@@ -223,6 +223,10 @@ struct CameraWalk : TileIntervals<Arch, T> {
   // shuffled, compacted vector (PushTables), last in order first, the stack growing by the met
   // ones only; which children a block meets is what a branch predictor cannot learn (at 65536
   // spheres mispredictions, not instructions, grew most with the scene).
+  // With cones, a leaf's spheres [first, first + n) go to the tiles of `in` by their cones, each
+  // tile then testing the spheres its cone may meet with all its live lanes (no per-lane box
+  // test). Width 4's block interval has no tiles per child: there each tile first tests the box
+  // of (parent, k) with its lanes, and only the registers of the tiles that meet it test cones.
   // Out of line, as GCC chose before the walk took a counter (which changed its choice).
   template <class Tiles, bool kCones, class Leaf, class Count>
   [[gnu::noinline]] static void closest_tiles(const Bvh<T>& h, const M* valid, const Ray* r,
@@ -244,10 +248,7 @@ struct CameraWalk : TileIntervals<Arch, T> {
     const __m128i iota = _mm_setr_epi32(0, 1, 2, 3);
     std::int32_t node = 0;
     unsigned in = packets;  // the tiles that met the node's box
-    // The tiles of `in` against leaf-order spheres [first, first + n) by their cones, each tile
-    // then testing the spheres its cone may meet with all its live lanes (no per-lane box test).
-    // Width 4's block interval has no tiles per child: there each tile first tests the box of
-    // (parent, k) with its lanes, and only the registers of the tiles that meet it test cones.
+    // cone_leaf: the tiles of `in` against a leaf's spheres by their cones (below).
     auto cone_leaf = [&](std::int32_t first_sphere, std::int32_t n, const Node& parent, int k) {
       alignas(64) std::uint32_t which[Tiles::kTiles];
       unsigned tested = in, regs = ~0u;
