@@ -17,6 +17,7 @@
 #include "lancer/generate.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
+#include "lancer/render.hpp"
 #include "support/test_util.hpp"
 
 namespace lancer {
@@ -389,6 +390,50 @@ TEST(FloatEnvelope, SpherePointRelativeToTheSphere) {
       hits, worst_local, worst_along);
   EXPECT_GT(hits, 8000);
   EXPECT_GT(worst_along, 100 * worst_local) << "the case that showed the defect";
+}
+
+// Camera rays along a plane (issue 39): a generated cloud whose horizon falls on a pixel row
+// (100x75: the row at y = 0.12 is exactly level). Float's camera rays of that row meet the
+// ground about 3.4e8 away where double's miss it: no formula on float's ray tells, its
+// direction is off by more than its angle to the plane. Auto now takes double there, and
+// keeps float one row away from it.
+int far_hits_double_denies(const Scene& s, Precision p) {
+  RenderOptions opt;
+  opt.precision = p;
+  opt.threads = 2;
+  RenderOptions dbl = opt;
+  dbl.precision = Precision::dbl;
+  const PrimaryResult a = render_primary_with_ids(s, opt), b = render_primary_with_ids(s, dbl);
+  int wrong = 0;
+  for (std::size_t k = 0; k < a.id.size(); ++k) wrong += a.id[k] != b.id[k] && a.t[k] > 1e7f;
+  return wrong;
+}
+
+TEST(FloatEnvelope, RegressionCameraRaysAlongAPlane) {
+  generate::Options g;
+  g.nx = 100, g.ny = 75;
+  const Scene s = from(json::parse(generate::scene_json(g)));
+  EXPECT_GT(far_hits_double_denies(s, Precision::exact), 0) << "the case no longer shows";
+  const PrecisionChoice c = choose_precision(s);
+  EXPECT_EQ(c.precision, Precision::dbl) << c.reason;
+  EXPECT_EQ(far_hits_double_denies(s, Precision::automatic), 0);
+  std::printf("exact: %d camera rays hit the ground beyond 1e7 where double misses; auto: %s\n",
+              far_hits_double_denies(s, Precision::exact), c.reason.c_str());
+  // One row more: the horizon between rows, float's rays meet the ground where double's do.
+  g.ny = 76;
+  const Scene between = from(json::parse(generate::scene_json(g)));
+  EXPECT_EQ(far_hits_double_denies(between, Precision::exact), 0);
+  EXPECT_EQ(choose_precision(between).precision, Precision::exact);
+  // An eye in the plane meets it at t = 0 only, at any angle: float holds (Extremes'
+  // parallel-rays case, the middle row exactly level).
+  const Scene in_plane = parse_scene(R"json({
+    "camera": {"type": "pinhole", "position": [0, 0, 0], "direction": [0, 0, -1], "distance": 1,
+               "resolution": [63, 63], "bounds": [-1, 1, -1, 1]},
+    "lights": [{"position": [10, 20, 30], "intensity": 1}],
+    "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0]},
+                {"type": "sphere", "center": [0, 0.2, -4], "radius": 0.5}]})json",
+                                     "eye-in-plane");
+  EXPECT_EQ(choose_precision(in_plane).precision, Precision::exact);
 }
 
 }  // namespace
