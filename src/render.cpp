@@ -373,9 +373,10 @@ SampleOff measure_sample(const Scene& scene, int threads,
 }
 
 // choose_precision, measuring on `threads` threads and handing the float scene it prepared to
-// measure to `keep` where it chose float.
-PrecisionChoice choose(const Scene& scene, int threads,
-                       std::unique_ptr<PreparedScene<float>>* keep) {
+// measure to `keep` where it chose float. A `width` (not null) that neither precision runs fails
+// before the measure, with the message float's would give.
+PrecisionChoice choose(const Scene& scene, int threads, std::unique_ptr<PreparedScene<float>>* keep,
+                       const int* width) {
   const Frame frame = camera_frame<float>(scene);
   double extent = 0, smallest = INFINITY;
   std::string why = outside_sizes(scene, frame, extent, smallest);
@@ -383,6 +384,13 @@ PrecisionChoice choose(const Scene& scene, int threads,
   if (!why.empty()) return {Precision::dbl, why};
   char inside[300], measured[160] = "";
   if (bounces_twice(scene)) {
+    if (width) {
+      try {
+        resolve_width(*width, Precision::dbl);
+      } catch (const InputError&) {
+        resolve_width(*width, Precision::exact);
+      }
+    }
     const SampleOff s = measure_sample(scene, threads, keep);
     if (s.upper() > kOffBudget) {
       if (keep) keep->reset();
@@ -408,7 +416,7 @@ PrecisionChoice choose(const Scene& scene, int threads,
 }  // namespace
 
 PrecisionChoice choose_precision(const Scene& scene) {
-  return choose(scene, hardware_threads(), nullptr);
+  return choose(scene, hardware_threads(), nullptr, nullptr);
 }
 
 template <class T>
@@ -468,7 +476,7 @@ PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
     // The float scene auto prepared to measure is this render's where it is the same: the
     // default structure and no model_everything.
     const bool reusable = opt.accel == Accel::automatic && !opt.model_everything;
-    const PrecisionChoice c = choose(scene, threads, reusable ? &st.f : nullptr);
+    const PrecisionChoice c = choose(scene, threads, reusable ? &st.f : nullptr, &opt.width);
     st.precision = c.precision;
     st.reason = c.reason;
   }
