@@ -434,6 +434,18 @@ TEST(FloatEnvelope, RegressionCameraRaysAlongAPlane) {
                 {"type": "sphere", "center": [0, 0.2, -4], "radius": 0.5}]})json",
                                      "eye-in-plane");
   EXPECT_EQ(choose_precision(in_plane).precision, Precision::exact);
+  // An orthographic view 1e-8 off the plane: its rays are (0, 0, -1) in the camera's basis and
+  // d.n the normal's component rounded once, so float meets the ground 1e8 away as double does.
+  const Scene ortho = parse_scene(R"json({
+    "camera": {"type": "orthographic", "position": [0, 1, 5], "direction": [0, -1e-8, -1],
+               "resolution": [64, 64], "bounds": [-2, 2, -0.5, 3]},
+    "lights": [{"position": [-10, 20, 10], "intensity": 0.7, "ambient": 0.15}],
+    "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0]},
+                {"type": "sphere", "center": [0, 1, -10], "radius": 1}]})json",
+                                  "orthographic-along-a-plane");
+  EXPECT_EQ(choose_precision(ortho).precision, Precision::exact);
+  const Image truth = testing::render_with(ortho, 1, Precision::dbl);
+  EXPECT_EQ(off(ortho, Precision::exact, truth), 0);
 }
 
 // Multi-bounce chaos (issue 39): a dense cloud of mirrors (1024 spheres, reflect 0.9,
