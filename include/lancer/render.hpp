@@ -15,7 +15,8 @@
 
 namespace lancer {
 
-// What `auto` picks for a scene, and why, in a sentence.
+// What `auto` picks for a scene, and why, in a sentence. Where rays can bounce twice or more it
+// prepares the scene in both precisions and renders a sample of rows in each (docs/precision.md).
 struct PrecisionChoice {
   Precision precision;
   std::string reason;
