@@ -10,6 +10,7 @@
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
+#include "lancer/text.hpp"
 
 namespace {
 
@@ -29,6 +30,17 @@ int flush_stdout(int status) {
                  err ? std::strerror(err) : "output error");
     return lancer::cli::kExitOutputLost;
   }
+  return status;
+}
+
+// One line on stderr and the status. Under mpirun, the other ranks must learn of it too, or
+// they wait for this one forever: mpi::end_job ends them all with the line printed once.
+// Control characters are escaped whatever named them (a file name, a key, an option's value):
+// the message stays one line and a terminal shows it rather than obeying it.
+int fail(int status, const std::string& what) {
+  const std::string message = lancer::escape_controls(what);
+  lancer::mpi::end_job(status, message);
+  std::fprintf(stderr, "lancer: %s\n", message.c_str());
   return status;
 }
 
@@ -101,20 +113,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return flush_stdout(app.exit(e));
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "lancer: %s (see lancer --help)\n", e.what());
-    return kExitBadInput;
+    return fail(kExitBadInput, std::string(e.what()) + " (see lancer --help)");
   } catch (const lancer::InputError& e) {
-    std::fprintf(stderr, "lancer: %s\n", e.what());
-    return kExitBadInput;
+    return fail(kExitBadInput, e.what());
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "lancer: out of memory (limits: docs/limits.md)\n");
-    return kExitOutOfMemory;
+    return fail(kExitOutOfMemory, "out of memory (limits: docs/limits.md)");
   } catch (const std::length_error& e) {  // a size beyond what a container can hold
-    std::fprintf(stderr, "lancer: out of memory: %s (limits: docs/limits.md)\n", e.what());
-    return kExitOutOfMemory;
+    return fail(kExitOutOfMemory,
+                std::string("out of memory: ") + e.what() + " (limits: docs/limits.md)");
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "lancer: internal error: %s\n", e.what());
-    return kExitInternal;
+    return fail(kExitInternal, std::string("internal error: ") + e.what());
   }
   return flush_stdout(g_exit_status);
 }
