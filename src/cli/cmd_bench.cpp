@@ -284,6 +284,8 @@ void run_bench_cmd(const BenchArgs& a) {
       throw InputError(
           "--peer embree: this lancer was built without Embree (install libembree-dev and "
           "configure with -DLANCER_WITH_EMBREE=ON)");
+    // Before any row is timed, not when the peer's first scene is built.
+    if (const char* config = std::getenv("LANCER_EMBREE_CONFIG")) peer::check_embree_config(config);
     opt.peers.push_back(p);
   }
   opt.peak = a.peak;

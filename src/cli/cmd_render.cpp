@@ -12,6 +12,7 @@
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
 #include "lancer/render.hpp"
+#include "lancer/text.hpp"
 #include "options.hpp"
 
 namespace lancer::cli {
@@ -35,7 +36,7 @@ double peak_resident_bytes() {
 void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& r,
                    double load_seconds, double write_seconds) {
   const auto& c = scene.camera;
-  std::printf("lancer: %s -> %s\n", a.scene.c_str(), a.output.c_str());
+  std::printf("lancer: %s -> %s\n", shown_path(a.scene).c_str(), shown_path(a.output).c_str());
   if (load_seconds >= 0)
     std::printf("  load     %.4f s (reading and checking the scene file)\n", load_seconds);
   std::printf("  image    %d x %d, %d sample%s per pixel\n", c.nx, c.ny,

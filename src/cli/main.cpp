@@ -1,4 +1,6 @@
 // lancer: a ray tracer built to be measured.
+#include <signal.h>
+
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -19,6 +21,15 @@ extern "C" void on_signal(int sig) {
   lancer::remove_pending_outputs();
   std::signal(sig, SIG_DFL);
   std::raise(sig);
+}
+
+// A signal ignored when lancer started stays ignored (POSIX asks this of programs that catch
+// signals): nohup ignores SIGHUP so that a render outlives its terminal, and a script's `&`
+// ignores SIGINT so that the terminal's ^C ends the script, not its background jobs.
+void catch_signal(int sig) {
+  struct sigaction now {};
+  if (sigaction(sig, nullptr, &now) == 0 && now.sa_handler == SIG_IGN) return;
+  std::signal(sig, on_signal);
 }
 
 // stdout is where validate's verdict, profile's JSON and flux's CSV go: output lost there (a full
@@ -44,6 +55,21 @@ int fail(int status, const std::string& what) {
   return status;
 }
 
+// An empty value ("--threads ''", "--resolution=") is a mistake, not the default: CLI11 reads it
+// as 0, and a string option as not given. The chart's text labels are exempt (empty: the default
+// label).
+void refuse_empty_values(CLI::App& app) {
+  const CLI::Validator non_empty(
+      [](std::string& v) { return v.empty() ? std::string("empty value") : std::string(); }, "");
+  for (CLI::App* sub : app.get_subcommands({}))
+    for (CLI::Option* o : sub->get_options({})) {
+      const std::string name = o->get_name();
+      if (o->get_type_size() != 0 && name != "--title" && name != "--x-label" &&
+          name != "--y-label")
+        o->check(non_empty);
+    }
+}
+
 const char* const kFooter =
     "Exit status: 0 done; 1 validate found a width that differs from the reference; 2 bad input\n"
     "(scene, option or output path; one line on stderr, nothing written); 3 out of memory; 4\n"
@@ -54,9 +80,9 @@ const char* const kFooter =
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  std::signal(SIGHUP, on_signal);  // the terminal went away
+  catch_signal(SIGINT);
+  catch_signal(SIGTERM);
+  catch_signal(SIGHUP);  // the terminal went away
 
   CLI::App app{
       "lancer: a Whitted ray tracer built to be measured.\n"
@@ -74,6 +100,8 @@ int main(int argc, char** argv) {
   lancer::cli::add_generate(app);
   lancer::cli::add_compare(app);
   lancer::cli::add_plot(app);
+
+  refuse_empty_values(app);
 
   using namespace lancer::cli;
   // CLI11 takes an unknown first word for a missing subcommand: name it.
