@@ -128,6 +128,10 @@ expect_failure "an unknown option on rank 1" 2 "rank 1: The following argument w
   run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" render $d -o "$out/dir/x.png" --bogus
 expect_failure "a bad --width on rank 0 only" 2 "^lancer: --width: must be auto" \
   run -np 1 "$lancer" render $d -o "$out/dir/x.png" --width 3 : -np 2 "$lancer" render $d -o "$out/dir/x.png"
+expect_failure "validate beside render" 2 "rank 1: validate: runs in one process" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" validate $d
+expect_failure "an unknown command on rank 2" 2 "rank 2: unknown command 'rendr'" \
+  run -np 2 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" rendr $d
 # --json: one JSON object on stdout, from rank 0 alone, with the ranks' figures.
 rc=0
 run -np 2 "$lancer" render $d -o "$out/j.png" --resolution 40x30 --json >"$out/stdout" 2>"$out/stderr" || rc=$?

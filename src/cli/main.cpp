@@ -113,9 +113,8 @@ int main(int argc, char** argv) {
       names += (names.empty() ? "" : ", ") + sub->get_name();
     }
     if (!known) {
-      std::fprintf(stderr, "lancer: unknown command '%s' (commands: %s; see lancer --help)\n",
-                   argv[1], names.c_str());
-      return kExitBadInput;
+      return fail(kExitBadInput, "unknown command '" + std::string(argv[1]) +
+                                     "' (commands: " + names + "; see lancer --help)");
     }
   }
 
@@ -124,12 +123,11 @@ int main(int argc, char** argv) {
   const lancer::mpi::Launch launch = lancer::mpi::launch_from_environment();
   if (launch.size > 1 && argc > 1 && argv[1][0] != '-' && std::strcmp(argv[1], "render") != 0 &&
       std::strcmp(argv[1], "bench") != 0) {
-    if (launch.rank == 0)
-      std::fprintf(stderr,
-                   "lancer: %s: runs in one process, not across %d MPI ranks (%s); only render "
-                   "and bench are distributed: run it without mpirun\n",
-                   argv[1], launch.size, launch.variable);
-    return kExitBadInput;
+    // Through fail(): said once, and ranks that run render or bench beside it are told.
+    return fail(kExitBadInput, std::string(argv[1]) + ": runs in one process, not across " +
+                                   std::to_string(launch.size) + " MPI ranks (" + launch.variable +
+                                   "); only render and bench are distributed: run it without "
+                                   "mpirun");
   }
 
   try {
