@@ -76,8 +76,9 @@ void run_plot(const PlotArgs& a) {
   const std::string off =
       dropped ? " (" + std::to_string(dropped) + " with a value <= 0 on the log axis left out)"
               : "";
-  std::printf("lancer plot: %s: %zu series, %zu points%s -> %s\n", shown_path(a.csv).c_str(),
-              c.series.size(), points, off.c_str(), shown_path(a.output).c_str());
+  std::printf("lancer plot: %s: %zu series, %zu point%s%s -> %s\n", shown_path(a.csv).c_str(),
+              c.series.size(), points, points == 1 ? "" : "s", off.c_str(),
+              shown_path(a.output).c_str());
 }
 }  // namespace
 
