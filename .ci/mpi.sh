@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # lancer across MPI ranks (docs/mpi.md): `mpirun -np 2` and `-np 4` (oversubscribed) renders byte
 # for byte equal to the single-process render on every scene in scenes/, in exact and double
-# precision; and a bad scene, an unwritable output and a killed rank each end the job with one
-# message, no output file and no hang. Skipped, saying so, when lancer was built without MPI.
+# precision; and a bad scene, an unwritable output, ranks asked different things (MPMD), an error
+# on one rank only and a killed rank each end the job with one message, no output file and no
+# hang. Skipped, saying so, when lancer was built without MPI.
 #
 #   .ci/mpi.sh [build dir, default build]
 set -euo pipefail
@@ -93,6 +94,53 @@ expect_failure "generate under mpirun" 2 "only render and bench are distributed"
   expect_failure "width a rank lacks" 2 "rank 1: --width: width 16" \
     mixed render scenes/lorenzi-diffuse.json -o "$out/dir/x.png" --width 16
 
+# Ranks asked different things (Open MPI's MPMD syntax gives each its own command line): they
+# must not gather frames of different shapes (rank 0 crashed with "malloc(): corrupted top
+# size"), wait for rows a rank never renders (a hang), or mix two scenes into one image.
+d=scenes/lorenzi-diffuse.json
+expect_failure "ranks disagree on the image size" 2 "rank 1: the ranks disagree on the image size" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" --resolution 30x20 : \
+  -np 2 "$lancer" render $d -o "$out/dir/x.png"
+expect_failure "a 1x1 rank" 2 "1 x 1 here, 30 x 20 on rank 0" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" --resolution 30x20 : \
+  -np 2 "$lancer" render $d -o "$out/dir/x.png" --resolution 1x1
+sed 's/"radius": 2}/"radius": 2.5}/' $d >"$out/stale.json"
+cmp -s $d "$out/stale.json" && fail "stale scene: the edit changed nothing"
+expect_failure "a stale scene on one rank" 2 "rank 1: the ranks disagree on the scene file's bytes" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" render "$out/stale.json" -o "$out/dir/x.png"
+expect_failure "ranks disagree on --precision" 2 "rank 1: the ranks disagree on --precision" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" render $d -o "$out/dir/x.png" --precision double
+expect_failure "ranks disagree on --supersample" 2 "rank 2: the ranks disagree on the sub-samples" \
+  run -np 2 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" render $d -o "$out/dir/x.png" --supersample 2
+expect_failure "render and bench" 2 "rank 1: the ranks disagree on the command" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" bench $d --repeat 1
+expect_failure "bench ranks disagree on --repeat" 2 "rank 1: the ranks disagree on bench's" \
+  run -np 1 "$lancer" bench $d --repeat 1 --resolution 8x8 : -np 1 "$lancer" bench $d --repeat 2 --resolution 8x8
+# An error on one rank only (an environment variable or option only it was given) reaches every
+# rank: one line, status 2, no hang; the same error on every rank is said once.
+expect_failure "LANCER_MAX_WIDTH=zz on rank 1" 2 "rank 1: LANCER_MAX_WIDTH: must be" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 -x LANCER_MAX_WIDTH=zz "$lancer" render $d -o "$out/dir/x.png"
+expect_failure "LANCER_MAX_WIDTH=zz on every rank" 2 "^lancer: LANCER_MAX_WIDTH: must be" \
+  run -np 3 -x LANCER_MAX_WIDTH=zz "$lancer" render $d -o "$out/dir/x.png"
+expect_failure "LANCER_MAX_WIDTH=zz on a bench rank" 2 "rank 1: LANCER_MAX_WIDTH: must be" \
+  run -np 1 "$lancer" bench $d --repeat 1 : -np 1 -x LANCER_MAX_WIDTH=zz "$lancer" bench $d --repeat 1
+expect_failure "an unknown option on rank 1" 2 "rank 1: The following argument was not expected: --bogus" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" render $d -o "$out/dir/x.png" --bogus
+expect_failure "a bad --width on rank 0 only" 2 "^lancer: --width: must be auto" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" --width 3 : -np 2 "$lancer" render $d -o "$out/dir/x.png"
+expect_failure "validate beside render" 2 "rank 1: validate: runs in one process" \
+  run -np 1 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" validate $d
+expect_failure "an unknown command on rank 2" 2 "rank 2: unknown command 'rendr'" \
+  run -np 2 "$lancer" render $d -o "$out/dir/x.png" : -np 1 "$lancer" rendr $d
+# --json: one JSON object on stdout, from rank 0 alone, with the ranks' figures.
+rc=0
+run -np 2 "$lancer" render $d -o "$out/j.png" --resolution 40x30 --json >"$out/stdout" 2>"$out/stderr" || rc=$?
+[ $rc -eq 0 ] || fail "--json under mpirun: status $rc"
+[ "$(head -c1 "$out/stdout")" = "{" ] && [ "$(grep -c '^{' "$out/stdout")" -eq 1 ] &&
+  grep -q '"ranks": 2' "$out/stdout" && grep -q '"resolution": \[' "$out/stdout" ||
+  { fail "--json under mpirun: not one JSON object with the ranks"; head -5 "$out/stdout"; }
+[ ! -s "$out/stderr" ] || { fail "--json under mpirun: stderr not empty"; cat "$out/stderr"; }
+
 # A killed rank: SIGKILL rank 1 mid-render; mpirun ends the job (SIGTERM to the others), rank 0
 # says so in one line and writes no file.
 # Long enough that rank 1 dies mid-render: about 14 s in one process on a fast core (AMD Zen 5;
@@ -122,5 +170,5 @@ else
     { fail "killed rank: expected one line saying the job was ended, got:"; cat "$out/stderr"; }
   [ -z "$(ls -A "$out/dir")" ] || fail "killed rank: left files: $(ls -A "$out/dir")"
 fi
-[ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width or resolution, commands that are not distributed, a width one rank lacks, a killed rank: each ends the job with one message, no file, no hang"
+[ $status -eq 0 ] && echo "mpi: bad scene, unwritable output, bad width or resolution, commands that are not distributed, a width one rank lacks, ranks asked different things, an error on one rank, a killed rank: each ends the job with one message, no file, no hang; --json prints one object"
 exit $status

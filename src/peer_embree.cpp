@@ -312,6 +312,7 @@ struct EmbreeScene::Impl {
     std::string cfg = device_config;
     if (cfg.empty())
       if (const char* env = std::getenv("LANCER_EMBREE_CONFIG")) cfg = env;
+    check_embree_config(cfg, device_config.empty() ? "LANCER_EMBREE_CONFIG" : "Embree config");
     device = rtcNewDevice(cfg.empty() ? nullptr : cfg.c_str());
     if (!device)
       throw std::runtime_error("embree: rtcNewDevice failed (error " +

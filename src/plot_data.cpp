@@ -14,6 +14,7 @@
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/plot.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer::plot {
 
@@ -79,6 +80,18 @@ void check_drawing_path(const std::string& path, const std::string& option,
   if (path.empty()) throw InputError(option + ": output path is empty");
   const std::string ext = lower_extension(path);
   if (ext == ".svg" || ext == ".pdf") return check_text_path(path, option, scene_path);
+  // A drawing takes .svg and .pdf beside the image formats: say so, not just the images'.
+  bool image = false;
+  std::string known = ".svg .pdf";
+  for (const ImageFormat& f : image_formats()) {
+    image = image || ext == f.extension;
+    known += std::string(" ") + f.extension;
+  }
+  if (!image && path != "-")  // "-": check_output_path says a drawing is a file, not stdout
+    throw InputError(option + " " + shown_path(path) + ": " +
+                     (ext.empty() ? "no extension to choose a format from"
+                                  : "lancer does not draw '" + ext + "' files") +
+                     " (it draws " + known + ")");
   try {
     check_output_path(path, scene_path);
   } catch (const InputError& e) {

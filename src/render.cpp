@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 #include <thread>
@@ -67,6 +68,13 @@ int resolve_width(int requested, Precision precision, const std::string& option)
   if (isa == "none")
     throw InputError(option + ": " + to_string(precision) + " precision takes width auto, 1, " +
                      (dbl ? "2, 4 or 8" : "4, 8 or 16") + ", not " + w);
+  // LANCER_MAX_WIDTH (valid: supported_widths() above refused anything else) caps the ISAs by
+  // their float width: blame the cap, not the CPU, when it is what leaves this width out.
+  const char* cap = std::getenv("LANCER_MAX_WIDTH");
+  if (cap && std::atoi(cap) < (dbl ? 2 : 1) * requested)
+    throw InputError(option + ": width " + w + " in " + to_string(precision) + " precision needs " +
+                     isa + ", which LANCER_MAX_WIDTH=" + cap +
+                     " leaves out (it caps the packets at " + cap + " float lanes)");
   throw InputError(option + ": width " + w + " in " + to_string(precision) + " precision needs " +
                    isa + ", which this CPU or OS does not run");
 }

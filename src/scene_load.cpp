@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -13,6 +14,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/scene.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer {
 namespace {
@@ -209,7 +211,8 @@ class ObjectReader {
 CameraSpec read_camera(const json& j) {
   ObjectReader r(j, "camera");
   CameraSpec c;
-  std::string type = r.string("type");
+  // docs/scene-format.md: "pinhole" when not given.
+  const std::string type = r.has("type") ? r.string("type") : "pinhole";
   if (type == "pinhole")
     c.type = CameraType::pinhole;
   else if (type == "orthographic")
@@ -565,7 +568,10 @@ RadianceBound radiance_bound(const Scene& s) {
       const Material& mat = s.materials[m];
       double v = std::max(1.0, max3(mat.color)) *
                  (mat.ka * sum_ambient + (mat.kd + mat.ks) * sum_intensity * transmittance);
-      if (depth < s.max_depth) v += (mat.reflect + mat.transmit) * next.value;
+      // Only a material that passes rays on carries the level below: 0 x an infinite bound is
+      // NaN, which would win the comparison and blame a material that reflects nothing.
+      if (depth < s.max_depth && mat.reflect + mat.transmit > 0)
+        v += (mat.reflect + mat.transmit) * next.value;
       if (!(v <= level.value)) level = {v, static_cast<int>(m)};
     }
     next = level;
@@ -594,9 +600,10 @@ void check_radiance(const Scene& s, const std::vector<std::string>& material_whe
   if (b.value <= kMaxRadiance) return;
   char what[160];
   std::snprintf(what, sizeof what,
-                "with these lights%s, radiance could reach %g; at most %g renders in single "
+                "with these lights%s, radiance could reach %s%g; at most %g renders in single "
                 "precision",
-                s.max_depth > 0 ? " and reflections" : "", b.value, kMaxRadiance);
+                s.max_depth > 0 ? " and reflections" : "", std::isinf(b.value) ? "beyond " : "",
+                std::isinf(b.value) ? std::numeric_limits<double>::max() : b.value, kMaxRadiance);
   fail(b.material >= 0 ? material_where[b.material] : std::string("background"), what);
 }
 
@@ -914,28 +921,33 @@ Scene parse_scene(const std::string& text, const std::string& name) {
 std::string read_scene_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw InputError(path + ": is a folder, not a scene file");
+    throw InputError(shown_path(path) + ": is a folder, not a scene file");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open scene file");
+  if (!in) throw InputError(shown_path(path) + ": cannot open scene file");
   // Read at most 1 GiB + 1 byte, so that /dev/zero or a runaway pipe fails instead of filling
   // memory; reserve once when the size is known (a regular file).
   std::string text;
   try {
     const auto size = std::filesystem::file_size(path, ec);
-    if (!ec && size > kMaxSceneBytes) throw InputError(path + ": file larger than 1 GiB");
+    if (!ec && size > kMaxSceneBytes)
+      throw InputError(shown_path(path) + ": file larger than 1 GiB");
     if (!ec) text.reserve(static_cast<std::size_t>(size));
     std::vector<char> buf(std::size_t(1) << 16);
     while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0) {
       text.append(buf.data(), static_cast<std::size_t>(in.gcount()));
-      if (text.size() > kMaxSceneBytes) throw InputError(path + ": file larger than 1 GiB");
+      if (text.size() > kMaxSceneBytes)
+        throw InputError(shown_path(path) + ": file larger than 1 GiB");
     }
   } catch (const std::bad_alloc&) {
-    throw InputError(path + ": out of memory while reading the scene file");
+    throw InputError(shown_path(path) + ": out of memory while reading the scene file");
   }
-  if (in.bad()) throw InputError(path + ": cannot read scene file");
+  if (in.bad()) throw InputError(shown_path(path) + ": cannot read scene file");
   return text;
 }
 
-Scene load_scene(const std::string& path) { return parse_scene(read_scene_file(path), path); }
+// Messages name the file as shown_path() shows it: one line whatever the name holds.
+Scene load_scene(const std::string& path) {
+  return parse_scene(read_scene_file(path), shown_path(path));
+}
 
 }  // namespace lancer

@@ -25,6 +25,13 @@ Launch launch_from_environment();
 // True if this lancer was built with MPI.
 bool built_with_mpi();
 
+// The CLI's way out for an error under a launcher of more than one rank (an option, or an
+// environment variable, that only some ranks were given): every rank must learn of it, or the
+// others wait for this one forever. Ends the job with `message` printed once (by the lowest
+// failing rank) and exit `status` on every rank; never returns then. Returns false when this
+// process is not one of several ranks (or the job is over): the caller reports as usual.
+bool end_job(int status, const std::string& message);
+
 // `lancer render` across the ranks of MPI_COMM_WORLD. `load` runs on every rank (each loads and
 // prepares the scene: docs/mpi.md says why); rank 0 alone checks and writes `output`. Rows are
 // interleaved over the ranks in tiles, each rank renders its own on options.threads threads

@@ -42,6 +42,12 @@ bool embree_available();
 // "3.13.5", or "" without Embree.
 std::string embree_version();
 
+// Checks an Embree device configuration ("isa=avx2,threads=1": LANCER_EMBREE_CONFIG) before
+// rtcNewDevice, which ignores what it does not know: an unknown key or value throws InputError
+// naming `name`. Works without Embree too.
+void check_embree_config(const std::string& config,
+                         const std::string& name = "LANCER_EMBREE_CONFIG");
+
 enum class PlaneMode { user, quad };
 
 // The environment variable LANCER_EMBREE_PLANES: "user" (or unset) or "quad"; lancer bench and

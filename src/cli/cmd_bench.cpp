@@ -284,6 +284,8 @@ void run_bench_cmd(const BenchArgs& a) {
       throw InputError(
           "--peer embree: this lancer was built without Embree (install libembree-dev and "
           "configure with -DLANCER_WITH_EMBREE=ON)");
+    // Before any row is timed, not when the peer's first scene is built.
+    if (const char* config = std::getenv("LANCER_EMBREE_CONFIG")) peer::check_embree_config(config);
     opt.peers.push_back(p);
   }
   opt.peak = a.peak;
@@ -371,15 +373,8 @@ void add_bench(CLI::App& app) {
                 "primary and kernel rows' intersection GFLOP/s against it");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
-  cmd->callback([args] {
-    try {
-      run_bench_cmd(*args);
-    } catch (const InputError&) {
-      // Under mpirun every rank meets the same bad option or scene: rank 0 alone says so.
-      if (mpi::launch_from_environment().rank != 0) std::exit(2);
-      throw;
-    }
-  });
+  // Under mpirun, main() ends every rank with one line for an error here (mpi::end_job).
+  cmd->callback([args] { run_bench_cmd(*args); });
 }
 
 }  // namespace lancer::cli

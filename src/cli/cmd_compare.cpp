@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -11,6 +12,7 @@
 #include "lancer/compare.hpp"
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer::cli {
 
@@ -51,8 +53,14 @@ void run_compare(const CompareArgs& args, int& status) {
   std::vector<double> thresholds;
   for (const std::string& t : args.thresholds) thresholds.push_back(parse_threshold(t));
   if (!args.diff.empty()) {
+    // Before check_output_path, whose "scene file" names what render protects, not an image.
+    std::error_code ec;
+    for (const std::string* input : {&args.a, &args.b})
+      if (args.diff == *input || (std::filesystem::exists(args.diff, ec) &&
+                                  std::filesystem::equivalent(args.diff, *input, ec)))
+        throw InputError("--diff " + shown_path(args.diff) + ": would overwrite the " +
+                         (input == &args.a ? "first" : "second") + " input image");
     check_output_path(args.diff, args.a);
-    if (args.diff == args.b) throw InputError("--diff: " + args.diff + ": is the second image");
   }
   if (args.diff_scale < 0 || !std::isfinite(args.diff_scale))
     throw InputError("--diff-scale: must be >= 0");

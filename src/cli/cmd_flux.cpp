@@ -6,6 +6,7 @@
 #include "lancer/error.hpp"
 #include "lancer/flux.hpp"
 #include "lancer/plot.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer::cli {
 
@@ -22,7 +23,14 @@ constexpr std::size_t kMaxDiagramSegments = 1000000;
 
 void run_flux(const FluxArgs& a) {
   const flux::FluxScene fs = flux::load_flux_scene(a.scene);
-  const flux::RayPlane plane = flux::ray_plane(fs.scene, fs.names);
+  // ray_plane names the key; the file is named here, as the loader names it.
+  const flux::RayPlane plane = [&] {
+    try {
+      return flux::ray_plane(fs.scene, fs.names);
+    } catch (const InputError& e) {
+      throw InputError(shown_path(a.scene) + ": " + e.what());
+    }
+  }();
   // Every output checked before any work, and no two the same file.
   struct Output {
     const char* option;

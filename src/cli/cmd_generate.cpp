@@ -1,5 +1,8 @@
+#include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 
 #include "commands.hpp"
@@ -7,24 +10,53 @@
 #include "lancer/generate.hpp"
 #include "lancer/plot.hpp"
 #include "lancer/scene.hpp"
+#include "lancer/text.hpp"
+#include "options.hpp"
 
 namespace lancer::cli {
 
 namespace {
+// Taken as text and parsed here: CLI11 reads "nan" as a number and wraps "-1" into an unsigned
+// seed, and generate::Options' "not given" sentinel (-1) must not be a value the user can pass.
 struct GenerateArgs {
   generate::Options o;
-  std::string output, resolution;
+  std::string output, resolution, seed, transmit, ior;
+  CLI::Option *resolution_opt = nullptr, *seed_opt = nullptr, *transmit_opt = nullptr,
+              *ior_opt = nullptr;
   bool no_plane = false;
 };
 
-void run_generate(GenerateArgs a) {
-  if (!a.resolution.empty()) {
-    int nx = 0, ny = 0;
-    char extra = 0;
-    if (std::sscanf(a.resolution.c_str(), "%dx%d%c", &nx, &ny, &extra) != 2)
-      throw InputError("--resolution: must be NXxNY, as 600x400");
-    a.o.nx = nx, a.o.ny = ny;
+// A decimal whole number from 0 to 2^64 - 1, digits only (no sign, no spaces, no wrap-around).
+std::uint64_t parse_seed(const std::string& text) {
+  const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+  errno = 0;
+  const unsigned long long v = digits ? std::strtoull(text.c_str(), nullptr, 10) : 0;
+  if (!digits || errno == ERANGE)
+    throw InputError("--seed: must be a whole number from 0 to 18446744073709551615, not '" + text +
+                     "'");
+  return v;
+}
+
+// A finite number from lo to hi, the whole text.
+double parse_in(const std::string& text, const std::string& option, double lo, double hi) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = text.empty() || std::isspace(static_cast<unsigned char>(text[0]))
+                       ? NAN
+                       : std::strtod(text.c_str(), &end);
+  if (!(end && *end == '\0' && errno == 0 && v >= lo && v <= hi)) {
+    char range[64];
+    std::snprintf(range, sizeof range, "from %g to %g", lo, hi);
+    throw InputError(option + ": must be a number " + range + ", not '" + text + "'");
   }
+  return v;
+}
+
+void run_generate(GenerateArgs a) {
+  if (a.resolution_opt->count()) parse_size(a.resolution, "--resolution", a.o.nx, a.o.ny);
+  if (a.seed_opt->count()) a.o.seed = parse_seed(a.seed);
+  if (a.transmit_opt->count()) a.o.transmit = parse_in(a.transmit, "--transmit", 0, 1);
+  if (a.ior_opt->count()) a.o.ior = parse_in(a.ior, "--ior", 1, 10);
   a.o.plane = !a.no_plane;
   plot::check_text_path(a.output, "-o");
   const auto t0 = std::chrono::steady_clock::now();
@@ -33,7 +65,7 @@ void run_generate(GenerateArgs a) {
   plot::write_text_file(text, a.output);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("lancer generate: %s (%lld spheres%s, seed %llu, %zu bytes, %.2f s)\n",
-              a.output.c_str(), a.o.spheres, a.o.plane ? " and a ground plane" : "",
+              shown_path(a.output).c_str(), a.o.spheres, a.o.plane ? " and a ground plane" : "",
               (unsigned long long)a.o.seed, text.size(), s);
 }
 }  // namespace
@@ -45,19 +77,22 @@ void add_generate(CLI::App& app) {
       "Write a reproducible random-sphere scene: N spheres in a box the camera sees, a ground "
       "plane, two lights (the same bytes on any machine for the same options)");
   cmd->add_option("--spheres", args->o.spheres, "Number of spheres")->required();
-  cmd->add_option("--seed", args->o.seed, "Seed of the generator (splitmix64)")
-      ->capture_default_str();
+  args->seed_opt =
+      cmd->add_option("--seed", args->seed, "Seed of the generator (splitmix64; default 1)");
   cmd->add_option("--reflect", args->o.reflect,
                   "Reflectivity of every sphere, 0 to 1 (above 0: max_depth 3)")
       ->capture_default_str();
-  cmd->add_option("--transmit", args->o.transmit, "Transmission of every sphere, 0 to 1");
+  args->transmit_opt =
+      cmd->add_option("--transmit", args->transmit, "Transmission of every sphere, 0 to 1");
   cmd->add_option("--transmit-spread", args->o.transmit_spread,
                   "Material m of 16 transmits T * (1 - S * m / 15), so that shadow rays' products "
                   "of transmits depend on their order (validate checks it); 0 to 1, needs "
                   "--transmit");
-  cmd->add_option("--ior", args->o.ior, "Index of refraction of every sphere");
+  args->ior_opt =
+      cmd->add_option("--ior", args->ior, "Index of refraction of every sphere, 1 to 10");
   cmd->add_flag("--no-plane", args->no_plane, "No ground plane");
-  cmd->add_option("--resolution", args->resolution, "Camera resolution NXxNY (default 600x400)");
+  args->resolution_opt = cmd->add_option("--resolution", args->resolution,
+                                         "Camera resolution NXxNY (default 600x400)");
   cmd->add_option("-o,--output", args->output, "Scene file to write (.json)")->required();
   cmd->callback([args] { run_generate(*args); });
 }

@@ -10,6 +10,7 @@
 #include "commands.hpp"
 #include "lancer/error.hpp"
 #include "lancer/plot.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer::cli {
 
@@ -18,6 +19,28 @@ struct PlotArgs {
   std::string csv, output, x, y, group, log, title, x_label, y_label, mark = "line_points";
   int width = 800, height = 540;
 };
+
+// A log axis shows no value <= 0: those points are taken out here, and counted, so that the
+// summary says what was drawn and what was left out rather than counting points not drawn.
+std::size_t drop_off_scale(plot::Chart& c) {
+  const bool log_x = c.x.scale == plot::Scale::log10, log_y = c.y.scale == plot::Scale::log10;
+  std::size_t dropped = 0;
+  for (plot::Series& s : c.series) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < s.x.size(); ++i) {
+      if ((log_x && !(s.x[i] > 0)) || (log_y && !(s.y[i] > 0))) {
+        ++dropped;
+        continue;
+      }
+      s.x[kept] = s.x[i], s.y[kept] = s.y[i];
+      if (i < s.labels.size()) s.labels[kept] = s.labels[i];
+      ++kept;
+    }
+    s.x.resize(kept), s.y.resize(kept);
+    if (s.labels.size() > kept) s.labels.resize(kept);
+  }
+  return dropped;
+}
 
 void run_plot(const PlotArgs& a) {
   plot::check_drawing_path(a.output, "-o", a.csv);
@@ -43,11 +66,19 @@ void run_plot(const PlotArgs& a) {
   if (!a.y_label.empty()) c.y.label = a.y_label;
   if (a.log.find('x') != std::string::npos) c.x.scale = plot::Scale::log10;
   if (a.log.find('y') != std::string::npos) c.y.scale = plot::Scale::log10;
-  plot::write_chart(c, a.output);
+  const std::size_t dropped = drop_off_scale(c);
   std::size_t points = 0;
   for (const plot::Series& s : c.series) points += s.x.size();
-  std::printf("lancer plot: %s: %zu series, %zu points -> %s\n", a.csv.c_str(), c.series.size(),
-              points, a.output.c_str());
+  if (points == 0 && dropped > 0)
+    throw InputError("--log " + a.log + ": every point has a value <= 0 on the log axis (" +
+                     std::to_string(dropped) + " points): nothing to draw");
+  plot::write_chart(c, a.output);
+  const std::string off =
+      dropped ? " (" + std::to_string(dropped) + " with a value <= 0 on the log axis left out)"
+              : "";
+  std::printf("lancer plot: %s: %zu series, %zu point%s%s -> %s\n", shown_path(a.csv).c_str(),
+              c.series.size(), points, points == 1 ? "" : "s", off.c_str(),
+              shown_path(a.output).c_str());
 }
 }  // namespace
 

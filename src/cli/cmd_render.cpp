@@ -12,6 +12,7 @@
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
 #include "lancer/render.hpp"
+#include "lancer/text.hpp"
 #include "options.hpp"
 
 namespace lancer::cli {
@@ -35,7 +36,7 @@ double peak_resident_bytes() {
 void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& r,
                    double load_seconds, double write_seconds) {
   const auto& c = scene.camera;
-  std::printf("lancer: %s -> %s\n", a.scene.c_str(), a.output.c_str());
+  std::printf("lancer: %s -> %s\n", shown_path(a.scene).c_str(), shown_path(a.output).c_str());
   if (load_seconds >= 0)
     std::printf("  load     %.4f s (reading and checking the scene file)\n", load_seconds);
   std::printf("  image    %d x %d, %d sample%s per pixel\n", c.nx, c.ny,
@@ -69,8 +70,9 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
               peak_resident_bytes() / 1e6);
 }
 
+// Under mpirun (ranks set): load and write times are not one process's; the ranks' own are given.
 void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, double load_seconds,
-                double write_seconds) {
+                double write_seconds, const mpi::RankStats* ranks = nullptr) {
   const auto& c = scene.camera;
   const StructureInfo& st = r.structure;
   nlohmann::json j{{"scene", a.scene},
@@ -101,6 +103,17 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                    {"write_seconds", write_seconds},
                    {"mrays_per_s", r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0}};
   if (!r.precision_reason.empty()) j["precision_reason"] = r.precision_reason;
+  if (ranks) {
+    j.erase("load_seconds");
+    j.erase("write_seconds");
+    j["mpi"] = {{"ranks", ranks->ranks},
+                {"threads_per_rank", ranks->threads},
+                {"load_prepare_seconds_slowest", ranks->load_seconds},
+                {"compute_seconds_slowest", ranks->compute_seconds},
+                {"compute_seconds_mean", ranks->compute_mean_seconds},
+                {"gather_seconds", ranks->gather_seconds},
+                {"gather_bytes", ranks->gather_bytes}};
+  }
   std::printf("%s\n", j.dump(2).c_str());
 }
 
@@ -117,15 +130,12 @@ void run_render_mpi(const RenderArgs& a) {
   job.options.precision = Precision::automatic;
   job.options.width = 0;
   job.options.threads = a.threads;
-  // Option errors are the same on every rank: each exits 2, rank 0 alone says why.
-  try {
-    job.options.precision = parse_precision(a.precision, "--precision");
-    job.options.width = parse_width(a.width, "--width");
-  } catch (const InputError&) {
-    if (mpi::launch_from_environment().rank == 0) throw;
-    std::exit(2);
-  }
+  // An option error here, perhaps on this rank alone (MPMD, or -x for one rank), reaches main(),
+  // which ends every rank with one line (mpi::end_job).
+  job.options.precision = parse_precision(a.precision, "--precision");
+  job.options.width = parse_width(a.width, "--width");
   mpi::render_command(job, [&](const Scene& scene, const RenderResult& r, const mpi::RankStats& s) {
+    if (a.json) return print_json(a, scene, r, -1, -1, &s);
     print_summary(a, scene, r, -1, -1);
     std::printf(
         "  ranks    %d x %d thread%s; slowest rank: load+prepare %.4f s, render %.4f s "

@@ -1,4 +1,6 @@
 // lancer: a ray tracer built to be measured.
+#include <signal.h>
+
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -10,6 +12,7 @@
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
+#include "lancer/text.hpp"
 
 namespace {
 
@@ -18,6 +21,15 @@ extern "C" void on_signal(int sig) {
   lancer::remove_pending_outputs();
   std::signal(sig, SIG_DFL);
   std::raise(sig);
+}
+
+// A signal ignored when lancer started stays ignored (POSIX asks this of programs that catch
+// signals): nohup ignores SIGHUP so that a render outlives its terminal, and a script's `&`
+// ignores SIGINT so that the terminal's ^C ends the script, not its background jobs.
+void catch_signal(int sig) {
+  struct sigaction now {};
+  if (sigaction(sig, nullptr, &now) == 0 && now.sa_handler == SIG_IGN) return;
+  std::signal(sig, on_signal);
 }
 
 // stdout is where validate's verdict, profile's JSON and flux's CSV go: output lost there (a full
@@ -32,6 +44,32 @@ int flush_stdout(int status) {
   return status;
 }
 
+// One line on stderr and the status. Under mpirun, the other ranks must learn of it too, or
+// they wait for this one forever: mpi::end_job ends them all with the line printed once.
+// Control characters are escaped whatever named them (a file name, a key, an option's value):
+// the message stays one line and a terminal shows it rather than obeying it.
+int fail(int status, const std::string& what) {
+  const std::string message = lancer::escape_controls(what);
+  lancer::mpi::end_job(status, message);
+  std::fprintf(stderr, "lancer: %s\n", message.c_str());
+  return status;
+}
+
+// An empty value ("--threads ''", "--resolution=") is a mistake, not the default: CLI11 reads it
+// as 0, and a string option as not given. The chart's text labels are exempt (empty: the default
+// label).
+void refuse_empty_values(CLI::App& app) {
+  const CLI::Validator non_empty(
+      [](std::string& v) { return v.empty() ? std::string("empty value") : std::string(); }, "");
+  for (CLI::App* sub : app.get_subcommands({}))
+    for (CLI::Option* o : sub->get_options({})) {
+      const std::string name = o->get_name();
+      if (o->get_type_size() != 0 && name != "--title" && name != "--x-label" &&
+          name != "--y-label")
+        o->check(non_empty);
+    }
+}
+
 const char* const kFooter =
     "Exit status: 0 done; 1 validate found a width that differs from the reference; 2 bad input\n"
     "(scene, option or output path; one line on stderr, nothing written); 3 out of memory; 4\n"
@@ -42,9 +80,9 @@ const char* const kFooter =
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  std::signal(SIGHUP, on_signal);  // the terminal went away
+  catch_signal(SIGINT);
+  catch_signal(SIGTERM);
+  catch_signal(SIGHUP);  // the terminal went away
 
   CLI::App app{
       "lancer: a Whitted ray tracer built to be measured.\n"
@@ -63,6 +101,8 @@ int main(int argc, char** argv) {
   lancer::cli::add_compare(app);
   lancer::cli::add_plot(app);
 
+  refuse_empty_values(app);
+
   using namespace lancer::cli;
   // CLI11 takes an unknown first word for a missing subcommand: name it.
   if (argc > 1 && argv[1][0] != '-') {
@@ -73,9 +113,8 @@ int main(int argc, char** argv) {
       names += (names.empty() ? "" : ", ") + sub->get_name();
     }
     if (!known) {
-      std::fprintf(stderr, "lancer: unknown command '%s' (commands: %s; see lancer --help)\n",
-                   argv[1], names.c_str());
-      return kExitBadInput;
+      return fail(kExitBadInput, "unknown command '" + std::string(argv[1]) +
+                                     "' (commands: " + names + "; see lancer --help)");
     }
   }
 
@@ -84,12 +123,11 @@ int main(int argc, char** argv) {
   const lancer::mpi::Launch launch = lancer::mpi::launch_from_environment();
   if (launch.size > 1 && argc > 1 && argv[1][0] != '-' && std::strcmp(argv[1], "render") != 0 &&
       std::strcmp(argv[1], "bench") != 0) {
-    if (launch.rank == 0)
-      std::fprintf(stderr,
-                   "lancer: %s: runs in one process, not across %d MPI ranks (%s); only render "
-                   "and bench are distributed: run it without mpirun\n",
-                   argv[1], launch.size, launch.variable);
-    return kExitBadInput;
+    // Through fail(): said once, and ranks that run render or bench beside it are told.
+    return fail(kExitBadInput, std::string(argv[1]) + ": runs in one process, not across " +
+                                   std::to_string(launch.size) + " MPI ranks (" + launch.variable +
+                                   "); only render and bench are distributed: run it without "
+                                   "mpirun");
   }
 
   try {
@@ -101,20 +139,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return flush_stdout(app.exit(e));
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "lancer: %s (see lancer --help)\n", e.what());
-    return kExitBadInput;
+    return fail(kExitBadInput, std::string(e.what()) + " (see lancer --help)");
   } catch (const lancer::InputError& e) {
-    std::fprintf(stderr, "lancer: %s\n", e.what());
-    return kExitBadInput;
+    return fail(kExitBadInput, e.what());
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "lancer: out of memory (limits: docs/limits.md)\n");
-    return kExitOutOfMemory;
+    return fail(kExitOutOfMemory, "out of memory (limits: docs/limits.md)");
   } catch (const std::length_error& e) {  // a size beyond what a container can hold
-    std::fprintf(stderr, "lancer: out of memory: %s (limits: docs/limits.md)\n", e.what());
-    return kExitOutOfMemory;
+    return fail(kExitOutOfMemory,
+                std::string("out of memory: ") + e.what() + " (limits: docs/limits.md)");
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "lancer: internal error: %s\n", e.what());
-    return kExitInternal;
+    return fail(kExitInternal, std::string("internal error: ") + e.what());
   }
   return flush_stdout(g_exit_status);
 }

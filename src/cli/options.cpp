@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -22,7 +23,9 @@ int parse_int(const std::string& text, const std::string& option) {
   std::size_t used = 0;
   long v = 0;
   try {
-    v = std::stol(text, &used);
+    // std::stol skips leading spaces and takes a '+': " 5" and "+5" are refused.
+    if (!text.empty() && (std::isdigit(static_cast<unsigned char>(text[0])) || text[0] == '-'))
+      v = std::stol(text, &used);
   } catch (...) {
     used = 0;
   }
@@ -79,6 +82,17 @@ std::vector<int> parse_int_list(const std::vector<std::string>& items, const std
   return out;
 }
 
+void parse_size(const std::string& text, const std::string& option, int& nx, int& ny) {
+  const auto x = text.find_first_of("xX");
+  if (x == std::string::npos) throw InputError(option + ": must be NXxNY, e.g. 640x480");
+  const int w = parse_int(text.substr(0, x), option);
+  const int h = parse_int(text.substr(x + 1), option);
+  if (w <= 0 || h <= 0 || w > kMaxResolution || h > kMaxResolution)
+    throw InputError(option + ": each side must be from 1 to " + std::to_string(kMaxResolution) +
+                     " (docs/limits.md)");
+  nx = w, ny = h;
+}
+
 void apply_overrides(Scene& scene, const SceneOverrides& o) {
   if (o.supersample != kUnset) {
     if (o.supersample < 1 || o.supersample > kMaxSupersample)
@@ -86,17 +100,8 @@ void apply_overrides(Scene& scene, const SceneOverrides& o) {
                        " (docs/limits.md)");
     scene.supersample = o.supersample;
   }
-  if (!o.resolution.empty()) {
-    const auto x = o.resolution.find_first_of("xX");
-    if (x == std::string::npos) throw InputError("--resolution: must be NXxNY, e.g. 640x480");
-    const int nx = parse_int(o.resolution.substr(0, x), "--resolution");
-    const int ny = parse_int(o.resolution.substr(x + 1), "--resolution");
-    if (nx <= 0 || ny <= 0 || nx > kMaxResolution || ny > kMaxResolution)
-      throw InputError("--resolution: each side must be from 1 to " +
-                       std::to_string(kMaxResolution) + " (docs/limits.md)");
-    scene.camera.nx = nx;
-    scene.camera.ny = ny;
-  }
+  if (!o.resolution.empty())
+    parse_size(o.resolution, "--resolution", scene.camera.nx, scene.camera.ny);
   const auto& c = scene.camera;
   if (static_cast<long long>(c.nx) * c.ny * scene.supersample * scene.supersample > kMaxSamples)
     throw InputError("--resolution/--supersample: more than " + std::to_string(kMaxSamples) +

@@ -20,6 +20,10 @@ std::vector<int> parse_width_list(const std::vector<std::string>& items, const s
 std::vector<int> parse_int_list(const std::vector<std::string>& items, const std::string& option,
                                 int min_value);
 
+// "NXxNY", each side a whole number from 1 to kMaxResolution, nothing else (no spaces); throws
+// InputError naming `option`.
+void parse_size(const std::string& text, const std::string& option, int& nx, int& ny);
+
 // Overrides from the command line; kUnset and empty strings leave the scene's values.
 inline constexpr int kUnset = -2147483647 - 1;
 struct SceneOverrides {

@@ -24,6 +24,15 @@ namespace {
 
 bool built_with_mpi() { return false; }
 
+// No MPI to tell the other ranks with; they meet the same refusal in render_command or
+// bench_command, so rank 0 alone says this one.
+bool end_job(int status, const std::string& message) {
+  const Launch l = launch_from_environment();
+  if (l.size <= 1) return false;
+  if (l.rank == 0) std::fprintf(stderr, "lancer: %s\n", message.c_str());
+  std::exit(status);
+}
+
 void render_command(
     const RenderJob&,
     const std::function<void(const Scene&, const RenderResult&, const RankStats&)>&) {

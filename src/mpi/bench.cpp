@@ -44,6 +44,7 @@ Timed run(const Frame& f, Config& c, Image& image, int reps) {
   const RowShare share{f.scene.camera.ny, rank, c.ranks};
   Timed t;
   double compute = 0, cpu = 0;
+  check_shapes(c.comm, image, share);
   MPI_Barrier(c.comm);
   const double start = now();
   for (int i = 0; i < reps; ++i) {
@@ -77,8 +78,15 @@ double median_of(std::vector<double> v) {
 
 void bench_command(const BenchJob& job) {
   Session mpi;
-  const Frame f =
-      set_up(job.load, job.precision, job.width, job.threads_list.front(), mpi.local_size, nullptr);
+  Asked asked;
+  asked.command = "bench";
+  asked.scene_path = job.scene_path;
+  asked.precision = job.precision;
+  asked.width = job.width;
+  asked.threads = job.threads_list.front();
+  asked.bench_threads = job.threads_list;
+  asked.bench_repeat = job.repeat;
+  const Frame f = set_up(job.load, asked, mpi.local_size, nullptr);
   std::vector<Config> configs;
   for (int threads : job.threads_list)
     for (int k = 1; k <= mpi.size; ++k) {

@@ -7,10 +7,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <new>
+#include <stdexcept>
 #include <thread>
 
 #include "lancer/error.hpp"
 #include "lancer/mpi.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer::mpi {
 
@@ -40,7 +42,11 @@ extern "C" void on_term(int sig) {
 
 Session::Session() {
   // Before MPI_Init, which takes seconds on a loaded machine: the rank from the environment.
-  if (launch_from_environment().rank == 0) previous_term = std::signal(SIGTERM, on_term);
+  // A SIGTERM ignored at start stays ignored (main() left it so).
+  if (launch_from_environment().rank == 0) {
+    previous_term = std::signal(SIGTERM, on_term);
+    if (previous_term == SIG_IGN) std::signal(SIGTERM, SIG_IGN);
+  }
   int initialized = 0;
   MPI_Initialized(&initialized);
   if (!initialized) {
@@ -67,12 +73,16 @@ void agree(MPI_Comm comm, const std::function<void()>& fn) {
   std::string message;
   try {
     fn();
+  } catch (const JobFailure& e) {
+    status = e.status, message = e.message;
   } catch (const InputError& e) {
-    status = 2, message = e.what();
+    status = kStatusBadInput, message = e.what();
   } catch (const std::bad_alloc&) {
-    status = 1, message = "out of memory";
+    status = kStatusOutOfMemory, message = "out of memory (limits: docs/limits.md)";
+  } catch (const std::length_error& e) {
+    status = kStatusOutOfMemory, message = std::string("out of memory: ") + e.what();
   } catch (const std::exception& e) {
-    status = 1, message = std::string("error: ") + e.what();
+    status = kStatusInternal, message = std::string("internal error: ") + e.what();
   }
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
@@ -96,9 +106,28 @@ void agree(MPI_Comm comm, const std::function<void()>& fn) {
   std::exit(all[0]);
 }
 
+bool end_job(int status, const std::string& message) {
+  if (launch_from_environment().size <= 1) return false;
+  int initialized = 0, finalized = 0;
+  MPI_Initialized(&initialized);
+  MPI_Finalized(&finalized);
+  if (finalized) return false;  // past the job's end (rank 0's report): no peer is waiting
+  if (initialized) {
+    // Escaped the session's agreements: the peers may wait in any collective, so end them all.
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    abort_job(rank ? "rank " + std::to_string(rank) + ": " + message : message, status);
+  }
+  // Before render_command or bench_command began: the same first steps as theirs (the session,
+  // then the load's agreement), so that every rank learns of it and ends with one line.
+  Session session;
+  agree(MPI_COMM_WORLD, [&] { throw JobFailure{status, message}; });
+  return false;  // not reached: agree() exits
+}
+
 void abort_job(const std::string& message, int status) {
   said_why = 1;
-  std::fprintf(stderr, "lancer: %s\n", message.c_str());
+  std::fprintf(stderr, "lancer: %s\n", escape_controls(message).c_str());
   std::fflush(stderr);
   MPI_Abort(MPI_COMM_WORLD, status);
   std::abort();  // not reached

@@ -23,10 +23,21 @@ class Session {
   int local_size = 1;  // ranks on this node (MPI_COMM_TYPE_SHARED)
 };
 
+// The CLI's exit statuses (docs/limits.md) for what agree() and abort_job() end a job with.
+inline constexpr int kStatusBadInput = 2, kStatusOutOfMemory = 3, kStatusInternal = 5;
+
+// A failure whose status and message are already decided (an error the CLI met on this rank
+// before the session started): what agree() reports for it.
+struct JobFailure {
+  int status;
+  std::string message;
+};
+
 // Runs fn on this rank, then every rank of `comm` learns whether it failed on any. If so, the
 // lowest failing rank prints its one line (as the single-process CLI would: InputError exits 2,
-// anything else 1), and every rank finalizes and exits with the highest status. Collective: every
-// rank of comm must call it at the same point.
+// out of memory 3, anything else 5), and every rank finalizes and exits with the highest status.
+// Collective: every rank of comm must call it at the same point, and fn must not call MPI (a rank
+// whose fn throws would skip what the others wait in).
 void agree(MPI_Comm comm, const std::function<void()>& fn);
 
 // For failures past the point where ranks can agree (inside a collective): print and end the

@@ -13,42 +13,78 @@ namespace lancer::mpi {
 
 bool built_with_mpi() { return true; }
 
-Frame set_up(const std::function<Scene()>& load, Precision precision, int width, int threads,
-             int local_ranks, const std::function<void(const Scene&)>& check) {
+Frame set_up(const std::function<Scene()>& load, const Asked& asked, int local_ranks,
+             const std::function<void(const Scene&)>& check) {
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   Frame f;
   const double t0 = now();
   // Every rank loads: parsing is needed in every address space anyway, and a scene file is read
   // in milliseconds (docs/mpi.md has the figures).
-  agree(MPI_COMM_WORLD, [&] { f.scene = load(); });
+  Fingerprint mine, first;
   agree(MPI_COMM_WORLD, [&] {
-    if (rank == 0 && check) check(f.scene);
-    if (threads < 0) throw InputError("--threads: must be >= 0 (0 = all cores)");
+    f.scene = load();
+    mine = fingerprint(asked, f.scene);
   });
-  // auto: rank 0 chooses and says why; the others take its choice.
-  int p = int(precision);
-  if (precision == Precision::automatic && rank == 0) {
-    const PrecisionChoice c = choose_precision(f.scene);
-    p = int(c.precision);
-    f.precision_reason = c.reason;
-  }
+  // Rank 0's against every rank's own: the lowest rank that differs says what.
+  first = mine;
+  MPI_Bcast(first.v, Fingerprint::kCount, MPI_INT64_T, 0, MPI_COMM_WORLD);
+  agree(MPI_COMM_WORLD, [&] {
+    const std::string differs = disagreement(mine, first);
+    if (!differs.empty()) throw InputError(differs);
+  });
+  // auto precision: rank 0 chooses and says why; the others take its choice.
+  int p = int(asked.precision);
+  agree(MPI_COMM_WORLD, [&] {
+    if (asked.threads < 0) throw InputError("--threads: must be >= 0 (0 = all cores)");
+    if (rank != 0) return;
+    if (check) check(f.scene);
+    if (asked.precision == Precision::automatic) {
+      const PrecisionChoice c = choose_precision(f.scene);
+      p = int(c.precision);
+      f.precision_reason = c.reason;
+    }
+  });
   MPI_Bcast(&p, 1, MPI_INT, 0, MPI_COMM_WORLD);
   f.precision = Precision(p);
   // auto width: the narrowest of the ranks' widest, so that ranks on different CPUs run the same
-  // kernels (exact and double are the same bits at every width; fast is not).
-  int w = width;
-  if (width == 0) {
-    int widest = packet::supported_widths(f.precision).front();
-    MPI_Allreduce(&widest, &w, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-  }
+  // kernels (exact and double are the same bits at every width; fast is not). Asking the CPU
+  // reads LANCER_MAX_WIDTH, which one rank may have wrong: inside the agreement.
+  int widest = 0, w = asked.width;
+  agree(MPI_COMM_WORLD, [&] {
+    if (asked.width == 0) widest = resolve_width(0, f.precision);
+  });
+  if (asked.width == 0) MPI_Allreduce(&widest, &w, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
   agree(MPI_COMM_WORLD, [&] {
     f.width = resolve_width(w, f.precision);
     f.engine = std::make_unique<RowEngine>(f.scene, f.precision, f.width);
   });
-  f.threads = threads > 0 ? threads : std::max(1, hardware_threads() / std::max(1, local_ranks));
+  f.threads = asked.threads > 0 ? asked.threads
+                                : std::max(1, hardware_threads() / std::max(1, local_ranks));
   f.load_seconds = now() - t0;
   return f;
+}
+
+void check_shapes(MPI_Comm comm, const Image& image, const RowShare& mine) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  const int shape[3] = {image.nx, image.ny, mine.rows()};
+  std::vector<int> all(std::size_t(size) * 3);
+  MPI_Allgather(shape, 3, MPI_INT, all.data(), 3, MPI_INT, comm);
+  for (int k = 0; k < size; ++k) {
+    const int* s = &all[std::size_t(k) * 3];
+    const int rows = RowShare{all[1], k, size}.rows();
+    if (s[0] == all[0] && s[1] == all[1] && s[2] == rows) continue;
+    // Every rank saw the same table: the lowest (rank 0) ends the job, the others wait for it.
+    if (rank == 0)
+      abort_job("rank " + std::to_string(k) + " holds a " + std::to_string(s[0]) + " x " +
+                    std::to_string(s[1]) + " frame and " + std::to_string(s[2]) +
+                    " rows, rank 0 expects " + std::to_string(all[0]) + " x " +
+                    std::to_string(all[1]) + " and " + std::to_string(rows) + "; no output written",
+                kStatusInternal);
+    MPI_Barrier(comm);  // never returns: rank 0's MPI_Abort ends it
+  }
 }
 
 double gather_image(MPI_Comm comm, const RowShare& mine, Image& image) {
@@ -83,9 +119,14 @@ void render_command(
     const RenderJob& job,
     const std::function<void(const Scene&, const RenderResult&, const RankStats&)>& report) {
   Session mpi;
-  const Frame f =
-      set_up(job.load, job.options.precision, job.options.width, job.options.threads,
-             mpi.local_size, [&](const Scene&) { check_output_path(job.output, job.scene_path); });
+  Asked asked;
+  asked.command = "render";
+  asked.scene_path = job.scene_path;
+  asked.precision = job.options.precision;
+  asked.width = job.options.width;
+  asked.threads = job.options.threads;
+  const Frame f = set_up(job.load, asked, mpi.local_size,
+                         [&](const Scene&) { check_output_path(job.output, job.scene_path); });
   const CameraSpec& cam = f.scene.camera;
   RenderResult res;
   res.structure = f.engine->structure();
@@ -102,15 +143,17 @@ void render_command(
     res.rays = render_share(*f.engine, share, res.image, f.threads);
     compute = now() - start;
     quiet_barrier(MPI_COMM_WORLD);  // ranks done early sleep, not spin, beside ranks still busy
+    check_shapes(MPI_COMM_WORLD, res.image, share);
     gather_start = now();
     st.gather_bytes = gather_image(MPI_COMM_WORLD, share, res.image);
     end = now();
     res.seconds = end - start;
   } catch (const std::bad_alloc&) {
     abort_job(mpi.rank ? "rank " + std::to_string(mpi.rank) + ": out of memory" : "out of memory",
-              1);
+              kStatusOutOfMemory);
   } catch (const std::exception& e) {
-    abort_job("rank " + std::to_string(mpi.rank) + ": error: " + e.what(), 1);
+    abort_job("rank " + std::to_string(mpi.rank) + ": internal error: " + e.what(),
+              kStatusInternal);
   }
   st.gather_seconds = end - gather_start;
   // The counts and times of every rank, summed or maxed onto rank 0.

@@ -56,6 +56,8 @@ void unpack_rows(const float* in, const RowShare& share, Image& image);
 #include <functional>
 #include <string>
 
+#include "agreement.hpp"
+
 namespace lancer::mpi {
 
 // Everything a rank needs before rendering, agreed over MPI_COMM_WORLD: the scene every rank
@@ -69,13 +71,21 @@ struct Frame {
   std::unique_ptr<RowEngine> engine;
   double load_seconds = 0;  // load + prepare on this rank
 };
-// Errors on any rank end the job through agree() (comm.hpp). `check` runs on rank 0 after the
-// load, before anything is rendered (the output path).
-Frame set_up(const std::function<Scene()>& load, Precision precision, int width, int threads,
-             int local_ranks, const std::function<void(const Scene&)>& check);
+// Errors on any rank end the job through agree() (comm.hpp), and so do ranks that were asked
+// different things (agreement.hpp). `check` runs on rank 0 after the load, before anything is
+// rendered (the output path).
+Frame set_up(const std::function<Scene()>& load, const Asked& asked, int local_ranks,
+             const std::function<void(const Scene&)>& check);
+
+// Every rank's frame and share as rank 0 expects them, checked before a byte of pixels moves
+// (once per frame shape, outside timed loops): rank 0 sizes its receives from its own frame and
+// never from a peer's word. After the fingerprint agreement a difference here is a bug, not an
+// input error: rank 0 ends the job through MPI_Abort with one line. Collective over comm.
+void check_shapes(MPI_Comm comm, const Image& image, const RowShare& mine);
 
 // Gathers every rank's share of `image` onto rank 0 of `comm` (whose ranks hold the shares
-// rank = 0..size-1 of the same frame). Returns the bytes rank 0 received.
+// rank = 0..size-1 of the same frame, as check_shapes() checked). Returns the bytes rank 0
+// received.
 double gather_image(MPI_Comm comm, const RowShare& mine, Image& image);
 
 }  // namespace lancer::mpi

@@ -7,7 +7,11 @@
 #include "lancer/render.hpp"
 #include "lancer/tiles.hpp"
 #ifndef LANCER_NO_MPI
+#include <fstream>
+
+#include "agreement.hpp"
 #include "rows.hpp"
+#include "support/test_util.hpp"
 #endif
 
 namespace lancer::mpi {
@@ -91,6 +95,50 @@ TEST(RowEngine, SharesPutTogetherAreTheSingleProcessImage) {
         EXPECT_EQ(rays, want.rays);
       }
     }
+}
+
+// What ranks must agree on before rendering: equal fingerprints agree; each field that differs is
+// named, with this rank's value and rank 0's.
+TEST(Agreement, NamesWhatDiffersFromRankZero) {
+  Scene scene = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/lorenzi-diffuse.json");
+  Asked asked;
+  asked.command = "render";
+  asked.scene_path = std::string(LANCER_SOURCE_DIR) + "/scenes/lorenzi-diffuse.json";
+  const Fingerprint first = fingerprint(asked, scene);
+  EXPECT_EQ(disagreement(fingerprint(asked, scene), first), "");
+  Scene small = scene;
+  small.camera.nx = 1, small.camera.ny = 1;
+  EXPECT_NE(disagreement(fingerprint(asked, small), first)
+                .find("the image size (--resolution or the scene's): 1 x 1 here, 300 x 200 on "
+                      "rank 0"),
+            std::string::npos);
+  Scene sampled = scene;
+  sampled.supersample = 3;
+  EXPECT_NE(disagreement(fingerprint(asked, sampled), first).find("sub-samples"),
+            std::string::npos);
+  Asked other = asked;
+  other.precision = Precision::dbl;
+  EXPECT_NE(disagreement(fingerprint(other, scene), first).find("--precision: double here, auto"),
+            std::string::npos);
+  other = asked, other.width = 8;
+  EXPECT_NE(disagreement(fingerprint(other, scene), first).find("--width: 8 here, auto"),
+            std::string::npos);
+  other = asked, other.command = "bench";
+  EXPECT_NE(disagreement(fingerprint(other, scene), first).find("the command: bench here, render"),
+            std::string::npos);
+  other = asked, other.bench_repeat = 3;
+  EXPECT_NE(disagreement(fingerprint(other, scene), first).find("--repeat"), std::string::npos);
+  // A stale copy: one byte changed, same length.
+  testing::TempDir dir;
+  std::ifstream in(asked.scene_path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  bytes[bytes.find("0.7")] = '9';
+  std::ofstream(dir.file("stale.json"), std::ios::binary) << bytes;
+  other = asked, other.scene_path = dir.file("stale.json");
+  EXPECT_NE(disagreement(fingerprint(other, scene), first).find("the scene file's bytes"),
+            std::string::npos);
+  other.scene_path = dir.file("missing.json");
+  EXPECT_THROW(fingerprint(other, scene), InputError);
 }
 #endif
 
