@@ -209,14 +209,14 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
       Vec3<T> n;
       if (id < s.num_spheres) {
         const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
-        const Vec3<T> centre{s.sphere_cx[id], s.sphere_cy[id], s.sphere_cz[id]};
-        const T r2 = s.sphere_r2[id], m = hit_magnitude(o, ch.t[l]);
+        const Vec3<T> centre{s.spheres.cx[id], s.spheres.cy[id], s.spheres.cz[id]};
+        const T r2 = s.spheres.r2[id], m = hit_magnitude(o, ch.t[l]);
         n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], centre, r2).normal
             : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], centre, r2, m).normal
                                      : sphere_point_along<T>(o, d, ch.t[l], centre, m).normal;
       } else {
         const int q = id - s.num_spheres;
-        n = {s.plane_nx[q], s.plane_ny[q], s.plane_nz[q]};
+        n = {s.planes.nx[q], s.planes.ny[q], s.planes.nz[q]};
       }
       const Vec3<double> ng = s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
       h.ng_x[kk] = float(ng.x), h.ng_y[kk] = float(ng.y), h.ng_z[kk] = float(ng.z);

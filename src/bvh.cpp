@@ -37,9 +37,7 @@ const char* to_string(Accel a) {
 template <class T>
 std::size_t Bvh<T>::bytes() const {
   return nodes.size() * sizeof(Node) + first_sphere.size() * sizeof(std::int32_t) +
-         (cx.size() + cy.size() + cz.size() + r2.size() + eye_fx.size() + eye_fy.size() +
-          eye_fz.size() + eye_c.size() + eye_reach.size()) *
-             sizeof(T) +
+         (cx.size() + cy.size() + cz.size() + r2.size()) * sizeof(T) +
          id.size() * sizeof(std::int32_t);
 }
 

@@ -114,8 +114,9 @@ PrimaryFlops primary_flops(const Scene& scene, int width) {
               Vec3<float> o, d;
               camera_ray(cam, cam.screen_x[std::size_t(a) * cam.nx + i0 + k],
                          cam.screen_y[std::size_t(b) * cam.ny + j], o, d);
-              const Vec3<float> f = o - Vec3<float>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
-              const bool h = sphere_disc(f, d, s.sphere_r2[i]).disc >= 0.0f;
+              const Vec3<float> f =
+                  o - Vec3<float>{s.spheres.cx[i], s.spheres.cy[i], s.spheres.cz[i]};
+              const bool h = sphere_disc(f, d, s.spheres.r2[i]).disc >= 0.0f;
               hit_pairs += h;
               any = any || h;
             }

@@ -184,8 +184,8 @@ struct EmbreeScene::Impl {
     const Impl& im = *static_cast<const Impl*>(args->geometryUserPtr);
     const PreparedScene<float>& s = im.s;
     const unsigned k = args->primID;
-    const float n[3] = {s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
-    const float q[3] = {s.plane_px[k], s.plane_py[k], s.plane_pz[k]};
+    const float n[3] = {s.planes.nx[k], s.planes.ny[k], s.planes.nz[k]};
+    const float q[3] = {s.planes.px[k], s.planes.py[k], s.planes.pz[k]};
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
       // A disc of radius R in the plane reaches R * sqrt(1 - n_a^2) along axis a; padded so
@@ -203,19 +203,19 @@ struct EmbreeScene::Impl {
   // Whether ray i hits plane k within (tnear, tfar), by lancer's formula; t is set when it does.
   static bool plane_t(const PreparedScene<float>& s, unsigned k, RTCRayN* ray, unsigned N,
                       unsigned i, float& t) {
-    const Vec3<float> n{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+    const Vec3<float> n{s.planes.nx[k], s.planes.ny[k], s.planes.nz[k]};
     const Vec3<float> o{RTCRayN_org_x(ray, N, i), RTCRayN_org_y(ray, N, i),
                         RTCRayN_org_z(ray, N, i)};
     const Vec3<float> d{RTCRayN_dir_x(ray, N, i), RTCRayN_dir_y(ray, N, i),
                         RTCRayN_dir_z(ray, N, i)};
     const float denom = dot(d, n);
     if (denom == 0.0f) return false;
-    t = dot(Vec3<float>{s.plane_px[k], s.plane_py[k], s.plane_pz[k]} - o, n) / denom;
+    t = dot(Vec3<float>{s.planes.px[k], s.planes.py[k], s.planes.pz[k]} - o, n) / denom;
     return t > RTCRayN_tnear(ray, N, i) && t < RTCRayN_tfar(ray, N, i);
   }
 
   static Vec3<float> plane_normal(const PreparedScene<float>& s, unsigned k) {
-    return {s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+    return {s.planes.nx[k], s.planes.ny[k], s.planes.nz[k]};
   }
 
   // ---- spheres as user geometry: one callback for a whole packet of N rays ---------------
@@ -224,25 +224,25 @@ struct EmbreeScene::Impl {
   static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
     const PreparedScene<float>& s = static_cast<const Impl*>(args->geometryUserPtr)->s;
     const unsigned k = args->primID;
-    const float r = s.sphere_r[k];
+    const float r = s.spheres.r[k];
     RTCBounds* b = args->bounds_o;
-    b->lower_x = s.sphere_cx[k] - r, b->lower_y = s.sphere_cy[k] - r;
-    b->lower_z = s.sphere_cz[k] - r;
-    b->upper_x = s.sphere_cx[k] + r, b->upper_y = s.sphere_cy[k] + r;
-    b->upper_z = s.sphere_cz[k] + r;
+    b->lower_x = s.spheres.cx[k] - r, b->lower_y = s.spheres.cy[k] - r;
+    b->lower_z = s.spheres.cz[k] - r;
+    b->upper_x = s.spheres.cx[k] + r, b->upper_y = s.spheres.cy[k] + r;
+    b->upper_z = s.spheres.cz[k] + r;
   }
   // The nearest root of |o + t d - c| = r within (tnear, tfar), Embree's own formula family
   // (b^2 - a (|oc|^2 - r^2)), not lancer's: the peer's arithmetic stays the peer's.
   static bool sphere_t(const PreparedScene<float>& s, unsigned k, RTCRayN* ray, unsigned N,
                        unsigned i, float& t) {
-    const float ox = RTCRayN_org_x(ray, N, i) - s.sphere_cx[k];
-    const float oy = RTCRayN_org_y(ray, N, i) - s.sphere_cy[k];
-    const float oz = RTCRayN_org_z(ray, N, i) - s.sphere_cz[k];
+    const float ox = RTCRayN_org_x(ray, N, i) - s.spheres.cx[k];
+    const float oy = RTCRayN_org_y(ray, N, i) - s.spheres.cy[k];
+    const float oz = RTCRayN_org_z(ray, N, i) - s.spheres.cz[k];
     const float dx = RTCRayN_dir_x(ray, N, i), dy = RTCRayN_dir_y(ray, N, i),
                 dz = RTCRayN_dir_z(ray, N, i);
     const float a = dx * dx + dy * dy + dz * dz;
     const float b = ox * dx + oy * dy + oz * dz;
-    const float r = s.sphere_r[k];
+    const float r = s.spheres.r[k];
     const float c = ox * ox + oy * oy + oz * oz - r * r;
     const float disc = b * b - a * c;
     if (!(disc >= 0.0f)) return false;
@@ -348,10 +348,10 @@ struct EmbreeScene::Impl {
           g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), s.num_spheres));
       check("sphere vertex buffer");
       for (int i = 0; i < s.num_spheres; ++i) {
-        v[4 * i + 0] = s.sphere_cx[i];
-        v[4 * i + 1] = s.sphere_cy[i];
-        v[4 * i + 2] = s.sphere_cz[i];
-        v[4 * i + 3] = s.sphere_r[i];
+        v[4 * i + 0] = s.spheres.cx[i];
+        v[4 * i + 1] = s.spheres.cy[i];
+        v[4 * i + 2] = s.spheres.cz[i];
+        v[4 * i + 3] = s.spheres.r[i];
       }
       if (config.high_quality) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
       rtcCommitGeometry(g);
@@ -375,8 +375,8 @@ struct EmbreeScene::Impl {
                                     4 * sizeof(unsigned), std::size_t(s.num_planes)));
         check("plane buffers");
         for (int k = 0; k < s.num_planes; ++k) {
-          const Vec3<double> n{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
-          const Vec3<double> q{s.plane_px[k], s.plane_py[k], s.plane_pz[k]};
+          const Vec3<double> n{s.planes.nx[k], s.planes.ny[k], s.planes.nz[k]};
+          const Vec3<double> q{s.planes.px[k], s.planes.py[k], s.planes.pz[k]};
           Vec3<double> t1, t2;
           plane_basis(n, t1, t2);
           const double h = plane_half;
@@ -605,12 +605,12 @@ struct EmbreeScene::Impl {
                 p[k] = along(o[k], d[k], t[k]);
                 const int m = id[k];
                 if (m < s.num_spheres) {
-                  const float r = s.sphere_r[m];
-                  n[k] = Vec3<float>{(p[k].x - s.sphere_cx[m]) / r, (p[k].y - s.sphere_cy[m]) / r,
-                                     (p[k].z - s.sphere_cz[m]) / r};
+                  const float r = s.spheres.r[m];
+                  n[k] = Vec3<float>{(p[k].x - s.spheres.cx[m]) / r, (p[k].y - s.spheres.cy[m]) / r,
+                                     (p[k].z - s.spheres.cz[m]) / r};
                 } else {
                   const int q = m - s.num_spheres;
-                  n[k] = Vec3<float>{s.plane_nx[q], s.plane_ny[q], s.plane_nz[q]};
+                  n[k] = Vec3<float>{s.planes.nx[q], s.planes.ny[q], s.planes.nz[q]};
                 }
                 if (dot(n[k], d[k]) > 0.0f) n[k] = -n[k];
               }
@@ -618,7 +618,7 @@ struct EmbreeScene::Impl {
               // A shadow ray to each light from each hit lane.
               ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
               for (int l = 0; l < s.num_lights; ++l) {
-                const Vec3<float> light{s.light_x[l], s.light_y[l], s.light_z[l]};
+                const Vec3<float> light{s.lights.x[l], s.lights.y[l], s.lights.z[l]};
                 int nlit = 0;
                 for (int k = 0; k < W; ++k) {
                   lit[k] = 0;
@@ -647,7 +647,7 @@ struct EmbreeScene::Impl {
               if (!s.features.reflection || depth >= s.max_depth) break;
               bool any_reflected = false;
               for (int k = 0; k < W; ++k) {
-                active[k] = id[k] >= 0 && s.mat_reflect[id[k]] > 0.0f ? -1 : 0;
+                active[k] = id[k] >= 0 && s.materials.reflect[id[k]] > 0.0f ? -1 : 0;
                 if (!active[k]) continue;
                 any_reflected = true;
                 ++counts.reflected;

@@ -97,22 +97,22 @@ void add_bvh(PreparedScene<T>& p) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<std::int32_t> order;
   Bvh<T>& h = p.bvh;
-  h = build_bvh(p.sphere_cx, p.sphere_cy, p.sphere_cz, p.sphere_r, p.num_spheres, order,
+  EyeSphere<T>& le = p.leaf_eye;  // the eye's tables in leaf order
+  h = build_bvh(p.spheres.cx, p.spheres.cy, p.spheres.cz, p.spheres.r, p.num_spheres, order,
                 p.frame.depth);
   const bool eye = !p.eye.c.empty();
   const std::size_t n = order.size();
   if constexpr (std::is_same_v<T, float>) {
-    h.one_ray_lanes = p.num_spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
-    h.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
+    p.walk.one_ray_lanes = p.num_spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
+    p.walk.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
   }
   // Fresh arrays, their pages huge and present before the first write (lancer/huge_pages.hpp):
   // at one million spheres, 15 ms instead of 55 for these nine arrays on a VM.
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) reserve_prepared(*v, n), v->resize(n);
   const bool cones = eye && std::is_same_v<T, float>;
   if (eye)
-    for (auto* v : {&h.eye_fx, &h.eye_fy, &h.eye_fz, &h.eye_c})
-      reserve_prepared(*v, n), v->resize(n);
-  if (cones) reserve_prepared(h.eye_reach, n), h.eye_reach.resize(n);
+    for (auto* v : {&le.fx, &le.fy, &le.fz, &le.c}) reserve_prepared(*v, n), v->resize(n);
+  if (cones) reserve_prepared(le.reach, n), le.reach.resize(n);
   reserve_prepared(h.id, n);
   h.id.assign(order.begin(), order.end());
   // A gather: each entry written once from its own sphere, so any split over threads gives the
@@ -121,16 +121,15 @@ void add_bvh(PreparedScene<T>& p) {
       tbb::blocked_range<std::size_t>(0, n, 16384), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t j = r.begin(); j < r.end(); ++j) {
           const std::size_t k = std::size_t(order[j]);
-          h.cx[j] = p.sphere_cx[k], h.cy[j] = p.sphere_cy[k];
-          h.cz[j] = p.sphere_cz[k], h.r2[j] = p.sphere_r2[k];
+          h.cx[j] = p.spheres.cx[k], h.cy[j] = p.spheres.cy[k];
+          h.cz[j] = p.spheres.cz[k], h.r2[j] = p.spheres.r2[k];
           if (eye) {
-            h.eye_fx[j] = p.eye.fx[k], h.eye_fy[j] = p.eye.fy[k];
-            h.eye_fz[j] = p.eye.fz[k], h.eye_c[j] = p.eye.c[k];
+            le.fx[j] = p.eye.fx[k], le.fy[j] = p.eye.fy[k];
+            le.fz[j] = p.eye.fz[k], le.c[j] = p.eye.c[k];
           }
           if constexpr (std::is_same_v<T, float>)
             if (cones)
-              h.eye_reach[j] =
-                  eye_reach(h.eye_fx[j], h.eye_fy[j], h.eye_fz[j], h.r2[j], p.naive_spheres_hold);
+              le.reach[j] = eye_reach(le.fx[j], le.fy[j], le.fz[j], h.r2[j], p.naive_spheres_hold);
         }
       });
   // The build time covers the copy too: the structure is not usable before it.
@@ -193,31 +192,32 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   const std::size_t objects = scene.spheres.size() + scene.planes.size();
   const std::size_t spheres = scene.spheres.size();
   for (auto* v :
-       {&p.mat_r, &p.mat_g, &p.mat_b, &p.mat_ka, &p.mat_kd, &p.mat_ks, &p.mat_shininess,
-        &p.mat_reflect, &p.mat_transmit, &p.mat_ior, &p.mat_inv_ior, &p.mat_shininess_int})
+       {&p.materials.r, &p.materials.g, &p.materials.b, &p.materials.ka, &p.materials.kd,
+        &p.materials.ks, &p.materials.shininess, &p.materials.reflect, &p.materials.transmit,
+        &p.materials.ior, &p.materials.inv_ior, &p.materials.shininess_int})
     reserve_prepared(*v, objects);
   for (auto* v :
-       {&p.sphere_cx, &p.sphere_cy, &p.sphere_cz, &p.sphere_r, &p.sphere_r2, &p.sphere_inv_r})
+       {&p.spheres.cx, &p.spheres.cy, &p.spheres.cz, &p.spheres.r, &p.spheres.r2, &p.spheres.inv_r})
     reserve_prepared(*v, spheres);
   if (!pc.orthographic)
     for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) reserve_prepared(*v, spheres);
 
   auto add_material = [&](const Material& m) {
-    p.mat_r.push_back(T(m.color.r));
-    p.mat_g.push_back(T(m.color.g));
-    p.mat_b.push_back(T(m.color.b));
-    p.mat_ka.push_back(T(m.ka));
-    p.mat_kd.push_back(T(m.kd));
-    p.mat_ks.push_back(T(m.ks));
-    p.mat_shininess.push_back(T(m.shininess));
-    p.mat_reflect.push_back(T(m.reflect));
-    p.mat_transmit.push_back(T(m.transmit));
-    p.mat_ior.push_back(T(m.ior));
-    p.mat_inv_ior.push_back(T(1.0 / m.ior));
+    p.materials.r.push_back(T(m.color.r));
+    p.materials.g.push_back(T(m.color.g));
+    p.materials.b.push_back(T(m.color.b));
+    p.materials.ka.push_back(T(m.ka));
+    p.materials.kd.push_back(T(m.kd));
+    p.materials.ks.push_back(T(m.ks));
+    p.materials.shininess.push_back(T(m.shininess));
+    p.materials.reflect.push_back(T(m.reflect));
+    p.materials.transmit.push_back(T(m.transmit));
+    p.materials.ior.push_back(T(m.ior));
+    p.materials.inv_ior.push_back(T(1.0 / m.ior));
     if (m.transmit > 0) p.features.transparency = true;
     const bool whole =
         m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
-    p.mat_shininess_int.push_back(T(whole ? 1 : 0));
+    p.materials.shininess_int.push_back(T(whole ? 1 : 0));
     if (m.ks > 0) {
       p.features.specular = true;
       if (!whole) p.features.fractional_shininess = true;
@@ -229,22 +229,22 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   p.naive_spheres_hold = true;
   for (const Sphere& s : scene.spheres) {
     const Vec3<double> center = frame.point(s.center);
-    p.sphere_cx.push_back(T(center.x));
-    p.sphere_cy.push_back(T(center.y));
-    p.sphere_cz.push_back(T(center.z));
-    p.sphere_r.push_back(T(s.radius));
-    p.sphere_r2.push_back(T(s.radius) * T(s.radius));
-    p.sphere_inv_r.push_back(T(1.0 / s.radius));
+    p.spheres.cx.push_back(T(center.x));
+    p.spheres.cy.push_back(T(center.y));
+    p.spheres.cz.push_back(T(center.z));
+    p.spheres.r.push_back(T(s.radius));
+    p.spheres.r2.push_back(T(s.radius) * T(s.radius));
+    p.spheres.inv_r.push_back(T(1.0 / s.radius));
     const double distance = length(center - Vec3<double>{0, 0, frame.depth});
     if (s.radius < kNaiveSphereRatio * distance || s.radius > 0.5 * distance)
       p.naive_spheres_hold = false;
     if (!pc.orthographic) {
       const Vec3<T> f =
-          pc.position - Vec3<T>{p.sphere_cx.back(), p.sphere_cy.back(), p.sphere_cz.back()};
+          pc.position - Vec3<T>{p.spheres.cx.back(), p.spheres.cy.back(), p.spheres.cz.back()};
       p.eye.fx.push_back(f.x);
       p.eye.fy.push_back(f.y);
       p.eye.fz.push_back(f.z);
-      p.eye.c.push_back(sphere_c(f, p.sphere_r2.back()));
+      p.eye.c.push_back(sphere_c(f, p.spheres.r2.back()));
     }
     add_material(scene.materials[s.material]);
   }
@@ -253,39 +253,39 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     // Rotated after its normalisation: a rotation keeps it unit to double's rounding.
     const Vec3<double> n = frame.direction(normalize(pl.normal));
     const Vec3<double> point = frame.point(pl.point);
-    p.plane_px.push_back(T(point.x));
-    p.plane_py.push_back(T(point.y));
-    p.plane_pz.push_back(T(point.z));
-    p.plane_nx.push_back(T(n.x));
-    p.plane_ny.push_back(T(n.y));
-    p.plane_nz.push_back(T(n.z));
+    p.planes.px.push_back(T(point.x));
+    p.planes.py.push_back(T(point.y));
+    p.planes.pz.push_back(T(point.z));
+    p.planes.nx.push_back(T(n.x));
+    p.planes.ny.push_back(T(n.y));
+    p.planes.nz.push_back(T(n.z));
     add_material(scene.materials[pl.material]);
   }
   p.num_lights = static_cast<int>(scene.lights.size());
   for (const Light& l : scene.lights) {
     const Vec3<double> position = frame.point(l.position);
-    p.light_x.push_back(T(position.x));
-    p.light_y.push_back(T(position.y));
-    p.light_z.push_back(T(position.z));
+    p.lights.x.push_back(T(position.x));
+    p.lights.y.push_back(T(position.y));
+    p.lights.z.push_back(T(position.z));
     const double in[3] = {l.intensity.r, l.intensity.g, l.intensity.b};
     const double am[3] = {l.ambient.r, l.ambient.g, l.ambient.b};
     for (int ch = 0; ch < 3; ++ch) {
-      p.light_intensity_rgb[ch].push_back(T(in[ch]));
-      p.light_ambient_rgb[ch].push_back(T(am[ch]));
+      p.lights.intensity_rgb[ch].push_back(T(in[ch]));
+      p.lights.ambient_rgb[ch].push_back(T(am[ch]));
     }
-    p.light_intensity.push_back(T(in[0]));
-    p.light_ambient.push_back(T(am[0]));
+    p.lights.intensity.push_back(T(in[0]));
+    p.lights.ambient.push_back(T(am[0]));
     if (in[1] != in[0] || in[2] != in[0] || am[1] != am[0] || am[2] != am[0])
       p.features.coloured_lights = true;
   }
   // Packets look per-object fields up a whole register at a time: pad with zeros.
-  for (auto* field : {&p.sphere_cx,     &p.sphere_cy,   &p.sphere_cz,
-                      &p.sphere_r,      &p.sphere_r2,   &p.sphere_inv_r,
-                      &p.plane_nx,      &p.plane_ny,    &p.plane_nz,
-                      &p.mat_r,         &p.mat_g,       &p.mat_b,
-                      &p.mat_ka,        &p.mat_kd,      &p.mat_ks,
-                      &p.mat_shininess, &p.mat_reflect, &p.mat_shininess_int,
-                      &p.mat_transmit,  &p.mat_ior,     &p.mat_inv_ior})
+  for (auto* field : {&p.spheres.cx,          &p.spheres.cy,        &p.spheres.cz,
+                      &p.spheres.r,           &p.spheres.r2,        &p.spheres.inv_r,
+                      &p.planes.nx,           &p.planes.ny,         &p.planes.nz,
+                      &p.materials.r,         &p.materials.g,       &p.materials.b,
+                      &p.materials.ka,        &p.materials.kd,      &p.materials.ks,
+                      &p.materials.shininess, &p.materials.reflect, &p.materials.shininess_int,
+                      &p.materials.transmit,  &p.materials.ior,     &p.materials.inv_ior})
     if (field->size() < std::size_t(kMaxLanes)) field->resize(kMaxLanes, T(0));
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;

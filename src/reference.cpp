@@ -55,7 +55,7 @@ class Tracer {
                                                  : lights<1>(at.delta, p, n, view, m, depth);
 
     // 6. Mirror reflection, recursively.
-    const T reflect_k = s_.mat_reflect[m];
+    const T reflect_k = s_.materials.reflect[m];
     if (depth < s_.max_depth && reflect_k > T(0)) {
       ++counts_.reflected;
       const Vec3<T> r = normalize(reflect(dir, n));
@@ -66,10 +66,10 @@ class Tracer {
     // 7. Refraction (Snell-Descartes), or the mirror direction where the light is totally
     // reflected; added after step 6's term. The refracted ray leaves on the far side of the
     // surface (t.n < 0), and offset_origin moves it there.
-    const T transmit_k = s_.mat_transmit[m];
+    const T transmit_k = s_.materials.transmit[m];
     if (depth < s_.max_depth && transmit_k > T(0)) {
       ++counts_.refracted;
-      const T eta = cos_in < T(0) ? s_.mat_inv_ior[m] : s_.mat_ior[m];
+      const T eta = cos_in < T(0) ? s_.materials.inv_ior[m] : s_.materials.ior[m];
       const Refraction<T> rf = refract(dir, n, eta);
       const Vec3<T> t = rf.k >= T(0) ? normalize(rf.dir) : normalize(reflect(dir, n));
       const Color<T> child = trace(offset_origin(p, n, dot(t, n), at.delta), t, depth + 1,
@@ -86,14 +86,14 @@ class Tracer {
   template <int C>
   [[gnu::always_inline]] Color<T> lights(const T& delta, const Vec3<T>& p, const Vec3<T>& n,
                                          const Vec3<T>& view, int m, int depth) {
-    const auto& in = s_.light_intensity_rgb;
-    const auto& am = s_.light_ambient_rgb;
+    const auto& in = s_.lights.intensity_rgb;
+    const auto& am = s_.lights.ambient_rgb;
     T ambient[C], diffuse[C], specular[C];
     for (int c = 0; c < C; ++c) ambient[c] = diffuse[c] = specular[c] = T(0);
     for (int k = 0; k < s_.num_lights; ++k) {
       for (int c = 0; c < C; ++c)
-        ambient[c] = ambient[c] + s_.mat_ka[m] * (C == 1 ? s_.light_ambient[k] : am[c][k]);
-      const Vec3<T> to_light = Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]} - p;
+        ambient[c] = ambient[c] + s_.materials.ka[m] * (C == 1 ? s_.lights.ambient[k] : am[c][k]);
+      const Vec3<T> to_light = Vec3<T>{s_.lights.x[k], s_.lights.y[k], s_.lights.z[k]} - p;
       const T dist = length(to_light);
       if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
       ++counts_.shadow;
@@ -115,13 +115,13 @@ class Tracer {
         }
       }
       for (int c = 0; c < C; ++c) {
-        T intensity = C == 1 ? s_.light_intensity[k] : in[c][k];
+        T intensity = C == 1 ? s_.lights.intensity[k] : in[c][k];
         if (s_.features.transparency) intensity = intensity * transmittance;
-        diffuse[c] = diffuse[c] + (s_.mat_kd[m] * intensity) * cos_nl;
-        if (spec) specular[c] = specular[c] + (s_.mat_ks[m] * intensity) * spec_power;
+        diffuse[c] = diffuse[c] + (s_.materials.kd[m] * intensity) * cos_nl;
+        if (spec) specular[c] = specular[c] + (s_.materials.ks[m] * intensity) * spec_power;
       }
     }
-    const T color[3] = {s_.mat_r[m], s_.mat_g[m], s_.mat_b[m]};
+    const T color[3] = {s_.materials.r[m], s_.materials.g[m], s_.materials.b[m]};
     Color<T> local;
     for (int c = 0; c < 3; ++c) {
       const int k = C == 1 ? 0 : c;
@@ -135,15 +135,15 @@ class Tracer {
                                                        const Vec3<T>& dir, const T& t) const {
     const T magnitude = hit_magnitude(origin, t);
     if (id < s_.num_spheres) {
-      const Vec3<T> c{s_.sphere_cx[id], s_.sphere_cy[id], s_.sphere_cz[id]};
-      const T r2 = s_.sphere_r2[id];
+      const Vec3<T> c{s_.spheres.cx[id], s_.spheres.cy[id], s_.spheres.cz[id]};
+      const T r2 = s_.spheres.r2[id];
       if (sphere_is_small(r2, magnitude) || sphere_is_large(r2, magnitude))
         return sphere_point_extreme(origin, dir, t, c, r2, magnitude);
       return sphere_point_along<T>(origin, dir, t, c, magnitude);
     }
     const int k = id - s_.num_spheres;
     return {along(origin, dir, t),
-            {s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]},
+            {s_.planes.nx[k], s_.planes.ny[k], s_.planes.nz[k]},
             offset_delta<T>(magnitude)};
   }
 
@@ -157,8 +157,8 @@ class Tracer {
   }
 
   T power(const T& cos_nh, int m) const {
-    const T shininess = s_.mat_shininess[m];
-    if (s_.mat_shininess_int[m] != T(0)) return specular_power(cos_nh, shininess);
+    const T shininess = s_.materials.shininess[m];
+    if (s_.materials.shininess_int[m] != T(0)) return specular_power(cos_nh, shininess);
     return std::pow(positive_part(cos_nh), shininess);
   }
 
@@ -181,7 +181,7 @@ class Tracer {
       if (!(sd.disc >= T(0))) return false;
       const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       if (!(t > eps && t < dist)) return false;
-      transmittance = kGlass ? attenuate(transmittance, s_.mat_transmit[id]) : T(0);
+      transmittance = kGlass ? attenuate(transmittance, s_.materials.transmit[id]) : T(0);
       return transmittance == T(0);
     };
     const Bvh<T>& h = s_.bvh;
@@ -194,17 +194,18 @@ class Tracer {
       if (blocked) return transmittance;
     } else {
       for (int i = 0; i < s_.num_spheres; ++i)
-        if (sphere(s_.sphere_cx[i], s_.sphere_cy[i], s_.sphere_cz[i], s_.sphere_r2[i], i))
+        if (sphere(s_.spheres.cx[i], s_.spheres.cy[i], s_.spheres.cz[i], s_.spheres.r2[i], i))
           return transmittance;
     }
     for (int k = 0; k < s_.num_planes; ++k) {
-      const Vec3<T> normal{s_.plane_nx[k], s_.plane_ny[k], s_.plane_nz[k]};
+      const Vec3<T> normal{s_.planes.nx[k], s_.planes.ny[k], s_.planes.nz[k]};
       const T denom = dot(l, normal);
       if (denom == T(0)) continue;
-      const T t = dot(Vec3<T>{s_.plane_px[k], s_.plane_py[k], s_.plane_pz[k]} - p, normal) / denom;
+      const T t =
+          dot(Vec3<T>{s_.planes.px[k], s_.planes.py[k], s_.planes.pz[k]} - p, normal) / denom;
       if (t > eps && t < dist) {
         if (!kGlass) return T(0);
-        transmittance = attenuate(transmittance, s_.mat_transmit[s_.num_spheres + k]);
+        transmittance = attenuate(transmittance, s_.materials.transmit[s_.num_spheres + k]);
         if (transmittance == T(0)) return transmittance;
       }
     }
@@ -238,7 +239,7 @@ class Tracer {
     PathLog::Segment seg;
     seg.kind = PathLog::Segment::light;
     seg.from = to_world(p);
-    seg.to = to_world(Vec3<T>{s_.light_x[k], s_.light_y[k], s_.light_z[k]});
+    seg.to = to_world(Vec3<T>{s_.lights.x[k], s_.lights.y[k], s_.lights.z[k]});
     seg.hit = shadowed;
     seg.depth = depth;
     seg.pixel = pixel_;
@@ -303,8 +304,8 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
   } else {
     // The definition: every sphere in id order, a nearer t wins (so an equal t keeps the lower id).
     for (int i = 0; i < s.num_spheres; ++i) {
-      const T r2 = s.sphere_r2[i];
-      const Vec3<T> f = origin - Vec3<T>{s.sphere_cx[i], s.sphere_cy[i], s.sphere_cz[i]};
+      const T r2 = s.spheres.r2[i];
+      const Vec3<T> f = origin - Vec3<T>{s.spheres.cx[i], s.spheres.cy[i], s.spheres.cz[i]};
       const SphereDisc<T> sd = sphere_disc(f, dir, r2);
       if (!(sd.disc >= T(0))) continue;
       const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
@@ -312,10 +313,11 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
     }
   }
   for (int k = 0; k < s.num_planes; ++k) {
-    const Vec3<T> normal{s.plane_nx[k], s.plane_ny[k], s.plane_nz[k]};
+    const Vec3<T> normal{s.planes.nx[k], s.planes.ny[k], s.planes.nz[k]};
     const T denom = dot(dir, normal);
     if (denom == T(0)) continue;
-    const T t = dot(Vec3<T>{s.plane_px[k], s.plane_py[k], s.plane_pz[k]} - origin, normal) / denom;
+    const T t =
+        dot(Vec3<T>{s.planes.px[k], s.planes.py[k], s.planes.pz[k]} - origin, normal) / denom;
     if (t > eps && t < best.t) best = {s.num_spheres + k, t};
   }
   return best;

@@ -434,7 +434,10 @@ StructureInfo structure_of(const PreparedScene<T>& p) {
   info.kind = "bvh";
   info.spheres = p.num_spheres;
   info.nodes = p.bvh.nodes.size();
-  info.bytes = p.bvh.bytes();
+  // The hierarchy and the camera's tables in its leaf order, which the walks read beside it.
+  const EyeSphere<T>& e = p.leaf_eye;
+  info.bytes = p.bvh.bytes() +
+               (e.fx.size() + e.fy.size() + e.fz.size() + e.c.size() + e.reach.size()) * sizeof(T);
   info.build_seconds = p.bvh.build_seconds;
   return info;
 }
@@ -511,8 +514,8 @@ void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
     // Only exact float packets read it: the reference walks one ray anyway; fast and double
     // packets stay packets.
     const bool packets = st.precision == Precision::exact && res.width > 1;
-    res.structure.one_ray_lanes = packets ? prepared.bvh.one_ray_lanes : 0;
-    res.structure.shadow_one_ray_lanes = packets ? prepared.bvh.shadow_one_ray_lanes : 0;
+    res.structure.one_ray_lanes = packets ? prepared.walk.one_ray_lanes : 0;
+    res.structure.shadow_one_ray_lanes = packets ? prepared.walk.shadow_one_ray_lanes : 0;
     res.seconds = timed([&] {
       res.rays = run_tiles(st.ny, res.threads, st.opt,
                            [&](int r0, int r1, RayCounts& c) { body(prepared, rows, r0, r1, c); });

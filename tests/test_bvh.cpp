@@ -142,13 +142,13 @@ TEST(Bvh, BuildIsDeterministicAndHoldsEverySphereOnce) {
       for (int j = n.child[k]; n.count[k] >= 0 && j < n.child[k] + n.count[k]; ++j) {
         const std::int32_t id = a.bvh.id[std::size_t(j)];
         ++seen[std::size_t(id)];
-        const float r = a.sphere_r[std::size_t(id)];
-        EXPECT_LE(n.lo_x[k], a.sphere_cx[std::size_t(id)] - r);
-        EXPECT_GE(n.hi_x[k], a.sphere_cx[std::size_t(id)] + r);
-        EXPECT_LE(n.lo_y[k], a.sphere_cy[std::size_t(id)] - r);
-        EXPECT_GE(n.hi_y[k], a.sphere_cy[std::size_t(id)] + r);
-        EXPECT_LE(n.lo_z[k], a.sphere_cz[std::size_t(id)] - r);
-        EXPECT_GE(n.hi_z[k], a.sphere_cz[std::size_t(id)] + r);
+        const float r = a.spheres.r[std::size_t(id)];
+        EXPECT_LE(n.lo_x[k], a.spheres.cx[std::size_t(id)] - r);
+        EXPECT_GE(n.hi_x[k], a.spheres.cx[std::size_t(id)] + r);
+        EXPECT_LE(n.lo_y[k], a.spheres.cy[std::size_t(id)] - r);
+        EXPECT_GE(n.hi_y[k], a.spheres.cy[std::size_t(id)] + r);
+        EXPECT_LE(n.lo_z[k], a.spheres.cz[std::size_t(id)] - r);
+        EXPECT_GE(n.hi_z[k], a.spheres.cz[std::size_t(id)] + r);
       }
   for (int c : seen) ASSERT_EQ(c, 1);
 }
@@ -428,14 +428,14 @@ TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
       EXPECT_FALSE(loop.identical()) << "the transmits' order no longer shows in this scene";
     }
     auto prepared = prepare<float>(s, Accel::bvh);
-    EXPECT_EQ(prepared.bvh.one_ray_lanes, 0);  // 1500 spheres: packets by default
-    EXPECT_EQ(prepared.bvh.shadow_one_ray_lanes, kOneRayShadowLanes);
+    EXPECT_EQ(prepared.walk.one_ray_lanes, 0);  // 1500 spheres: packets by default
+    EXPECT_EQ(prepared.walk.shadow_one_ray_lanes, kOneRayShadowLanes);
     // Every packet apart (spread 0: the one-ray walks everywhere), and the scene's own choice,
     // where packets whose rays stay together walk whole.
     const float built_spread = prepared.bvh.coherent_spread;
     for (const float spread : {0.0f, built_spread})
       for (int lanes : {1, 2, 16}) {
-        prepared.bvh.one_ray_lanes = prepared.bvh.shadow_one_ray_lanes = lanes;
+        prepared.walk.one_ray_lanes = prepared.walk.shadow_one_ray_lanes = lanes;
         prepared.bvh.coherent_spread = spread;
         for (int w : testing::packet_widths(Precision::exact)) {
           Image img(o.nx, o.ny);
@@ -467,10 +467,10 @@ TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
     const Scene s = cloud(900, o);
     const auto f = prepare<float>(s, Accel::bvh);
     const auto d = prepare<double>(s, Accel::bvh);
-    EXPECT_EQ(f.bvh.one_ray_lanes, lanes) << n << " spheres";
-    EXPECT_EQ(f.bvh.shadow_one_ray_lanes, shadow) << n << " spheres";
-    EXPECT_EQ(d.bvh.one_ray_lanes, 0) << n << " spheres";
-    EXPECT_EQ(d.bvh.shadow_one_ray_lanes, 0) << n << " spheres";
+    EXPECT_EQ(f.walk.one_ray_lanes, lanes) << n << " spheres";
+    EXPECT_EQ(f.walk.shadow_one_ray_lanes, shadow) << n << " spheres";
+    EXPECT_EQ(d.walk.one_ray_lanes, 0) << n << " spheres";
+    EXPECT_EQ(d.walk.shadow_one_ray_lanes, 0) << n << " spheres";
   }
 }
 

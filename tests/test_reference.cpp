@@ -94,7 +94,7 @@ TEST(CameraFrame, PointsMapThereAndBack) {
   EXPECT_EQ(p.camera.w.z, 1);
   EXPECT_EQ(p.camera.u.y, 0);
   EXPECT_EQ(p.camera.w.x, 0);
-  const Vec3<double> c = p.frame.world_point({p.sphere_cx[0], p.sphere_cy[0], p.sphere_cz[0]});
+  const Vec3<double> c = p.frame.world_point({p.spheres.cx[0], p.spheres.cy[0], p.spheres.cz[0]});
   EXPECT_NEAR(c.x, 1, 1e-14);
   EXPECT_NEAR(c.y, -1, 1e-14);
   EXPECT_NEAR(c.z, -3, 1e-14);
@@ -104,10 +104,10 @@ TEST(CameraFrame, PointsMapThereAndBack) {
   EXPECT_NEAR(ahead.y, 0, 1e-15);
   EXPECT_NEAR(ahead.z, -1, 1e-15);
   // Lengths and angles are kept: the plane's normal stays unit, the light where it was.
-  EXPECT_NEAR(
-      p.plane_nx[0] * p.plane_nx[0] + p.plane_ny[0] * p.plane_ny[0] + p.plane_nz[0] * p.plane_nz[0],
-      1, 1e-15);
-  const Vec3<double> l = p.frame.world_point({p.light_x[0], p.light_y[0], p.light_z[0]});
+  EXPECT_NEAR(p.planes.nx[0] * p.planes.nx[0] + p.planes.ny[0] * p.planes.ny[0] +
+                  p.planes.nz[0] * p.planes.nz[0],
+              1, 1e-15);
+  const Vec3<double> l = p.frame.world_point({p.lights.x[0], p.lights.y[0], p.lights.z[0]});
   EXPECT_NEAR(length(l - Vec3<double>{1, 9, -4}), 0, 1e-13);
 }
 
@@ -126,11 +126,11 @@ TEST(CameraFrame, DepthMovesTheOriginToFarSpheres) {
   EXPECT_EQ(p.camera.position.z, float(p.frame.depth));
   EXPECT_EQ(p.camera.position.x, 0);
   // The spheres sit near the origin, where float keeps their 1e-3 apart to its own spacing.
-  EXPECT_LT(std::fabs(p.sphere_cz[0]), 0.01f);
-  EXPECT_NEAR(double(p.sphere_cx[1]) - double(p.sphere_cx[0]) +
-                  (double(p.sphere_cy[1]) - double(p.sphere_cy[0])),
+  EXPECT_LT(std::fabs(p.spheres.cz[0]), 0.01f);
+  EXPECT_NEAR(double(p.spheres.cx[1]) - double(p.spheres.cx[0]) +
+                  (double(p.spheres.cy[1]) - double(p.spheres.cy[0])),
               0, 2e-3);
-  const Vec3<double> c1 = p.frame.world_point({p.sphere_cx[1], p.sphere_cy[1], p.sphere_cz[1]});
+  const Vec3<double> c1 = p.frame.world_point({p.spheres.cx[1], p.spheres.cy[1], p.spheres.cz[1]});
   EXPECT_NEAR(c1.x - 5773.501, 0, 1e-6);
   // Not with a plane (its hits would carry ulps of the eye's distance twice over).
   j["objects"].push_back({{"type", "plane"}, {"point", {0, -2, 0}}, {"normal", {0, 1, 0}}});

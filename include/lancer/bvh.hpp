@@ -75,25 +75,17 @@ struct Bvh {
   // consecutive: the leaves keep the depth-first order); else -1. The camera tiles' walk takes
   // such a node as one leaf (packet/cones.hpp) without reading it.
   std::vector<std::int32_t> first_sphere;
-  // The spheres in leaf order: centre, r^2, the eye's table (pinhole cameras) and object id.
+  // The spheres in leaf order: centre, r^2 and object id (the camera's tables in that order are
+  // the prepared scene's leaf_eye: the hierarchy knows nothing of the camera).
   // (Plain vectors, their pages prepared by prepare(): with BigVector's type here GCC compiled
   // the course scenes' AVX2 shading loop differently, 2% more instructions.)
-  std::vector<T> cx, cy, cz, r2, eye_fx, eye_fy, eye_fz, eye_c;
-  // Float pinhole cameras: each sphere's radius plus the margin the camera tiles' cones keep
-  // (packet/cones.hpp; prepare.cpp's eye_reach).
-  std::vector<T> eye_reach;
+  std::vector<T> cx, cy, cz, r2;
   std::vector<std::int32_t> id;
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).
   T origin_limit = T(0);
-  int depth = 0;  // deepest wide node (root: 1); at most kMaxTreeDepth / 2
-  // Secondary packets' lanes go on one ray at a time into a subtree at most this many of them
-  // enter (0: packets only; 16 or more: every lane alone from the root). Set by prepare() from
-  // the sphere count (kOneRayMinSpheres: 0 or kMaxLanes); read by exact float packets only.
-  int one_ray_lanes = 0;
+  int depth = 0;     // deepest wide node (root: 1); at most kMaxTreeDepth / 2
   int max_leaf = 4;  // a leaf's spheres at most (build_bvh, by kLargeLeafMinSpheres)
-  // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
-  int shadow_one_ray_lanes = 0;
   // Where secondary rays go one at a time, a packet whose live lanes stay together walks whole:
   // the spread of their origins plus `diagonal` (the root box's) times the spread of their
   // directions (the sides of the boxes around each) at most coherent_spread, kCoherentLeaves

@@ -43,11 +43,58 @@ struct PreparedCamera {
   std::vector<T> screen_x, screen_y;
 };
 
+// Per-object fields are padded with zeros to at least kMaxLanes entries (packets look them up
+// a whole register at a time): use the counts.
+template <class T>
+struct SphereBlock {
+  std::vector<T> cx, cy, cz, r, r2;
+  std::vector<T> inv_r;  // 1 / r, rounded once (fast mode's normals)
+};
+
+// Normals are unit.
+template <class T>
+struct PlaneBlock {
+  std::vector<T> px, py, pz, nx, ny, nz;
+};
+
+// The material of each object, by object id (one gather per field).
+template <class T>
+struct MaterialBlock {
+  std::vector<T> r, g, b, ka, kd, ks, shininess, reflect;
+  // transmit, ior and 1 / ior (rounded once: eta of a ray entering the object).
+  std::vector<T> transmit, ior, inv_ior;
+  // 1 where the shininess is a whole number that power_int() raises to exactly, else 0.
+  std::vector<T> shininess_int;
+};
+
+template <class T>
+struct LightBlock {
+  std::vector<T> x, y, z;
+  // Grey lights (features.coloured_lights false): intensity and ambient, one value per light.
+  std::vector<T> intensity, ambient;
+  // Per channel r, g, b: [c][light]. Filled for every scene; read when coloured_lights.
+  std::vector<T> intensity_rgb[3], ambient_rgb[3];
+};
+
+// How the packets walk the hierarchy (set by prepare() from the scene; read by exact float
+// packets only).
+template <class T>
+struct WalkSettings {
+  // Secondary packets' lanes go on one ray at a time into a subtree at most this many of them
+  // enter (0: packets only; 16 or more: every lane alone from the root), from the sphere count
+  // (kOneRayMinSpheres: 0 or kMaxLanes).
+  int one_ray_lanes = 0;
+  // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
+  int shadow_one_ray_lanes = 0;
+};
+
 // For camera rays that all leave one point (pinhole): per sphere, f = eye - centre and
 // c = |f|^2 - r^2, the same values every camera ray would compute.
+// In leaf order (leaf_eye), for float pinhole cameras, also each sphere's radius plus the margin
+// the camera tiles' cones keep (packet/cones.hpp; prepare.cpp's eye_reach).
 template <class T>
 struct EyeSphere {
-  std::vector<T> fx, fy, fz, c;
+  std::vector<T> fx, fy, fz, c, reach;
 };
 
 // The camera's frame, in which a scene is prepared: origin the camera's position, axes its basis
@@ -95,38 +142,28 @@ struct PreparedScene {
 
   // Spheres: object ids 0 .. num_spheres-1.
   int num_spheres = 0;
-  std::vector<T> sphere_cx, sphere_cy, sphere_cz, sphere_r, sphere_r2;
-  std::vector<T> sphere_inv_r;  // 1 / r, rounded once (fast mode's normals)
+  SphereBlock<T> spheres;
   // Every sphere's radius is at least kNaiveSphereRatio of its distance from the camera and at
   // most half of it: fast mode may use the textbook discriminant b^2 - c and roots -b -+ sqrt,
   // which float keeps there (docs/precision.md). Beyond the first bound b^2 - c cancels; beyond
   // the second the roots carry ulps of |b|, the distance to the centre, which for a huge sphere
   // seen from near its surface (a ground of radius 1e6) far exceed the hit's own distance.
   bool naive_spheres_hold = false;
-  // Planes: object ids num_spheres .. num_objects-1. Normals are unit.
+  // Planes: object ids num_spheres .. num_objects-1.
   int num_planes = 0;
-  std::vector<T> plane_px, plane_py, plane_pz, plane_nx, plane_ny, plane_nz;
+  PlaneBlock<T> planes;
+  MaterialBlock<T> materials;  // by object id
 
-  // Material of each object, by object id, structure-of-arrays (one gather per field).
-  // Per-object vectors are padded with zeros to at least kMaxLanes entries: use the counts.
-  std::vector<T> mat_r, mat_g, mat_b, mat_ka, mat_kd, mat_ks, mat_shininess, mat_reflect;
-  // transmit, ior and 1 / ior (rounded once: eta of a ray entering the object).
-  std::vector<T> mat_transmit, mat_ior, mat_inv_ior;
-  // 1 where the shininess is a whole number that power_int() raises to exactly, else 0.
-  std::vector<T> mat_shininess_int;
-
-  EyeSphere<T> eye;  // filled for pinhole cameras
+  EyeSphere<T> eye;       // pinhole cameras: per sphere in id order
+  EyeSphere<T> leaf_eye;  // the same in the hierarchy's leaf order, with reach (float pinhole)
 
   // The hierarchy over the spheres, when the scene gets one (bvh.active()); else every path
-  // loops over all objects.
+  // loops over all objects. How the packets walk it: `walk`.
   Bvh<T> bvh;
+  WalkSettings<T> walk;
 
   int num_lights = 0;
-  std::vector<T> light_x, light_y, light_z;
-  // Grey lights (features.coloured_lights false): intensity and ambient, one value per light.
-  std::vector<T> light_intensity, light_ambient;
-  // Per channel r, g, b: [c][light]. Filled for every scene; read when coloured_lights.
-  std::vector<T> light_intensity_rgb[3], light_ambient_rgb[3];
+  LightBlock<T> lights;
 
   int num_objects() const { return num_spheres + num_planes; }
 };

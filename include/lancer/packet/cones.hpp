@@ -15,6 +15,7 @@
 
 #include "lancer/packet/fused.hpp"
 #include "lancer/packet/lanes.hpp"
+#include "lancer/prepared.hpp"
 #include "lancer/vec3.hpp"
 
 namespace lancer::packet {
@@ -74,8 +75,12 @@ struct TileCones {
   // Per register g, tiles g kW .. g kW + kW - 1; cos2: cos_bound^2 (0: the tile culls nothing).
   B ax[kRegs], ay[kRegs], az[kRegs], cos2[kRegs], sin_bound[kRegs];
 
-  // d[i], valid[i]: tile i's rays and live lanes (i < kTiles).
-  TileCones(const V* d, const M* valid) noexcept {
+  // The eye's tables in the hierarchy's leaf order (PreparedScene::leaf_eye), which keep() tests.
+  const float *fx, *fy, *fz, *reach;
+
+  // d[i], valid[i]: tile i's rays and live lanes (i < kTiles); eye: the tables above.
+  TileCones(const V* d, const M* valid, const EyeSphere<float>& eye) noexcept
+      : fx(eye.fx.data()), fy(eye.fy.data()), fz(eye.fz.data()), reach(eye.reach.data()) {
     auto at = [](const B& v, int l) {
       float f;
       std::memcpy(&f, reinterpret_cast<const char*>(&v) + sizeof(float) * std::size_t(l), sizeof f);
@@ -108,9 +113,13 @@ struct TileCones {
     }
   }
 
+  // keep() below against the leaf-order tables the cones were made with.
+  unsigned keep(int first, int n, std::uint32_t* which, unsigned regs = ~0u) const noexcept {
+    return keep(fx, fy, fz, reach, first, n, which, regs);
+  }
   // The tiles (bit i) whose cone may meet some sphere of leaf-order [first, first + n), and per
   // tile the spheres it may meet (which[i], bit j: sphere first + j; n <= 32). fx, fy, fz:
-  // the eye minus each sphere's centre; reach: radius plus margin (Bvh::eye_reach).
+  // the eye minus each sphere's centre; reach: radius plus margin (prepare.cpp's eye_reach).
   //
   // The distance from centre C to any ray of tile i (forward from the eye) is at least
   // |V| sin(phi - theta), V = C - eye = -f, phi the angle between V and the axis: with

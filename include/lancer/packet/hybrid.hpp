@@ -48,16 +48,16 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
       Sph::template spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t,
                                                      best_id, counts, leaving);
     };
-    // Exact float: where the scene says (Bvh::one_ray_lanes), secondary rays' lanes go on one
-    // ray at a time, unless they stay together.
+    // Exact float: where the scene says (WalkSettings::one_ray_lanes), secondary rays' lanes go on
+    // one ray at a time, unless they stay together.
     if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
-      if (s.bvh.one_ray_lanes > 0 && !camera) {
+      if (s.walk.one_ray_lanes > 0 && !camera) {
         const bool whole = together(s, valid, o, d);
         walk_choice(counts, whole);
         if (!whole) {
           auto walk = [&](auto padded) {
             constexpr bool kPadded = decltype(padded)::value;
-            OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.bvh.one_ray_lanes, {}};
+            OneRay<kPadded> one{s, o, d, best_t, best_id, counts, s.walk.one_ray_lanes, {}};
             Tr::template closest<kPadded>(s.bvh, valid, o, d, best_t, leaf, one);
           };
           reach == 0 ? walk(std::false_type{}) : walk(std::true_type{});
@@ -202,7 +202,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   template <bool kPadded, class Leaf, class Step>
   static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
                        RayCounts& counts, Leaf& leaf, Step& step) noexcept {
-    OneShadow<kPadded, Step> one{s, p, l, dist, step, counts, s.bvh.shadow_one_ray_lanes, {}, {}};
+    OneShadow<kPadded, Step> one{s, p, l, dist, step, counts, s.walk.shadow_one_ray_lanes, {}, {}};
     return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, one);
   }
 };

@@ -120,10 +120,10 @@ struct Queries : Hybrid<Arch, Real, Mode> {
       using decltype(leaf)::operator(), decltype(some)::operator();
     } leaves{leaf, some};
     if constexpr (kProfile)
-      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaves,
+      Tr::template closest_coherent<kN>(s.bvh, s.leaf_eye, valid, o, d, best_t, leaves,
                                         WalkCount{&counts.profile->blocks});
     else
-      Tr::template closest_coherent<kN>(s.bvh, valid, o, d, best_t, leaves);
+      Tr::template closest_coherent<kN>(s.bvh, s.leaf_eye, valid, o, d, best_t, leaves);
   }
   // The camera blocks' walk counted into the profile (ProfiledMode only).
   struct WalkCount {
@@ -207,8 +207,9 @@ struct Queries : Hybrid<Arch, Real, Mode> {
       sh.pending = sh.pending & ~met;
       return;
     }
-    sh.transmittance = xsimd::select(
-        met, attenuate(sh.transmittance, B(s.mat_transmit[std::size_t(id)])), sh.transmittance);
+    sh.transmittance =
+        xsimd::select(met, attenuate(sh.transmittance, B(s.materials.transmit[std::size_t(id)])),
+                      sh.transmittance);
     sh.pending = sh.pending & ~(met & (sh.transmittance == B(0)));
   }
 
@@ -222,7 +223,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
                                                 const B& dist, RayCounts& counts, const I& leaving,
                                                 bool secondary = false) noexcept {
     if constexpr (kOneRay && !kFast && std::is_same_v<T, float>)
-      if (__builtin_expect(secondary && s.bvh.shadow_one_ray_lanes > 0, 0))
+      if (__builtin_expect(secondary && s.walk.shadow_one_ray_lanes > 0, 0))
         return occluded_one_ray<kGlass>(s, valid, p, l, dist, counts);
     return occluded_as<kGlass, false>(s, valid, p, l, dist, counts, leaving);
   }

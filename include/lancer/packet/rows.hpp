@@ -104,7 +104,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     // instantiations, so that scenes without it keep their shading loops' code (lorenzi-diffuse,
     // width 16: 0.97x with the test in every loop).
     if constexpr (!kFast && std::is_same_v<T, float>) {
-      if (s.bvh.shadow_one_ray_lanes > 0) {
+      if (s.walk.shadow_one_ray_lanes > 0) {
         if (blocks)
           render_rows_as<kGroup != 1, true>(s, image, row_begin, row_end, counts);
         else

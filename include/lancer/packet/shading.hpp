@@ -118,12 +118,12 @@ struct Shading : Queries<Arch, Real, Mode> {
                                                  const B& delta, const V& p, const V& n,
                                                  const V& view, const I& here, RayCounts& counts,
                                                  bool secondary) noexcept {
-    const B ka = gather(s, s.mat_ka, id), kd = gather(s, s.mat_kd, id);
+    const B ka = gather(s, s.materials.ka, id), kd = gather(s, s.materials.kd, id);
     B ks(0), shininess(0), shininess_int(0);
     if (s.features.specular) {
-      ks = gather(s, s.mat_ks, id);
-      shininess = gather(s, s.mat_shininess, id);
-      if constexpr (!kFast) shininess_int = gather(s, s.mat_shininess_int, id);
+      ks = gather(s, s.materials.ks, id);
+      shininess = gather(s, s.materials.shininess, id);
+      if constexpr (!kFast) shininess_int = gather(s, s.materials.shininess_int, id);
     }
     // Fast mode's shortcuts for shadow rays (below) assume opaque objects.
     const bool glass = kGlass && s.features.transparency;
@@ -132,8 +132,8 @@ struct Shading : Queries<Arch, Real, Mode> {
     for (int c = 0; c < C; ++c) ambient[c] = diffuse[c] = specular[c] = B(0);
     for (int k = 0; k < s.num_lights; ++k) {
       for (int c = 0; c < C; ++c)
-        ambient[c] = ambient[c] + ka * B(C == 1 ? s.light_ambient[k] : s.light_ambient_rgb[c][k]);
-      const V to_light = V{B(s.light_x[k]), B(s.light_y[k]), B(s.light_z[k])} - p;
+        ambient[c] = ambient[c] + ka * B(C == 1 ? s.lights.ambient[k] : s.lights.ambient_rgb[c][k]);
+      const V to_light = V{B(s.lights.x[k]), B(s.lights.y[k]), B(s.lights.z[k])} - p;
       B dist;
       const V l = unit(to_light, dist);
       const M lit = hit & (dist > B(0));
@@ -167,7 +167,7 @@ struct Shading : Queries<Arch, Real, Mode> {
         spec_power = power(s, cosine(Mth::dot(n, h)), shininess, shininess_int);
       }
       for (int c = 0; c < C; ++c) {
-        B intensity(C == 1 ? s.light_intensity[k] : s.light_intensity_rgb[c][k]);
+        B intensity(C == 1 ? s.lights.intensity[k] : s.lights.intensity_rgb[c][k]);
         if (glass) intensity = intensity * sh.transmittance;
         diffuse[c] = xsimd::select(unblocked, diffuse[c] + (kd * intensity) * cos_term, diffuse[c]);
         if (s.features.specular)
@@ -256,9 +256,9 @@ struct Shading : Queries<Arch, Real, Mode> {
         s.features.coloured_lights || s.features.transparency
             ? general_light_sums(s, hit, id, delta, p, n, view, here, counts, secondary)
             : light_sums<1, false, kOneRay>(s, hit, id, delta, p, n, view, here, counts, secondary);
-    out.r = xsimd::select(hit, gather(s, s.mat_r, id) * sum.r, out.r);
-    out.g = xsimd::select(hit, gather(s, s.mat_g, id) * sum.g, out.g);
-    out.b = xsimd::select(hit, gather(s, s.mat_b, id) * sum.b, out.b);
+    out.r = xsimd::select(hit, gather(s, s.materials.r, id) * sum.r, out.r);
+    out.g = xsimd::select(hit, gather(s, s.materials.g, id) * sum.g, out.g);
+    out.b = xsimd::select(hit, gather(s, s.materials.b, id) * sum.b, out.b);
 
     if (!(kTree || s.features.reflection) || depth >= s.max_depth) {
       lap(counts, kShading);
@@ -273,7 +273,7 @@ struct Shading : Queries<Arch, Real, Mode> {
         return out.reflected;
       }
     }
-    out.reflect = gather(s, s.mat_reflect, id);
+    out.reflect = gather(s, s.materials.reflect, id);
     out.reflected = hit & (out.reflect > B(0));
     if (xsimd::any(out.reflected)) {
       counts.reflected += count(out.reflected);
@@ -304,13 +304,13 @@ struct Shading : Queries<Arch, Real, Mode> {
                                                   const V& d, const B& delta, const V& p,
                                                   const V& n, const B& cos_in, const I& here,
                                                   Level& out, RayCounts& counts) noexcept {
-    out.transmit = gather(s, s.mat_transmit, id);
+    out.transmit = gather(s, s.materials.transmit, id);
     out.refracted = hit & (out.transmit > B(0));
     if (!xsimd::any(out.refracted)) return;
     lap(counts, kShading);
     counts.refracted += count(out.refracted);
-    const B eta =
-        xsimd::select(cos_in < B(0), gather(s, s.mat_inv_ior, id), gather(s, s.mat_ior, id));
+    const B eta = xsimd::select(cos_in < B(0), gather(s, s.materials.inv_ior, id),
+                                gather(s, s.materials.ior, id));
     const Refraction<B> rf = refract<Mth>(d, n, eta);
     const M through = rf.k >= B(0);
     V t = Mth::normalize(rf.dir);

@@ -16,6 +16,7 @@
 
 #include "lancer/packet/cones.hpp"
 #include "lancer/packet/tile_intervals.hpp"
+#include "lancer/prepared.hpp"
 
 namespace lancer::packet {
 
@@ -78,8 +79,9 @@ struct CameraWalk : TileIntervals<Arch, T> {
   // count: a NoWalkCount's interface, told of each block (whether any of its packets walked
   // together), node test, leaf pop, tile-by-leaf box test and leaf call.
   template <int kN, class Leaf, class Count = NoWalkCount>
-  static void closest_coherent(const Bvh<T>& h, const M* valid, const V* o, const V* d,
-                               const B* best_t, Leaf&& leaf, Count count = {}) noexcept {
+  static void closest_coherent(const Bvh<T>& h, const EyeSphere<T>& eye, const M* valid, const V* o,
+                               const V* d, const B* best_t, Leaf&& leaf,
+                               Count count = {}) noexcept {
     Ray r[kN];
     unsigned live[kN], neg[3] = {}, pos[3] = {};
     int first = -1;
@@ -102,8 +104,8 @@ struct CameraWalk : TileIntervals<Arch, T> {
       // Width 4's (four registers a sphere, after each tile's box test) pay only with a large
       // scene's large leaves (Bvh::max_leaf): 1.2x the time at 1024 spheres.
       if constexpr (kTileCones<kN>)
-        if (!h.eye_reach.empty() && (B::size > 4 || h.max_leaf > 4))
-          cones = &cones_of.emplace(d, valid);
+        if (!eye.reach.empty() && (B::size > 4 || h.max_leaf > 4))
+          cones = &cones_of.emplace(d, valid, eye);
       // A packet without live lanes takes the first one's ray: its lanes, all outside `valid`,
       // then take part in no bound and no leaf (closest_tiles does not branch on liveness).
       for (int i = 0; i < kN; ++i)
@@ -202,8 +204,7 @@ struct CameraWalk : TileIntervals<Arch, T> {
       if constexpr (kConesFit) {
         if (cones) {
           alignas(64) std::uint32_t which[32];
-          const unsigned tiles = cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
-                                             h.eye_reach.data(), f, c, which);
+          const unsigned tiles = cones->keep(f, c, which);
           count.cones(c, __builtin_popcount(which[i]));
           if (tiles >> i & 1u) leaf(i, f, c, lanes, which[i]);
           return;
@@ -262,8 +263,7 @@ struct CameraWalk : TileIntervals<Arch, T> {
           if (xsimd::any(lanes[i])) tested |= 1u << i, regs |= 1u << (i / int(B::size));
         }
       }
-      const unsigned meet = tested & cones->keep(h.eye_fx.data(), h.eye_fy.data(), h.eye_fz.data(),
-                                                 h.eye_reach.data(), first_sphere, n, which, regs);
+      const unsigned meet = tested & cones->keep(first_sphere, n, which, regs);
       for (unsigned ps = tested; ps; ps &= ps - 1) {
         count.tile_test();
         count.cones(n, __builtin_popcount(which[__builtin_ctz(ps)]));

@@ -26,9 +26,9 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   // Where the ray (o, d) meets plane k; denom: d . n (0: parallel, no hit).
   [[gnu::always_inline]] static B plane_t(const Scene& s, int k, const V& o, const V& d,
                                           B& denom) noexcept {
-    const V n{B(s.plane_nx[k]), B(s.plane_ny[k]), B(s.plane_nz[k])};
+    const V n{B(s.planes.nx[k]), B(s.planes.ny[k]), B(s.planes.nz[k])};
     denom = Mth::dot(d, n);
-    return Mth::div(Mth::dot(V{B(s.plane_px[k]), B(s.plane_py[k]), B(s.plane_pz[k])} - o, n),
+    return Mth::div(Mth::dot(V{B(s.planes.px[k]), B(s.planes.py[k]), B(s.planes.pz[k])} - o, n),
                     denom);
   }
 
@@ -76,8 +76,8 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
     const int first = first_id(s);
     const I pid = xsimd::max(id - I(Id(first)), I(0));
     const int np = s.num_planes;
-    const V pn{gather(s.plane_nx, pid, np), gather(s.plane_ny, pid, np),
-               gather(s.plane_nz, pid, np)};
+    const V pn{gather(s.planes.nx, pid, np), gather(s.planes.ny, pid, np),
+               gather(s.planes.nz, pid, np)};
     n = first > 0 ? select3(to_m(best_id < I(Id(first))), n, pn) : pn;
   }
 };

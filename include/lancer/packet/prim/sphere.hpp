@@ -81,14 +81,15 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
   };
   static Spheres all_spheres(const Scene& s) noexcept {
-    return {s.sphere_cx.data(), s.sphere_cy.data(), s.sphere_cz.data(),
-            s.sphere_r2.data(), s.eye.fx.data(),    s.eye.fy.data(),
-            s.eye.fz.data(),    s.eye.c.data(),     nullptr};
+    return {s.spheres.cx.data(), s.spheres.cy.data(), s.spheres.cz.data(),
+            s.spheres.r2.data(), s.eye.fx.data(),     s.eye.fy.data(),
+            s.eye.fz.data(),     s.eye.c.data(),      nullptr};
   }
   static Spheres leaf_spheres(const Scene& s) noexcept {
     const Bvh<T>& h = s.bvh;
-    return {h.cx.data(),     h.cy.data(),     h.cz.data(),    h.r2.data(), h.eye_fx.data(),
-            h.eye_fy.data(), h.eye_fz.data(), h.eye_c.data(), h.id.data()};
+    const EyeSphere<T>& e = s.leaf_eye;
+    return {h.cx.data(), h.cy.data(), h.cz.data(), h.r2.data(), e.fx.data(),
+            e.fy.data(), e.fz.data(), e.c.data(),  h.id.data()};
   }
 
   // Closest hit over spheres [begin, end) of `sp` for the lanes of `valid`; updates t and id
@@ -252,13 +253,13 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
                                              const B& magnitude, V& p, V& n, B& delta) noexcept {
     const I sid = xsimd::min(id, I(Id(s.num_spheres - 1)));
     const int ns = s.num_spheres;
-    const V c{gather(s.sphere_cx, sid, ns), gather(s.sphere_cy, sid, ns),
-              gather(s.sphere_cz, sid, ns)};
+    const V c{gather(s.spheres.cx, sid, ns), gather(s.spheres.cy, sid, ns),
+              gather(s.spheres.cz, sid, ns)};
     if constexpr (kFast) {  // (p - c) / r, the contract's normal, by a multiplication
-      n = (p - c) * gather(s.sphere_inv_r, sid, ns);
+      n = (p - c) * gather(s.spheres.inv_r, sid, ns);
     } else {
       n = sphere_normal<Mth>(p, c);
-      const B r2 = gather(s.sphere_r2, sid, ns);
+      const B r2 = gather(s.spheres.r2, sid, ns);
       const M small = hit & to_m(best_id < I(Id(ns))) & sphere_is_small(r2, magnitude);
       if (xsimd::any(small)) {
         const SurfacePoint<B> at = sphere_point_local<T, Mth>(o, d, best_t, c, r2);
