@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <nlohmann/json.hpp>
 
 #include "lancer/formulas.hpp"
 #include "lancer/image.hpp"
@@ -16,83 +15,11 @@
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
 #include "lancer/tiles.hpp"
+#include "scene_rules.hpp"
 
 namespace lancer::api {
 
 namespace {
-
-using json = nlohmann::json;
-
-json triple(double a, double b, double c) { return json::array({a, b, c}); }
-json point(const Vec3<double>& v) { return triple(v.x, v.y, v.z); }
-json colour(const Rgb& c) { return triple(c.r, c.g, c.b); }
-
-// m<index>, zero-padded so that the loader, which reads named materials in key order, keeps
-// the description's order.
-std::string material_name(std::size_t m, std::size_t count) {
-  const std::size_t digits = std::to_string(count > 1 ? count - 1 : 0).size();
-  const std::string n = std::to_string(m);
-  return "m" + std::string(digits - n.size(), '0') + n;
-}
-
-// The description as a scene file, for the loader to check by its own rules. Doubles are
-// written in their shortest round-trip form, so reading back gives the same values; NaN and
-// infinity become null, which the loader refuses by name.
-std::string to_scene_file(const SceneDescription& d, const std::string& name) {
-  json j;
-  const CameraSpec& c = d.camera;
-  json cam = {{"type", c.type == CameraType::pinhole ? "pinhole" : "orthographic"},
-              {"position", point(c.position)},
-              {"direction", point(c.direction)},
-              {"resolution", json::array({c.nx, c.ny})},
-              {"bounds", json::array({c.xmin, c.xmax, c.ymin, c.ymax})}};
-  if (c.type == CameraType::pinhole) cam["distance"] = c.distance;
-  j["camera"] = cam;
-  j["background"] = colour(d.background);
-  j["environment"] = colour(d.environment);
-  j["max_depth"] = d.max_depth;
-  j["epsilon"] = d.epsilon;
-  j["supersample"] = d.supersample;
-  json mats = json::object();
-  for (std::size_t m = 0; m < d.materials.size(); ++m) {
-    const Material& mt = d.materials[m];
-    mats[material_name(m, d.materials.size())] = {{"color", colour(mt.color)},
-                                                  {"ka", mt.ka},
-                                                  {"kd", mt.kd},
-                                                  {"ks", mt.ks},
-                                                  {"shininess", mt.shininess},
-                                                  {"reflect", mt.reflect},
-                                                  {"transmit", mt.transmit},
-                                                  {"ior", mt.ior}};
-  }
-  j["materials"] = mats;
-  json lights = json::array();
-  for (const Light& l : d.lights)
-    lights.push_back({{"position", point(l.position)},
-                      {"intensity", colour(l.intensity)},
-                      {"ambient", colour(l.ambient)}});
-  j["lights"] = lights;
-  json objects = json::array();
-  auto material = [&](int m, std::size_t k) {
-    if (m < 0 || std::size_t(m) >= d.materials.size())
-      throw InputError(name + ": objects[" + std::to_string(k) + "].material: no material " +
-                       std::to_string(m) + " (" + std::to_string(d.materials.size()) +
-                       " described)");
-    return material_name(std::size_t(m), d.materials.size());
-  };
-  for (const Sphere& s : d.spheres)
-    objects.push_back({{"type", "sphere"},
-                       {"center", point(s.center)},
-                       {"radius", s.radius},
-                       {"material", material(s.material, objects.size())}});
-  for (const Plane& p : d.planes)
-    objects.push_back({{"type", "plane"},
-                       {"point", point(p.point)},
-                       {"normal", point(p.normal)},
-                       {"material", material(p.material, objects.size())}});
-  j["objects"] = objects;
-  return j.dump();
-}
 
 template <class T>
 const packet::KernelTable<T>* kernels_of(int width, Precision p) {
@@ -286,6 +213,22 @@ void choose_widths(Engine<T>& e, const Info& info) {
   e.render = kernels_of<T>(info.width, info.precision);
 }
 
+// Options a scene cannot be made with, refused before anything is read: an enumerator outside
+// Precision (a cast integer) and thread counts the CLI refuses too.
+void check_options(const Options& o) {
+  switch (o.precision) {
+    case Precision::exact:
+    case Precision::dbl:
+    case Precision::fast:
+    case Precision::automatic:
+      break;
+    default:
+      throw InputError("precision: must be exact, dbl, fast or automatic, not Precision(" +
+                       std::to_string(static_cast<int>(o.precision)) + ")");
+  }
+  resolve_threads(o.threads, "threads");
+}
+
 }  // namespace
 
 Scene::Scene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -294,13 +237,20 @@ Scene& Scene::operator=(Scene&&) noexcept = default;
 Scene::~Scene() = default;
 
 Scene Scene::load(const std::string& path, const Options& options) {
-  return from_description(load_scene(path), options);
+  check_options(options);
+  // The file loader has checked every rule: prepared as `lancer render` prepares it.
+  return make(load_scene(path), options);
 }
 
-Scene Scene::from_description(const SceneDescription& description, const Options& options) {
-  const std::string name = description.name.empty() ? "scene" : description.name;
+Scene Scene::from_description(SceneDescription description, const Options& options) {
+  check_options(options);
+  rules::check_description(description);
+  return make(std::move(description), options);
+}
+
+Scene Scene::make(SceneDescription description, const Options& options) {
   auto impl = std::make_unique<Impl>();
-  impl->desc = parse_scene(to_scene_file(description, name), name);
+  impl->desc = std::move(description);
   const SceneDescription& s = impl->desc;
   Info& info = impl->info;
   info.precision = options.precision;
@@ -311,8 +261,7 @@ Scene Scene::from_description(const SceneDescription& description, const Options
   }
   info.width = resolve_width(options.width, info.precision, "width");
   info.isa = packet::isa_name(info.width, info.precision);
-  if (options.threads < 0) throw InputError("threads: must be >= 0 (0 = all cores)");
-  info.threads = options.threads == 0 ? hardware_threads() : options.threads;
+  info.threads = resolve_threads(options.threads, "threads");
   info.nx = s.camera.nx, info.ny = s.camera.ny, info.supersample = s.supersample;
   info.objects = static_cast<int>(s.spheres.size() + s.planes.size());
   impl->dbl = info.precision == Precision::dbl;

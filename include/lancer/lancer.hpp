@@ -34,18 +34,20 @@ struct Options {
   // The widest kernel the scene may use, in lanes: 0 = the widest this CPU and OS run; 1 = the
   // scalar reference; else 4, 8, 16 (float) or 2, 4, 8 (double).
   int width = 0;
-  // Threads of render_rows and primary_hits (0 = all cores). Ray queries run in the calling
-  // thread: call them from as many threads as you like (a Scene is immutable once made).
+  // Threads of render_rows and primary_hits: 0 = all cores, at most 4096 (as `lancer render
+  // --threads`); more than the cores runs on the cores (Info::threads says what runs). Ray
+  // queries run in the calling thread: call them from as many threads as you like (a Scene is
+  // immutable once made).
   int threads = 0;
 };
 
 // What a scene chose, as resolved: never "auto".
 struct Info {
   Precision precision = Precision::exact;
-  std::string precision_reason;  // why, when Options::precision was automatic
-  int width = 1;                 // widest kernel, in lanes of `precision`
-  std::string isa;               // "avx512f", "avx2", "sse4.2", "scalar", ...
-  int threads = 1;
+  std::string precision_reason;         // why, when Options::precision was automatic
+  int width = 1;                        // widest kernel, in lanes of `precision`
+  std::string isa;                      // "avx512f", "avx2", "sse4.2", "scalar", ...
+  int threads = 1;                      // what render_rows and primary_hits run on
   int nx = 0, ny = 0, supersample = 1;  // the camera's image
   int objects = 0;                      // ids 0 .. objects-1: spheres, then planes, in order
 };
@@ -100,12 +102,16 @@ struct PrimaryHits {
 class Scene {
  public:
   // InputError for a bad file (one line naming the place: "s.json: objects[2].radius: must be
-  // > 0"), a description breaking the scene rules, or options this machine cannot run.
+  // > 0"), a description breaking the scene rules, or options out of range (a Precision or
+  // CameraType that is none of its enumerators, threads above 4096) or that this machine cannot
+  // run. Options are checked before the file is read. Takes what `lancer render` takes to load
+  // and prepare the same file.
   static Scene load(const std::string& path, const Options& options = {});
-  // A description built in code is checked by the file loader's own rules and messages (it is
-  // written as a scene file and read back): objects are numbered spheres first, then planes,
-  // and materials are named m<index> (`materials.m02.kd: must be >= 0`).
-  static Scene from_description(const SceneDescription& description, const Options& options = {});
+  // A description built in code is held to the file loader's own rules, with its messages,
+  // before it is prepared (no scene file is written or read): objects are numbered spheres
+  // first, then planes, as in Info::objects, and materials by index
+  // (`code: materials[2].kd: must be >= 0`, `code: objects[5].radius: must be > 0`).
+  static Scene from_description(SceneDescription description, const Options& options = {});
 
   Scene(Scene&&) noexcept;
   Scene& operator=(Scene&&) noexcept;
@@ -149,6 +155,7 @@ class Scene {
  private:
   struct Impl;
   explicit Scene(std::unique_ptr<Impl> impl);
+  static Scene make(SceneDescription description, const Options& options);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 
+#include "api/api_util.hpp"
 #include "lancer/lancer.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
@@ -20,6 +21,8 @@ namespace lancer {
 namespace {
 
 using api::Options;
+using testing::error_of;
+using testing::with;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
@@ -114,14 +117,6 @@ Rays random_rays(const api::Scene& scene, unsigned seed, std::size_t count, doub
     rays.add(o, d, (rng() & 1) ? kInf : float(t(rng)), (rng() & 3) ? -1 : 0);
   }
   return rays;
-}
-
-Options with(Precision p, int width = 0) {
-  Options o;
-  o.precision = p;
-  o.width = width;
-  o.threads = 1;
-  return o;
 }
 
 // Every packet width the API takes gives the same bits: distances, ids, normals, occlusion.
@@ -379,15 +374,6 @@ TEST(Api, ReportsWhatItChose) {
   EXPECT_STRNE(api::version(), "");
 }
 
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
 TEST(Api, BadInputIsAnInputErrorNamingThePlace) {
   const std::string good = testing::source_path("scenes/lorenzi-shadows.json");
   EXPECT_EQ(error_of([] { api::Scene::load("/nonexistent/s.json"); }),
@@ -399,7 +385,7 @@ TEST(Api, BadInputIsAnInputErrorNamingThePlace) {
   Options bad_threads;
   bad_threads.threads = -1;
   EXPECT_EQ(error_of([&] { api::Scene::load(good, bad_threads); }),
-            "threads: must be >= 0 (0 = all cores)");
+            "threads: must be from 0 (all cores) to 4096, not -1 (docs/limits.md)");
 
   Scene d = load_scene(good);
   d.name = "code.json";
