@@ -5,7 +5,7 @@
 //
 //   #include <lancer/lancer.hpp>
 //   lancer::api::Scene scene = lancer::api::Scene::load("scene.json");
-//   lancer::api::Ray16 rays = ...;        // world-space origins, unit directions, tfar
+//   lancer::api::Ray16 rays = ...;  // world-space origins, unit directions, tnear, tfar, mask
 //   lancer::api::Hit16 hits;
 //   scene.intersect(nullptr, rays, hits);  // hits.id[k]: object id, -1 for a miss
 #pragma once
@@ -52,25 +52,44 @@ struct Info {
   int objects = 0;                      // ids 0 .. objects-1: spheres, then planes, in order
 };
 
-// N rays, structure-of-arrays. World-space origins, UNIT directions (within 1e-5 in |d|^2;
-// t is the distance along them), and tfar: a hit counts when epsilon < t < tfar, epsilon being
-// the scene's (there is no per-ray tnear). tfar may be infinity.
+// Every object's mask: a ray's mask selects the objects it may hit, as Embree's geometry masks
+// (objects have none of their own yet, so a mask with any bit set sees every object).
+inline constexpr unsigned kAllObjects = ~0u;
+
+// N rays, structure-of-arrays, laid out as Embree's RTCRayN (64-byte aligned). World-space
+// origins, UNIT directions (|d|^2 within 1e-5 of 1, else InputError: t is the distance along
+// them), and per lane:
+//   tnear, tfar: a hit counts when max(tnear, epsilon) < t < tfar, epsilon being the scene's
+//     (rounded to its precision). tnear = 0 (or anything up to epsilon) is every ray lancer
+//     traces itself; tfar may be infinity; NaN in either is an InputError.
+//   mask: a lane hits (and is blocked by) the objects whose mask shares a bit with it; every
+//     object's is kAllObjects, so 0 hits nothing and anything else everything.
 template <int N>
-struct RayPacket {
+struct alignas(64) RayPacket {
   static_assert(N == 1 || N == 4 || N == 8 || N == 16, "packets of 1, 4, 8 or 16 rays");
   float org_x[N], org_y[N], org_z[N];
+  float tnear[N];
   float dir_x[N], dir_y[N], dir_z[N];
   float tfar[N];
+  unsigned mask[N];
 };
 
-// Closest hits of N rays. id: the object hit (Info::objects), -1 for a miss (then t is
-// infinity and ng zero). ng: the unit geometric normal at the hit, not turned towards the ray
-// (spheres: outward; planes: as described, normalised).
+// Closest hits of N rays, as Embree's RTCHitN plus the distance (64-byte aligned).
+//   id: the object hit (Info::objects, Embree's geomID), -1 for a miss (then t is infinity, ng,
+//     u and v zero, prim_id -1).
+//   prim_id: the primitive within the object (Embree's primID): 0 for a sphere or a plane, each
+//     one primitive.
+//   u, v: the hit's coordinates on the primitive (barycentric on a triangle): 0 on spheres and
+//     planes, which have none.
+//   ng: the unit geometric normal at the hit, not turned towards the ray (spheres: outward;
+//     planes: as described, normalised).
 template <int N>
-struct HitPacket {
+struct alignas(64) HitPacket {
   float t[N];
-  int id[N];
   float ng_x[N], ng_y[N], ng_z[N];
+  float u[N], v[N];
+  int prim_id[N];
+  int id[N];
 };
 
 using Ray1 = RayPacket<1>;
@@ -127,12 +146,15 @@ class Scene {
   // see docs/api.md for what float origins imply far from the world's origin. The kernel is the
   // widest this machine runs up to min(N, Info::width) lanes (N = 1: the reference), applied to
   // as many chunks as it takes: in exact and double precision every N gives the same bits.
-  // InputError for a non-finite origin, a direction that is not unit or a NaN tfar in an
-  // active lane; every lane is checked first, so that then nothing has been written.
+  // Lanes whose tnear exceeds epsilon are traced one at a time by the reference's walk (the
+  // packet kernels start every ray at epsilon), with the same bits as any other width.
+  // InputError for a non-finite origin, a direction that is not unit or a NaN tnear or tfar in
+  // an active lane; every lane is checked first, so that then nothing has been written.
   template <int N>
   void intersect(const int* valid, const RayPacket<N>& rays, HitPacket<N>& hits) const;
-  // Whether anything lies on each active lane's ray with epsilon < t < tfar: occluded[k] is
-  // 1 or 0; inactive lanes are left as they were. Same frame, kernels and errors as intersect.
+  // Whether anything lies on each active lane's ray with max(tnear, epsilon) < t < tfar:
+  // occluded[k] is 1 or 0; inactive lanes are left as they were. Same frame, kernels and
+  // errors as intersect.
   template <int N>
   void occluded(const int* valid, const RayPacket<N>& rays, int* occluded) const;
 

@@ -63,8 +63,10 @@ Results trace(const api::Scene& scene, const Rays& rays) {
       r.dir_x[k] = rays.dir[3 * i], r.dir_y[k] = rays.dir[3 * i + 1];
       r.dir_z[k] = rays.dir[3 * i + 2];
       r.tfar[k] = rays.tfar[i];
+      r.tnear[k] = 0, r.mask[k] = api::kAllObjects;
       valid[k] = base + k < n ? rays.valid[i] : 0;
-      h.t[k] = 1234.5f, h.id[k] = 77, h.ng_x[k] = h.ng_y[k] = h.ng_z[k] = 9;
+      h.t[k] = 1234.5f, h.id[k] = h.prim_id[k] = 77, h.ng_x[k] = h.ng_y[k] = h.ng_z[k] = 9;
+      h.u[k] = h.v[k] = 9;
       occ[k] = 55;
     }
     scene.intersect(valid, r, h);
@@ -72,7 +74,8 @@ Results trace(const api::Scene& scene, const Rays& rays) {
     for (int k = 0; k < N && base + k < n; ++k) {
       const std::size_t i = base + k;
       if (!valid[k]) {
-        EXPECT_TRUE(h.t[k] == 1234.5f && h.id[k] == 77 && h.ng_x[k] == 9 && occ[k] == 55)
+        EXPECT_TRUE(h.t[k] == 1234.5f && h.id[k] == 77 && h.ng_x[k] == 9 && occ[k] == 55 &&
+                    h.prim_id[k] == 77 && h.u[k] == 9 && h.v[k] == 9)
             << "inactive lane " << k << " was written";
         out.id[i] = -2;  // inactive
         continue;
