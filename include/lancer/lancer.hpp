@@ -118,7 +118,7 @@ struct PrimaryHits {
 
 // A scene prepared once for a precision and width: structures built at construction and shared
 // by every query and render. Movable, not copyable; const methods are safe to call concurrently.
-class Scene {
+class LANCER_API Scene {
  public:
   // InputError for a bad file (one line naming the place: "s.json: objects[2].radius: must be
   // > 0"), a description breaking the scene rules, or options out of range (a Precision or
@@ -191,6 +191,6 @@ extern template void Scene::occluded<8>(const int*, const Ray8&, int*) const;
 extern template void Scene::occluded<16>(const int*, const Ray16&, int*) const;
 
 // The library's version, "major.minor.patch".
-const char* version();
+LANCER_API const char* version();
 
 }  // namespace lancer::api
