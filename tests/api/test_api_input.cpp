@@ -169,9 +169,9 @@ TEST(ApiInput, DescriptionValuesNoFileCanHoldAreRefusedByPlace) {
   EXPECT_EQ(error_of([&] { api::Scene::from_description(d); }), "scene: epsilon: must be finite");
 }
 
-// `lancer generate --spheres 65536` writes one material per sphere: more materials than a file
-// may name, which the description, holding none by name, does not meet. The API once wrote
-// descriptions out as files with every material named and refused them.
+// More materials than a file may name (65536), as a file holds them inline, one per sphere, and
+// the CLI renders: the description names none, so no such limit applies. The API once wrote
+// descriptions out as files with every material named, and refused these.
 TEST(ApiInput, DescriptionWithMoreMaterialsThanAFileMayNameLoads) {
   Scene d = parse_scene(base_file().dump(), "code");
   d.spheres.clear();
