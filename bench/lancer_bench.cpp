@@ -90,6 +90,7 @@ void api_intersect(benchmark::State& state, const Scene* scene, bool reflections
         r.org_x[k] = o[0], r.org_y[k] = o[1], r.org_z[k] = o[2];
         r.dir_x[k] = d[0], r.dir_y[k] = d[1], r.dir_z[k] = d[2];
         r.tfar[k] = std::numeric_limits<float>::infinity();
+        r.tnear[k] = 0, r.mask[k] = api::kAllObjects;
       }
       std::array<int, 16> v;
       v.fill(-1);

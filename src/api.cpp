@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <nlohmann/json.hpp>
 
 #include "lancer/formulas.hpp"
 #include "lancer/image.hpp"
@@ -16,83 +15,11 @@
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
 #include "lancer/tiles.hpp"
+#include "scene_rules.hpp"
 
 namespace lancer::api {
 
 namespace {
-
-using json = nlohmann::json;
-
-json triple(double a, double b, double c) { return json::array({a, b, c}); }
-json point(const Vec3<double>& v) { return triple(v.x, v.y, v.z); }
-json colour(const Rgb& c) { return triple(c.r, c.g, c.b); }
-
-// m<index>, zero-padded so that the loader, which reads named materials in key order, keeps
-// the description's order.
-std::string material_name(std::size_t m, std::size_t count) {
-  const std::size_t digits = std::to_string(count > 1 ? count - 1 : 0).size();
-  const std::string n = std::to_string(m);
-  return "m" + std::string(digits - n.size(), '0') + n;
-}
-
-// The description as a scene file, for the loader to check by its own rules. Doubles are
-// written in their shortest round-trip form, so reading back gives the same values; NaN and
-// infinity become null, which the loader refuses by name.
-std::string to_scene_file(const SceneDescription& d, const std::string& name) {
-  json j;
-  const CameraSpec& c = d.camera;
-  json cam = {{"type", c.type == CameraType::pinhole ? "pinhole" : "orthographic"},
-              {"position", point(c.position)},
-              {"direction", point(c.direction)},
-              {"resolution", json::array({c.nx, c.ny})},
-              {"bounds", json::array({c.xmin, c.xmax, c.ymin, c.ymax})}};
-  if (c.type == CameraType::pinhole) cam["distance"] = c.distance;
-  j["camera"] = cam;
-  j["background"] = colour(d.background);
-  j["environment"] = colour(d.environment);
-  j["max_depth"] = d.max_depth;
-  j["epsilon"] = d.epsilon;
-  j["supersample"] = d.supersample;
-  json mats = json::object();
-  for (std::size_t m = 0; m < d.materials.size(); ++m) {
-    const Material& mt = d.materials[m];
-    mats[material_name(m, d.materials.size())] = {{"color", colour(mt.color)},
-                                                  {"ka", mt.ka},
-                                                  {"kd", mt.kd},
-                                                  {"ks", mt.ks},
-                                                  {"shininess", mt.shininess},
-                                                  {"reflect", mt.reflect},
-                                                  {"transmit", mt.transmit},
-                                                  {"ior", mt.ior}};
-  }
-  j["materials"] = mats;
-  json lights = json::array();
-  for (const Light& l : d.lights)
-    lights.push_back({{"position", point(l.position)},
-                      {"intensity", colour(l.intensity)},
-                      {"ambient", colour(l.ambient)}});
-  j["lights"] = lights;
-  json objects = json::array();
-  auto material = [&](int m, std::size_t k) {
-    if (m < 0 || std::size_t(m) >= d.materials.size())
-      throw InputError(name + ": objects[" + std::to_string(k) + "].material: no material " +
-                       std::to_string(m) + " (" + std::to_string(d.materials.size()) +
-                       " described)");
-    return material_name(std::size_t(m), d.materials.size());
-  };
-  for (const Sphere& s : d.spheres)
-    objects.push_back({{"type", "sphere"},
-                       {"center", point(s.center)},
-                       {"radius", s.radius},
-                       {"material", material(s.material, objects.size())}});
-  for (const Plane& p : d.planes)
-    objects.push_back({{"type", "plane"},
-                       {"point", point(p.point)},
-                       {"normal", point(p.normal)},
-                       {"material", material(p.material, objects.size())}});
-  j["objects"] = objects;
-  return j.dump();
-}
 
 template <class T>
 const packet::KernelTable<T>* kernels_of(int width, Precision p) {
@@ -126,6 +53,7 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
   if (!(std::fabs(d2 - 1.0) <= 1e-5))
     throw InputError(std::string(what) + ": " + lane(k) +
                      "dir must be unit length, |dir|^2 = " + std::to_string(d2));
+  if (std::isnan(r.tnear[k])) throw InputError(std::string(what) + ": " + lane(k) + "tnear is NaN");
   if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
 }
 
@@ -136,27 +64,38 @@ void check_rays(const char* what, const int* valid, const RayPacket<N>& r) {
     if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
 }
 
-// One chunk of a caller's packet at the kernel's width W, in the prepared frame.
+// One chunk of a caller's packet at the kernel's width W, in the prepared frame. Each active
+// lane is answered by the kernel (valid), by the reference alone from tmin (a tnear beyond
+// epsilon), or by nothing (a mask that sees no object: a miss).
 template <class T>
 struct Chunk {
   alignas(64) T rays[6 * kMaxLanes];
   alignas(64) T t[kMaxLanes];
   alignas(64) std::int32_t id[kMaxLanes];
-  bool valid[kMaxLanes];
+  T tmin[kMaxLanes];       // max(tnear, epsilon)
+  bool active[kMaxLanes];  // answered
+  bool valid[kMaxLanes];   // by the kernel
+  bool alone[kMaxLanes];   // by the reference from tmin
   bool out[kMaxLanes];
 };
 
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
-// prepared frame in double and rounded once to T; inactive lanes get a harmless ray.
+// prepared frame in double and rounded once to T; inactive lanes get a harmless ray. With
+// `kernel` false every active lane goes to the reference.
 template <class T, int N>
 int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
-         Chunk<T>& ch) {
+         bool kernel, Chunk<T>& ch) {
   int active = 0;
   const Frame& frame = s.frame;
   for (int l = 0; l < w; ++l) {
     const int k = c + l;
     const bool on = k < N && (valid == nullptr || valid[k] != 0);
-    ch.valid[l] = on;
+    const bool sees = on && (r.mask[k] & kAllObjects) != 0;
+    const T tmin = on ? std::max(T(r.tnear[k]), s.epsilon) : s.epsilon;
+    ch.active[l] = on;
+    ch.tmin[l] = tmin;
+    ch.alone[l] = sees && (!kernel || tmin > s.epsilon);
+    ch.valid[l] = sees && !ch.alone[l];
     T o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, tfar = std::numeric_limits<T>::infinity();
     if (on) {
       ++active;
@@ -169,6 +108,7 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     for (int a = 0; a < 3; ++a) ch.rays[a * w + l] = o[a], ch.rays[(3 + a) * w + l] = d[a];
     ch.t[l] = tfar;
     ch.id[l] = -1;
+    ch.out[l] = false;
   }
   return active;
 }
@@ -176,6 +116,38 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
 template <class T>
 Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
   return {ch.rays[first * w + l], ch.rays[(first + 1) * w + l], ch.rays[(first + 2) * w + l]};
+}
+
+// The reference's nearest hit beyond tmin of each lane traced alone. It counts where it lies
+// before tfar (ch.t), which it then replaces.
+template <class T>
+void trace_alone(const PreparedScene<T>& s, int w, Chunk<T>& ch) {
+  for (int l = 0; l < w; ++l) {
+    if (!ch.alone[l]) continue;
+    const reference::Hit<T> hit =
+        reference::closest_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.tmin[l]);
+    ch.out[l] = hit.id >= 0 && hit.t < ch.t[l];
+    if (ch.out[l]) ch.t[l] = hit.t, ch.id[l] = hit.id;
+  }
+}
+
+// The renderer's normal at a hit, before it is turned towards the ray, in world space.
+template <class T>
+Vec3<double> world_normal(const PreparedScene<T>& s, const Chunk<T>& ch, int w, int l) {
+  const int id = ch.id[l];
+  Vec3<T> n;
+  if (id < s.num_spheres) {
+    const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
+    const Vec3<T> centre{s.spheres.cx[id], s.spheres.cy[id], s.spheres.cz[id]};
+    const T r2 = s.spheres.r2[id], m = hit_magnitude(o, ch.t[l]);
+    n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], centre, r2).normal
+        : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], centre, r2, m).normal
+                                 : sphere_point_along<T>(o, d, ch.t[l], centre, m).normal;
+  } else {
+    const int q = id - s.num_spheres;
+    n = {s.planes.nx[q], s.planes.ny[q], s.planes.nz[q]};
+  }
+  return s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
 }
 
 template <class T, int N>
@@ -186,39 +158,25 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   check_rays("intersect", valid, r);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill(s, valid, r, c, w, ch) == 0) continue;
-    if (k) {
+    if (fill(s, valid, r, c, w, k != nullptr, ch) == 0) continue;
+    if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
-    } else {  // the reference; its nearest hit counts where it lies before tfar
-      const reference::Hit<T> hit =
-          reference::closest_hit(s, lane_vec(ch, 1, 0, 0), lane_vec(ch, 1, 0, 3));
-      if (hit.id >= 0 && hit.t < ch.t[0]) ch.t[0] = hit.t, ch.id[0] = hit.id;
-    }
+    trace_alone(s, w, ch);
     for (int l = 0; l < w && c + l < N; ++l) {
-      if (!ch.valid[l]) continue;
+      if (!ch.active[l]) continue;
       const int kk = c + l;
       const int id = ch.id[l];
       h.id[kk] = id;
+      h.u[kk] = h.v[kk] = 0;  // spheres and planes have no surface coordinates
       if (id < 0) {
         h.t[kk] = std::numeric_limits<float>::infinity();
         h.ng_x[kk] = h.ng_y[kk] = h.ng_z[kk] = 0;
+        h.prim_id[kk] = -1;
         continue;
       }
       h.t[kk] = static_cast<float>(ch.t[l]);
-      // The renderer's normal at the hit, before it is turned towards the ray.
-      Vec3<T> n;
-      if (id < s.num_spheres) {
-        const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
-        const Vec3<T> centre{s.spheres.cx[id], s.spheres.cy[id], s.spheres.cz[id]};
-        const T r2 = s.spheres.r2[id], m = hit_magnitude(o, ch.t[l]);
-        n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], centre, r2).normal
-            : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], centre, r2, m).normal
-                                     : sphere_point_along<T>(o, d, ch.t[l], centre, m).normal;
-      } else {
-        const int q = id - s.num_spheres;
-        n = {s.planes.nx[q], s.planes.ny[q], s.planes.nz[q]};
-      }
-      const Vec3<double> ng = s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
+      h.prim_id[kk] = 0;  // a sphere or a plane is one primitive
+      const Vec3<double> ng = world_normal(s, ch, w, l);
       h.ng_x[kk] = float(ng.x), h.ng_y[kk] = float(ng.y), h.ng_z[kk] = float(ng.z);
     }
   }
@@ -232,18 +190,14 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   check_rays("occluded", valid, r);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill(s, valid, r, c, w, ch) == 0) continue;
-    if (k) {
-      k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);
-    } else {
-      // The reference answers by its closest hit: something lies in (epsilon, tfar) exactly
-      // when the nearest hit does, since both take each object's same nearest root.
-      const reference::Hit<T> hit =
-          reference::closest_hit(s, lane_vec(ch, 1, 0, 0), lane_vec(ch, 1, 0, 3));
-      ch.out[0] = hit.id >= 0 && hit.t < ch.t[0];
-    }
+    if (fill(s, valid, r, c, w, k != nullptr, ch) == 0) continue;
+    if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
+      k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);  // false where not valid
+    // The reference answers by its closest hit: something lies in (tmin, tfar) exactly when
+    // the nearest hit does, since both take each object's same nearest root.
+    trace_alone(s, w, ch);
     for (int l = 0; l < w && c + l < N; ++l)
-      if (ch.valid[l]) out[c + l] = ch.out[l] ? 1 : 0;
+      if (ch.active[l]) out[c + l] = ch.out[l] ? 1 : 0;
   }
 }
 
@@ -286,6 +240,22 @@ void choose_widths(Engine<T>& e, const Info& info) {
   e.render = kernels_of<T>(info.width, info.precision);
 }
 
+// Options a scene cannot be made with, refused before anything is read: an enumerator outside
+// Precision (a cast integer) and thread counts the CLI refuses too.
+void check_options(const Options& o) {
+  switch (o.precision) {
+    case Precision::exact:
+    case Precision::dbl:
+    case Precision::fast:
+    case Precision::automatic:
+      break;
+    default:
+      throw InputError("precision: must be exact, dbl, fast or automatic, not Precision(" +
+                       std::to_string(static_cast<int>(o.precision)) + ")");
+  }
+  resolve_threads(o.threads, "threads");
+}
+
 }  // namespace
 
 Scene::Scene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -294,13 +264,20 @@ Scene& Scene::operator=(Scene&&) noexcept = default;
 Scene::~Scene() = default;
 
 Scene Scene::load(const std::string& path, const Options& options) {
-  return from_description(load_scene(path), options);
+  check_options(options);
+  // The file loader has checked every rule: prepared as `lancer render` prepares it.
+  return make(load_scene(path), options);
 }
 
-Scene Scene::from_description(const SceneDescription& description, const Options& options) {
-  const std::string name = description.name.empty() ? "scene" : description.name;
+Scene Scene::from_description(SceneDescription description, const Options& options) {
+  check_options(options);
+  rules::check_description(description);
+  return make(std::move(description), options);
+}
+
+Scene Scene::make(SceneDescription description, const Options& options) {
   auto impl = std::make_unique<Impl>();
-  impl->desc = parse_scene(to_scene_file(description, name), name);
+  impl->desc = std::move(description);
   const SceneDescription& s = impl->desc;
   Info& info = impl->info;
   info.precision = options.precision;
@@ -311,8 +288,7 @@ Scene Scene::from_description(const SceneDescription& description, const Options
   }
   info.width = resolve_width(options.width, info.precision, "width");
   info.isa = packet::isa_name(info.width, info.precision);
-  if (options.threads < 0) throw InputError("threads: must be >= 0 (0 = all cores)");
-  info.threads = options.threads == 0 ? hardware_threads() : options.threads;
+  info.threads = resolve_threads(options.threads, "threads");
   info.nx = s.camera.nx, info.ny = s.camera.ny, info.supersample = s.supersample;
   info.objects = static_cast<int>(s.spheres.size() + s.planes.size());
   impl->dbl = info.precision == Precision::dbl;

@@ -286,7 +286,12 @@ void render_rows_impl(const PreparedScene<T>& s, Image& image, int row_begin, in
 
 template <class T>
 Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir) {
-  const T eps = s.epsilon;
+  return closest_hit(s, origin, dir, s.epsilon);
+}
+
+template <class T>
+Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir,
+                   const T eps) {
   // A hit must be nearer than infinity: a plane hit whose t overflows is no hit.
   Hit<T> best{-1, std::numeric_limits<T>::infinity()};
   const Bvh<T>& h = s.bvh;
@@ -368,6 +373,10 @@ template void primary_rows<float>(const PreparedScene<float>&, float*, std::int3
                                   RayCounts&);
 template void primary_rows<double>(const PreparedScene<double>&, float*, std::int32_t*, int, int,
                                    RayCounts&);
+template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
+                                       const Vec3<float>&, float);
+template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
+                                         const Vec3<double>&, double);
 template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
                                        const Vec3<float>&);
 template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,

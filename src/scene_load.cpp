@@ -15,6 +15,7 @@
 #include "lancer/error.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/text.hpp"
+#include "scene_rules.hpp"
 
 namespace lancer {
 namespace {
@@ -25,25 +26,9 @@ using json = nlohmann::json;
 constexpr int kMaxJsonDepth = 32;
 constexpr std::size_t kMaxSceneBytes = std::size_t(1) << 30;
 
-// Ranges beyond the contract's own rules, so that a render in single precision stays finite
-// (issue 7; each was a fuzzing finding, kept in tests/fuzz/test_regressions.cpp):
-// - coordinates (positions, centres, points, bounds) and lengths (radius, distance) at most
-//   kMaxCoordinate in magnitude: squared distances between them stay below FLT_MAX;
-// - radius and distance at least kMinLength: their squares stay normal floats, not 0;
-// - brightness (colours, coefficients, intensities, background) at most kMaxRadiance, and so the
-//   brightest radiance the scene can produce (scene_radiance_bound), times 64^2 sub-samples
-//   summed, stays below FLT_MAX;
-// - shininess at most kMaxShininess: a cosine one float step above 1 raised to it stays near 1.
-constexpr double kMaxCoordinate = 1e18;
-constexpr double kMinLength = 1e-18;
-constexpr double kMaxRadiance = 1e34;
-constexpr double kMaxShininess = 1e6;
-// - ior from 1/kMaxIor to kMaxIor: eta^2 in the refracted direction stays a normal float.
-constexpr double kMaxIor = 1e6;
-
-[[noreturn]] void fail(const std::string& where, const std::string& what) {
-  throw InputError(where + ": " + what);
-}
+using rules::fail;
+using rules::index_path;
+using rules::kMaxRadiance;
 
 // A key or name taken from the file, made fit for a one-line message: control characters escaped
 // (a key may hold "\n"), and very long ones cut (on a UTF-8 character boundary).
@@ -79,8 +64,15 @@ std::string key_path(const std::string& parent, const std::string& key) {
   return parent.empty() ? printable(key) : parent + "." + printable(key);
 }
 
-std::string index_path(const std::string& parent, std::size_t i) {
-  return parent + "[" + std::to_string(i) + "]";
+// The message of the rule `check` breaks, or "" if it holds.
+template <class Check>
+std::string message_of(const Check& check) {
+  try {
+    check();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return {};
 }
 
 // One JSON object being read: remembers which keys were consumed so that any other key is an
@@ -110,45 +102,18 @@ class ObjectReader {
     return has(key) ? number(key) : fallback;
   }
   double non_negative_or(const std::string& key, double fallback, double max_value = kMaxRadiance) {
-    double v = number_or(key, fallback);
-    if (v < 0) fail(at(key), "must be >= 0");
-    if (v > max_value) fail(at(key), "must be at most " + show(max_value));
-    return v;
+    return rules::non_negative(at(key), number_or(key, fallback), max_value);
   }
   // A length: radius or distance.
-  double length(const std::string& key) {
-    const double v = number(key);
-    if (!(v > 0)) fail(at(key), "must be > 0");
-    if (v < kMinLength || v > kMaxCoordinate)
-      fail(at(key), "must be from " + show(kMinLength) + " to " + show(kMaxCoordinate));
-    return v;
-  }
+  double length(const std::string& key) { return rules::length(at(key), number(key)); }
   int integer_or(const std::string& key, int fallback) {
     return has(key) ? as_integer(get(key), at(key)) : fallback;
   }
   Vec3<double> vec3(const std::string& key) { return as_vec3(get(key), at(key)); }
   // A position: every component at most kMaxCoordinate in magnitude.
-  Vec3<double> point(const std::string& key) {
-    const Vec3<double> v = vec3(key);
-    const double c[3] = {v.x, v.y, v.z};
-    for (int i = 0; i < 3; ++i)
-      if (std::fabs(c[i]) > kMaxCoordinate)
-        fail(index_path(at(key), i),
-             "must be from " + show(-kMaxCoordinate) + " to " + show(kMaxCoordinate));
-    return v;
-  }
-  // A direction, of any non-zero length. One far from 1 is scaled by a power of two, which
-  // changes no bit of its normalised value but keeps |v|^2 from underflowing or overflowing.
-  Vec3<double> direction(const std::string& key) {
-    Vec3<double> v = vec3(key);
-    if (v.x == 0 && v.y == 0 && v.z == 0) fail(at(key), "must not be zero");
-    const double big = std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)});
-    if (big < 0x1p-64 || big > 0x1p64) {
-      const int e = -std::ilogb(big);
-      v = {std::ldexp(v.x, e), std::ldexp(v.y, e), std::ldexp(v.z, e)};
-    }
-    return v;
-  }
+  Vec3<double> point(const std::string& key) { return rules::point(at(key), vec3(key)); }
+  // A direction, of any non-zero length (rescaled: rules::direction).
+  Vec3<double> direction(const std::string& key) { return rules::direction(at(key), vec3(key)); }
   Rgb rgb_or(const std::string& key, Rgb fallback) {
     return has(key) ? as_rgb(get(key), at(key)) : fallback;
   }
@@ -162,12 +127,6 @@ class ObjectReader {
   void finish() const {
     for (auto it = j_.begin(); it != j_.end(); ++it)
       if (!seen_.count(it.key())) fail(at(it.key()), "unknown key");
-  }
-
-  static std::string show(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%g", v);
-    return buf;
   }
 
   static double as_number(const json& v, const std::string& where) {
@@ -188,18 +147,13 @@ class ObjectReader {
   }
   static Rgb as_rgb(const json& v, const std::string& where) {
     if (v.is_number()) {
-      double g = as_number(v, where);
-      if (g < 0) fail(where, "must be >= 0");
-      if (g > kMaxRadiance) fail(where, "must be at most " + show(kMaxRadiance));
+      const double g = rules::non_negative(where, as_number(v, where));
       return {g, g, g};
     }
     if (!v.is_array() || v.size() != 3) fail(where, "must be a number or an array of 3 numbers");
-    Rgb c{as_number(v[0], index_path(where, 0)), as_number(v[1], index_path(where, 1)),
-          as_number(v[2], index_path(where, 2))};
-    if (c.r < 0 || c.g < 0 || c.b < 0) fail(where, "components must be >= 0");
-    if (c.r > kMaxRadiance || c.g > kMaxRadiance || c.b > kMaxRadiance)
-      fail(where, "components must be at most " + show(kMaxRadiance));
-    return c;
+    return rules::colour(
+        where, {as_number(v[0], index_path(where, 0)), as_number(v[1], index_path(where, 1)),
+                as_number(v[2], index_path(where, 2))});
   }
 
  private:
@@ -213,23 +167,11 @@ CameraSpec read_camera(const json& j) {
   CameraSpec c;
   // docs/scene-format.md: "pinhole" when not given.
   const std::string type = r.has("type") ? r.string("type") : "pinhole";
-  if (type == "pinhole")
-    c.type = CameraType::pinhole;
-  else if (type == "orthographic")
-    c.type = CameraType::orthographic;
-  else
-    fail(r.at("type"), "must be \"pinhole\" or \"orthographic\"");
+  c.type = rules::camera_type("camera", type == "pinhole"        ? CameraType::pinhole
+                                        : type == "orthographic" ? CameraType::orthographic
+                                                                 : CameraType(-1));
   c.position = r.point("position");
-  c.direction = r.direction("direction");
-  {
-    // The contract's u = normalize((-w.z, 0, w.x)): when that vector is not zero but too short
-    // to normalise in double, the camera has no usable orientation.
-    const Vec3<double> w = normalize(-c.direction);
-    const double h2 = w.z * w.z + w.x * w.x;
-    if ((w.x != 0 || w.z != 0) && !(h2 >= 0x1p-900))
-      fail(r.at("direction"),
-           "too close to vertical to orient the camera; make it exactly vertical or tilt it more");
-  }
+  c.direction = rules::camera_direction(r.at("direction"), r.vec3("direction"));
   if (c.type == CameraType::pinhole) {
     c.distance = r.length("distance");
   } else if (r.has("distance")) {
@@ -239,22 +181,13 @@ CameraSpec read_camera(const json& j) {
   if (!res.is_array() || res.size() != 2) fail(r.at("resolution"), "must be [nx, ny]");
   c.nx = ObjectReader::as_integer(res[0], index_path(r.at("resolution"), 0));
   c.ny = ObjectReader::as_integer(res[1], index_path(r.at("resolution"), 1));
-  if (c.nx <= 0) fail(index_path(r.at("resolution"), 0), "must be a positive integer");
-  if (c.ny <= 0) fail(index_path(r.at("resolution"), 1), "must be a positive integer");
-  if (c.nx > kMaxResolution || c.ny > kMaxResolution)
-    fail(r.at("resolution"), "must be at most " + std::to_string(kMaxResolution) + " per axis");
+  rules::resolution(r.at("resolution"), c.nx, c.ny);
   const json& b = r.get("bounds");
   if (!b.is_array() || b.size() != 4) fail(r.at("bounds"), "must be [xmin, xmax, ymin, ymax]");
   double v[4];
-  for (int i = 0; i < 4; ++i) {
-    v[i] = ObjectReader::as_number(b[i], index_path(r.at("bounds"), i));
-    if (std::fabs(v[i]) > kMaxCoordinate)
-      fail(index_path(r.at("bounds"), i), "must be from " + ObjectReader::show(-kMaxCoordinate) +
-                                              " to " + ObjectReader::show(kMaxCoordinate));
-  }
+  for (int i = 0; i < 4; ++i) v[i] = ObjectReader::as_number(b[i], index_path(r.at("bounds"), i));
+  rules::bounds(r.at("bounds"), v);
   c.xmin = v[0], c.xmax = v[1], c.ymin = v[2], c.ymax = v[3];
-  if (!(c.xmax > c.xmin)) fail(r.at("bounds"), "xmax must be > xmin");
-  if (!(c.ymax > c.ymin)) fail(r.at("bounds"), "ymax must be > ymin");
   r.finish();
   return c;
 }
@@ -263,17 +196,9 @@ Material read_material(const json& j, const std::string& path) {
   ObjectReader r(j, path);
   Material m;
   m.color = r.rgb_or("color", m.color);
-  m.ka = r.non_negative_or("ka", m.ka);
-  m.kd = r.non_negative_or("kd", m.kd);
-  m.ks = r.non_negative_or("ks", m.ks);
-  m.shininess = r.non_negative_or("shininess", m.shininess, kMaxShininess);
-  m.reflect = r.non_negative_or("reflect", m.reflect);
-  m.transmit = r.non_negative_or("transmit", m.transmit);
-  m.ior = r.number_or("ior", m.ior);
-  if (!(m.ior > 0)) fail(r.at("ior"), "must be > 0");
-  if (m.ior < 1 / kMaxIor || m.ior > kMaxIor)
-    fail(r.at("ior"),
-         "must be from " + ObjectReader::show(1 / kMaxIor) + " to " + ObjectReader::show(kMaxIor));
+  for (const rules::MaterialCoefficient& k : rules::kMaterialCoefficients)
+    m.*k.member = r.non_negative_or(k.key, m.*k.member, k.max_value);
+  m.ior = rules::ior(r.at("ior"), r.number_or("ior", m.ior));
   r.finish();
   return m;
 }
@@ -536,77 +461,6 @@ void read_object(const json& j, std::size_t index, MaterialTable& materials, Sce
   if (is_plane) is_plane->push_back(type == "plane");
 }
 
-// The brightest radiance a render of the scene can produce, with the model's formulas and unit
-// normals (max(0, n.l) <= 1, max(0, n.h)^shininess <= 1), and the material that reaches it. A
-// miss gives background (camera rays) or environment; a hit on material m at most
-//   max(1, colour) * (ka * sum(ambient) + (kd + ks) * sum(intensity) * T)
-//     + (reflect + transmit) * (next level),
-// where the max(1, .) also bounds the shading sum before it is multiplied by the colour, the
-// sums take each light's brightest channel, and T bounds the shadow rays' transmittance: the
-// product over objects of max(1, transmit).
-struct RadianceBound {
-  double value = 0;
-  int material = -1;  // -1: the background or environment
-};
-RadianceBound radiance_bound(const Scene& s) {
-  auto max3 = [](const Rgb& c) { return std::max({c.r, c.g, c.b}); };
-  double sum_intensity = 0, sum_ambient = 0;
-  for (const Light& l : s.lights)
-    sum_intensity += max3(l.intensity), sum_ambient += max3(l.ambient);
-  std::vector<bool> used(s.materials.size(), false);
-  for (const Sphere& sp : s.spheres) used[sp.material] = true;
-  for (const Plane& p : s.planes) used[p.material] = true;
-  double transmittance = 1;
-  for (const Sphere& sp : s.spheres)
-    transmittance *= std::max(1.0, s.materials[sp.material].transmit);
-  for (const Plane& p : s.planes) transmittance *= std::max(1.0, s.materials[p.material].transmit);
-  RadianceBound next;  // the level below (none below max_depth)
-  for (int depth = s.max_depth; depth >= 0; --depth) {
-    RadianceBound level{max3(depth == 0 ? s.background : s.environment), -1};
-    for (std::size_t m = 0; m < s.materials.size(); ++m) {
-      if (!used[m]) continue;
-      const Material& mat = s.materials[m];
-      double v = std::max(1.0, max3(mat.color)) *
-                 (mat.ka * sum_ambient + (mat.kd + mat.ks) * sum_intensity * transmittance);
-      // Only a material that passes rays on carries the level below: 0 x an infinite bound is
-      // NaN, which would win the comparison and blame a material that reflects nothing.
-      if (depth < s.max_depth && mat.reflect + mat.transmit > 0)
-        v += (mat.reflect + mat.transmit) * next.value;
-      if (!(v <= level.value)) level = {v, static_cast<int>(m)};
-    }
-    next = level;
-  }
-  return next;
-}
-
-// The ray tree is bounded: a material that both reflects and transmits splits each ray it meets
-// in two, 2^max_depth rays at worst from one camera ray, so beyond kMaxSplitDepth it is refused
-// (README, "Scenes"). Without such a material the tree is a chain of at most max_depth rays.
-void check_ray_tree(const Scene& s, const std::vector<std::string>& material_where) {
-  if (s.max_depth <= kMaxSplitDepth) return;
-  std::vector<bool> used(s.materials.size(), false);
-  for (const Sphere& sp : s.spheres) used[sp.material] = true;
-  for (const Plane& p : s.planes) used[p.material] = true;
-  for (std::size_t m = 0; m < s.materials.size(); ++m)
-    if (used[m] && s.materials[m].reflect > 0 && s.materials[m].transmit > 0)
-      fail(material_where[m],
-           "reflects and transmits, so the ray tree doubles per bounce: "
-           "max_depth must be at most " +
-               std::to_string(kMaxSplitDepth) + " with it, not " + std::to_string(s.max_depth));
-}
-
-void check_radiance(const Scene& s, const std::vector<std::string>& material_where) {
-  const RadianceBound b = radiance_bound(s);
-  if (b.value <= kMaxRadiance) return;
-  char what[160];
-  std::snprintf(what, sizeof what,
-                "with these lights%s, radiance could reach %s%g; at most %g renders in single "
-                "precision",
-                s.max_depth > 0 ? " and reflections" : "", std::isinf(b.value) ? "beyond " : "",
-                std::isinf(b.value) ? std::numeric_limits<double>::max() : b.value, kMaxRadiance);
-  fail(b.material >= 0 ? material_where[b.material] : std::string("background"), what);
-}
-
 // The first error of one part of the file. Errors are kept, not thrown, while the file is read,
 // so that a syntax error anywhere still wins and the parts are reported in the order the loader
 // always checked them (camera first, objects last), whatever order the file has.
@@ -677,15 +531,9 @@ class SceneSax {
     s_.camera = read_camera(top.get("camera"));
     s_.background = top.rgb_or("background", Rgb{});
     s_.environment = top.rgb_or("environment", s_.background);
-    s_.max_depth = top.integer_or("max_depth", 0);
-    if (s_.max_depth < 0) fail("max_depth", "must be >= 0");
-    if (s_.max_depth > kMaxDepth) fail("max_depth", "must be at most " + std::to_string(kMaxDepth));
-    s_.epsilon = top.number_or("epsilon", 1e-4);
-    if (s_.epsilon < 0) fail("epsilon", "must be >= 0");
-    s_.supersample = top.integer_or("supersample", 1);
-    if (s_.supersample < 1) fail("supersample", "must be >= 1");
-    if (s_.supersample > kMaxSupersample)
-      fail("supersample", "must be at most " + std::to_string(kMaxSupersample));
+    s_.max_depth = rules::max_depth(top.integer_or("max_depth", 0));
+    s_.epsilon = rules::epsilon(top.number_or("epsilon", 1e-4));
+    s_.supersample = rules::supersample(top.integer_or("supersample", 1));
     for (const FirstError* e : {&materials_error_, &lights_error_})
       if (e->set()) throw InputError(e->message);
     if (!top_keys_.count("objects")) fail("objects", "missing required field");
@@ -697,8 +545,8 @@ class SceneSax {
     if (unknown_.set()) throw InputError(unknown_.message);
     std::vector<std::string> material_where;
     materials_.finish(s_, material_where);
-    check_ray_tree(s_, material_where);
-    check_radiance(s_, material_where);
+    rules::ray_tree(s_, material_where);
+    rules::radiance(s_, material_where);
   }
 
  private:
@@ -775,16 +623,14 @@ class SceneSax {
         break;
       case Place::objects:
         index_ = objects_++;
-        if (objects_ > kMaxObjects)
-          structure("objects: more than " + std::to_string(kMaxObjects) + " objects");
+        if (objects_ > kMaxObjects) structure(message_of([&] { rules::object_count(objects_); }));
         kept_ = !skipping_all() && !objects_error_.set() && !lights_error_.set() &&
                 !materials_error_.set();
         if (kept_) value_.begin([i = index_] { return index_path("objects", i); }, true);
         break;
       case Place::lights:
         index_ = lights_++;
-        if (lights_ > kMaxLights)
-          structure("lights: more than " + std::to_string(kMaxLights) + " lights");
+        if (lights_ > kMaxLights) structure(message_of([&] { rules::light_count(lights_); }));
         kept_ = !skipping_all() && !lights_error_.set() && !materials_error_.set();
         if (kept_) value_.begin([i = index_] { return index_path("lights", i); }, true);
         break;
@@ -907,10 +753,7 @@ Scene parse_scene(const std::string& text, const std::string& name, std::vector<
                    " bytes, " + std::to_string(s.spheres.size() + s.planes.size()) +
                    " objects read)");
   }
-  const auto& c = s.camera;
-  if (static_cast<long long>(c.nx) * c.ny * s.supersample * s.supersample > kMaxSamples)
-    fail(name + ": camera.resolution",
-         "resolution x supersample^2 exceeds " + std::to_string(kMaxSamples) + " samples");
+  if (const std::string e = message_of([&] { rules::sample_count(s); }); !e.empty()) fail(name, e);
   return s;
 }
 

@@ -73,6 +73,7 @@ int main(int argc, char** argv) {
               r.org_x[k] = org[0], r.org_y[k] = org[1], r.org_z[k] = org[2];
               r.dir_x[k] = dir[0], r.dir_y[k] = dir[1], r.dir_z[k] = dir[2];
               r.tfar[k] = std::numeric_limits<float>::infinity();
+              r.tnear[k] = 0, r.mask[k] = lancer::api::kAllObjects;
             }
             scene.intersect(valid, r, h);
             scene.occluded(valid, r, occluded);

@@ -11,9 +11,11 @@
 #include <stdexcept>
 #include <string>
 
+#include "lancer/export.hpp"
+
 namespace lancer {
 
-struct InputError : std::runtime_error {
+struct LANCER_API InputError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 

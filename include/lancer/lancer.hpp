@@ -5,7 +5,7 @@
 //
 //   #include <lancer/lancer.hpp>
 //   lancer::api::Scene scene = lancer::api::Scene::load("scene.json");
-//   lancer::api::Ray16 rays = ...;        // world-space origins, unit directions, tfar
+//   lancer::api::Ray16 rays = ...;  // world-space origins, unit directions, tnear, tfar, mask
 //   lancer::api::Hit16 hits;
 //   scene.intersect(nullptr, rays, hits);  // hits.id[k]: object id, -1 for a miss
 #pragma once
@@ -34,41 +34,62 @@ struct Options {
   // The widest kernel the scene may use, in lanes: 0 = the widest this CPU and OS run; 1 = the
   // scalar reference; else 4, 8, 16 (float) or 2, 4, 8 (double).
   int width = 0;
-  // Threads of render_rows and primary_hits (0 = all cores). Ray queries run in the calling
-  // thread: call them from as many threads as you like (a Scene is immutable once made).
+  // Threads of render_rows and primary_hits: 0 = all cores, at most 4096 (as `lancer render
+  // --threads`); more than the cores runs on the cores (Info::threads says what runs). Ray
+  // queries run in the calling thread: call them from as many threads as you like (a Scene is
+  // immutable once made).
   int threads = 0;
 };
 
 // What a scene chose, as resolved: never "auto".
 struct Info {
   Precision precision = Precision::exact;
-  std::string precision_reason;  // why, when Options::precision was automatic
-  int width = 1;                 // widest kernel, in lanes of `precision`
-  std::string isa;               // "avx512f", "avx2", "sse4.2", "scalar", ...
-  int threads = 1;
+  std::string precision_reason;         // why, when Options::precision was automatic
+  int width = 1;                        // widest kernel, in lanes of `precision`
+  std::string isa;                      // "avx512f", "avx2", "sse4.2", "scalar", ...
+  int threads = 1;                      // what render_rows and primary_hits run on
   int nx = 0, ny = 0, supersample = 1;  // the camera's image
   int objects = 0;                      // ids 0 .. objects-1: spheres, then planes, in order
 };
 
-// N rays, structure-of-arrays. World-space origins, UNIT directions (within 1e-5 in |d|^2;
-// t is the distance along them), and tfar: a hit counts when epsilon < t < tfar, epsilon being
-// the scene's (there is no per-ray tnear). tfar may be infinity.
+// Every object's mask: a ray's mask selects the objects it may hit, as Embree's geometry masks
+// (objects have none of their own yet, so a mask with any bit set sees every object).
+inline constexpr unsigned kAllObjects = ~0u;
+
+// N rays, structure-of-arrays, laid out as Embree's RTCRayN (64-byte aligned). World-space
+// origins, UNIT directions (|d|^2 within 1e-5 of 1, else InputError: t is the distance along
+// them), and per lane:
+//   tnear, tfar: a hit counts when max(tnear, epsilon) < t < tfar, epsilon being the scene's
+//     (rounded to its precision). tnear = 0 (or anything up to epsilon) is every ray lancer
+//     traces itself; tfar may be infinity; NaN in either is an InputError.
+//   mask: a lane hits (and is blocked by) the objects whose mask shares a bit with it; every
+//     object's is kAllObjects, so 0 hits nothing and anything else everything.
 template <int N>
-struct RayPacket {
+struct alignas(64) RayPacket {
   static_assert(N == 1 || N == 4 || N == 8 || N == 16, "packets of 1, 4, 8 or 16 rays");
   float org_x[N], org_y[N], org_z[N];
+  float tnear[N];
   float dir_x[N], dir_y[N], dir_z[N];
   float tfar[N];
+  unsigned mask[N];
 };
 
-// Closest hits of N rays. id: the object hit (Info::objects), -1 for a miss (then t is
-// infinity and ng zero). ng: the unit geometric normal at the hit, not turned towards the ray
-// (spheres: outward; planes: as described, normalised).
+// Closest hits of N rays, as Embree's RTCHitN plus the distance (64-byte aligned).
+//   id: the object hit (Info::objects, Embree's geomID), -1 for a miss (then t is infinity, ng,
+//     u and v zero, prim_id -1).
+//   prim_id: the primitive within the object (Embree's primID): 0 for a sphere or a plane, each
+//     one primitive.
+//   u, v: the hit's coordinates on the primitive (barycentric on a triangle): 0 on spheres and
+//     planes, which have none.
+//   ng: the unit geometric normal at the hit, not turned towards the ray (spheres: outward;
+//     planes: as described, normalised).
 template <int N>
-struct HitPacket {
+struct alignas(64) HitPacket {
   float t[N];
-  int id[N];
   float ng_x[N], ng_y[N], ng_z[N];
+  float u[N], v[N];
+  int prim_id[N];
+  int id[N];
 };
 
 using Ray1 = RayPacket<1>;
@@ -97,15 +118,19 @@ struct PrimaryHits {
 
 // A scene prepared once for a precision and width: structures built at construction and shared
 // by every query and render. Movable, not copyable; const methods are safe to call concurrently.
-class Scene {
+class LANCER_API Scene {
  public:
   // InputError for a bad file (one line naming the place: "s.json: objects[2].radius: must be
-  // > 0"), a description breaking the scene rules, or options this machine cannot run.
+  // > 0"), a description breaking the scene rules, or options out of range (a Precision or
+  // CameraType that is none of its enumerators, threads above 4096) or that this machine cannot
+  // run. Options are checked before the file is read. Takes what `lancer render` takes to load
+  // and prepare the same file.
   static Scene load(const std::string& path, const Options& options = {});
-  // A description built in code is checked by the file loader's own rules and messages (it is
-  // written as a scene file and read back): objects are numbered spheres first, then planes,
-  // and materials are named m<index> (`materials.m02.kd: must be >= 0`).
-  static Scene from_description(const SceneDescription& description, const Options& options = {});
+  // A description built in code is held to the file loader's own rules, with its messages,
+  // before it is prepared (no scene file is written or read): objects are numbered spheres
+  // first, then planes, as in Info::objects, and materials by index
+  // (`code: materials[2].kd: must be >= 0`, `code: objects[5].radius: must be > 0`).
+  static Scene from_description(SceneDescription description, const Options& options = {});
 
   Scene(Scene&&) noexcept;
   Scene& operator=(Scene&&) noexcept;
@@ -121,12 +146,15 @@ class Scene {
   // see docs/api.md for what float origins imply far from the world's origin. The kernel is the
   // widest this machine runs up to min(N, Info::width) lanes (N = 1: the reference), applied to
   // as many chunks as it takes: in exact and double precision every N gives the same bits.
-  // InputError for a non-finite origin, a direction that is not unit or a NaN tfar in an
-  // active lane; every lane is checked first, so that then nothing has been written.
+  // Lanes whose tnear exceeds epsilon are traced one at a time by the reference's walk (the
+  // packet kernels start every ray at epsilon), with the same bits as any other width.
+  // InputError for a non-finite origin, a direction that is not unit or a NaN tnear or tfar in
+  // an active lane; every lane is checked first, so that then nothing has been written.
   template <int N>
   void intersect(const int* valid, const RayPacket<N>& rays, HitPacket<N>& hits) const;
-  // Whether anything lies on each active lane's ray with epsilon < t < tfar: occluded[k] is
-  // 1 or 0; inactive lanes are left as they were. Same frame, kernels and errors as intersect.
+  // Whether anything lies on each active lane's ray with max(tnear, epsilon) < t < tfar:
+  // occluded[k] is 1 or 0; inactive lanes are left as they were. Same frame, kernels and
+  // errors as intersect.
   template <int N>
   void occluded(const int* valid, const RayPacket<N>& rays, int* occluded) const;
 
@@ -149,6 +177,7 @@ class Scene {
  private:
   struct Impl;
   explicit Scene(std::unique_ptr<Impl> impl);
+  static Scene make(SceneDescription description, const Options& options);
   std::unique_ptr<Impl> impl_;
 };
 
@@ -162,6 +191,6 @@ extern template void Scene::occluded<8>(const int*, const Ray8&, int*) const;
 extern template void Scene::occluded<16>(const int*, const Ray16&, int*) const;
 
 // The library's version, "major.minor.patch".
-const char* version();
+LANCER_API const char* version();
 
 }  // namespace lancer::api

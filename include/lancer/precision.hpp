@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "lancer/export.hpp"
+
 namespace lancer {
 
 // exact: IEEE float, bit-identical at every width. dbl: IEEE double (the gold standard).
@@ -9,8 +11,8 @@ namespace lancer {
 // automatic: exact where the scene lies inside float's measured envelope, double elsewhere.
 enum class Precision { exact, dbl, fast, automatic };
 
-const char* to_string(Precision p);
+LANCER_API const char* to_string(Precision p);
 // Parses exact / double / fast / auto; throws InputError naming `option`.
-Precision parse_precision(const std::string& text, const std::string& option);
+LANCER_API Precision parse_precision(const std::string& text, const std::string& option);
 
 }  // namespace lancer

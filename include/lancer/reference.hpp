@@ -61,6 +61,11 @@ struct Hit {
 };
 template <class T>
 Hit<T> closest_hit(const PreparedScene<T>& scene, const Vec3<T>& origin, const Vec3<T>& dir);
+// The same with hits counted beyond tmin rather than the scene's epsilon: the nearest root of
+// each object above tmin (the library API's per-ray tnear, with tmin = max(tnear, epsilon)).
+template <class T>
+Hit<T> closest_hit(const PreparedScene<T>& scene, const Vec3<T>& origin, const Vec3<T>& dir,
+                   T tmin);
 
 extern template void render_rows<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&);
 extern template void render_rows<double>(const PreparedScene<double>&, Image&, int, int,
@@ -77,5 +82,9 @@ extern template Hit<float> closest_hit<float>(const PreparedScene<float>&, const
                                               const Vec3<float>&);
 extern template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
                                                 const Vec3<double>&);
+extern template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
+                                              const Vec3<float>&, float);
+extern template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
+                                                const Vec3<double>&, double);
 
 }  // namespace lancer::reference

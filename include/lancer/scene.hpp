@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "lancer/export.hpp"
 #include "lancer/vec3.hpp"
 
 namespace lancer {
@@ -87,13 +88,14 @@ inline constexpr int kMaxSplitDepth = 12;
 // or `scene.json:14: syntax error ...`.
 // The file is parsed as a stream: each object, light and material is converted as soon as it
 // is read, and nothing proportional to the document's size but the scene itself is kept.
-Scene parse_scene(const std::string& text, const std::string& name);
-Scene load_scene(const std::string& path);
+LANCER_API Scene parse_scene(const std::string& text, const std::string& name);
+LANCER_API Scene load_scene(const std::string& path);
 // Also records, for each entry of the file's "objects" in order, whether it is a plane (lancer
 // flux names objects by their place in the file).
-Scene parse_scene(const std::string& text, const std::string& name, std::vector<bool>* is_plane);
+LANCER_API Scene parse_scene(const std::string& text, const std::string& name,
+                             std::vector<bool>* is_plane);
 // The one reader of scene files for every command: refuses folders and files over 1 GiB (also
 // when the size is not known beforehand: /dev/zero, pipes).
-std::string read_scene_file(const std::string& path);
+LANCER_API std::string read_scene_file(const std::string& path);
 
 }  // namespace lancer

@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 
+#include "api/api_util.hpp"
 #include "lancer/lancer.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
@@ -20,6 +21,8 @@ namespace lancer {
 namespace {
 
 using api::Options;
+using testing::error_of;
+using testing::with;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
@@ -60,8 +63,10 @@ Results trace(const api::Scene& scene, const Rays& rays) {
       r.dir_x[k] = rays.dir[3 * i], r.dir_y[k] = rays.dir[3 * i + 1];
       r.dir_z[k] = rays.dir[3 * i + 2];
       r.tfar[k] = rays.tfar[i];
+      r.tnear[k] = 0, r.mask[k] = api::kAllObjects;
       valid[k] = base + k < n ? rays.valid[i] : 0;
-      h.t[k] = 1234.5f, h.id[k] = 77, h.ng_x[k] = h.ng_y[k] = h.ng_z[k] = 9;
+      h.t[k] = 1234.5f, h.id[k] = h.prim_id[k] = 77, h.ng_x[k] = h.ng_y[k] = h.ng_z[k] = 9;
+      h.u[k] = h.v[k] = 9;
       occ[k] = 55;
     }
     scene.intersect(valid, r, h);
@@ -69,7 +74,8 @@ Results trace(const api::Scene& scene, const Rays& rays) {
     for (int k = 0; k < N && base + k < n; ++k) {
       const std::size_t i = base + k;
       if (!valid[k]) {
-        EXPECT_TRUE(h.t[k] == 1234.5f && h.id[k] == 77 && h.ng_x[k] == 9 && occ[k] == 55)
+        EXPECT_TRUE(h.t[k] == 1234.5f && h.id[k] == 77 && h.ng_x[k] == 9 && occ[k] == 55 &&
+                    h.prim_id[k] == 77 && h.u[k] == 9 && h.v[k] == 9)
             << "inactive lane " << k << " was written";
         out.id[i] = -2;  // inactive
         continue;
@@ -114,14 +120,6 @@ Rays random_rays(const api::Scene& scene, unsigned seed, std::size_t count, doub
     rays.add(o, d, (rng() & 1) ? kInf : float(t(rng)), (rng() & 3) ? -1 : 0);
   }
   return rays;
-}
-
-Options with(Precision p, int width = 0) {
-  Options o;
-  o.precision = p;
-  o.width = width;
-  o.threads = 1;
-  return o;
 }
 
 // Every packet width the API takes gives the same bits: distances, ids, normals, occlusion.
@@ -379,15 +377,6 @@ TEST(Api, ReportsWhatItChose) {
   EXPECT_STRNE(api::version(), "");
 }
 
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
 TEST(Api, BadInputIsAnInputErrorNamingThePlace) {
   const std::string good = testing::source_path("scenes/lorenzi-shadows.json");
   EXPECT_EQ(error_of([] { api::Scene::load("/nonexistent/s.json"); }),
@@ -399,7 +388,7 @@ TEST(Api, BadInputIsAnInputErrorNamingThePlace) {
   Options bad_threads;
   bad_threads.threads = -1;
   EXPECT_EQ(error_of([&] { api::Scene::load(good, bad_threads); }),
-            "threads: must be >= 0 (0 = all cores)");
+            "threads: must be from 0 (all cores) to 4096, not -1 (docs/limits.md)");
 
   Scene d = load_scene(good);
   d.name = "code.json";
