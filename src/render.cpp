@@ -67,6 +67,27 @@ int resolve_width(int requested, Precision precision, const std::string& option)
                    isa + ", which this CPU or OS does not run");
 }
 
+namespace {
+
+// Triangles, meshes and cylinders: the reference models them, the packets do not yet, so such a
+// scene runs at width 1 (auto) and a packet width asked for is refused rather than rendered
+// without them.
+int width_for(int requested, Precision precision, bool shapes) {
+  if (!shapes) return resolve_width(requested, precision);
+  if (precision == Precision::fast)
+    throw InputError(
+        "--precision: fast runs on packets only, and the packets do not model triangles, meshes "
+        "or cylinders yet: use exact or double");
+  if (requested != 0 && requested != 1)
+    throw InputError(
+        "--width: scenes with triangles, meshes or cylinders run on the reference "
+        "only (width 1) until the packets model them, not width " +
+        std::to_string(requested));
+  return 1;
+}
+
+}  // namespace
+
 // The float envelope, measured by the stability tests (tests/test_extremes.cpp, docs/precision.md):
 // in camera-relative coordinates, float renders within a fraction of a percent of double while
 // the smallest sphere is at least 5e-6 of the scene's extent seen from the camera (4e-5 with
@@ -244,7 +265,9 @@ std::string secondary_walk(const StructureInfo& st, int width) {
 }
 
 struct PreparedRun::State {
-  RenderOptions opt;  // accel, model_everything and on_progress of every run
+  RenderOptions opt;
+  bool shapes = false;  // triangles, meshes or cylinders: the reference only  // accel,
+                        // model_everything and on_progress of every run
   Precision precision = Precision::exact;
   std::string reason;
   int nx = 0, ny = 0;
@@ -267,7 +290,8 @@ PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
     st.reason = c.reason;
   }
   // Bad options fail before the work of preparing.
-  resolve_width(opt.width, st.precision);
+  st.shapes = !scene.shapes.empty();
+  width_for(opt.width, st.precision, st.shapes);
   resolve_threads(opt.threads);
   st.nx = scene.camera.nx, st.ny = scene.camera.ny;
   if (st.precision == Precision::dbl)
@@ -283,7 +307,7 @@ PreparedRun::~PreparedRun() = default;
 template <class Result, class Body>
 void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   const State& st = *state_;
-  res.width = resolve_width(width, st.precision);
+  res.width = width_for(width, st.precision, st.shapes);
   res.threads = resolve_threads(threads);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
@@ -314,6 +338,10 @@ RenderResult PreparedRun::render(int width, int threads) const {
           rows.render(prepared, res.image, r0, r1, c);
         });
   res.isa = packet::isa_name(res.width, res.precision);
+  if (st.shapes)
+    res.width_reason =
+        "triangles, meshes and cylinders: the reference only until the packets "
+        "model them";
   return res;
 }
 
@@ -357,6 +385,8 @@ PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
     : state_(std::make_unique<State>()) {
   if (opt.precision != Precision::exact && opt.precision != Precision::fast)
     throw InputError("--precision: the kernel alone runs float packets: exact or fast");
+  if (!scene.shapes.empty())
+    throw InputError("--mode kernel: the packets do not model triangles, meshes or cylinders yet");
   const int width = resolve_width(opt.width, opt.precision);
   if (width == 1) throw InputError("--width: the kernel alone runs packets: 4, 8 or 16, not 1");
   State& st = *state_;

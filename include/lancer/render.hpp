@@ -63,6 +63,7 @@ struct RenderResult {
   int width = 1;
   int threads = 1;
   std::string isa;
+  std::string width_reason;                // why the width is what it is, when not as asked
   Precision precision = Precision::exact;  // as resolved: never automatic
   std::string precision_reason;            // why, when automatic chose it
   StructureInfo structure;

@@ -1,5 +1,6 @@
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "commands.hpp"
@@ -15,6 +16,7 @@ struct GenerateArgs {
   generate::Options o;
   std::string output, resolution;
   bool no_plane = false;
+  long long mesh_triangles = 0;
 };
 
 void run_generate(GenerateArgs a) {
@@ -28,13 +30,29 @@ void run_generate(GenerateArgs a) {
   a.o.plane = !a.no_plane;
   plot::check_text_path(a.output, "-o");
   const auto t0 = std::chrono::steady_clock::now();
+  std::string mesh;
+  long long triangles = 0;
+  std::string mesh_path;
+  if (a.mesh_triangles != 0) {
+    // The mesh beside the scene, named after it: scene.json -> scene.ply.
+    mesh = generate::sphere_ply(a.mesh_triangles, &triangles);
+    const std::filesystem::path out(a.output);
+    mesh_path = std::filesystem::path(out).replace_extension(".ply").string();
+    a.o.mesh_file = std::filesystem::path(mesh_path).filename().string();
+    plot::check_text_path(mesh_path, "-o");
+  }
   const std::string text = generate::scene_json(a.o);
+  if (!mesh.empty()) plot::write_text_file(mesh, mesh_path);
   parse_scene(text, a.output);  // never write a scene lancer cannot load
   plot::write_text_file(text, a.output);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("lancer generate: %s (%lld spheres%s, seed %llu, %zu bytes, %.2f s)\n",
               a.output.c_str(), a.o.spheres, a.o.plane ? " and a ground plane" : "",
               (unsigned long long)a.o.seed, text.size(), s);
+  if (a.o.cylinders > 0) std::printf("  and %lld cylinders\n", a.o.cylinders);
+  if (!mesh.empty())
+    std::printf("  mesh %s: %lld triangles, %zu bytes\n", mesh_path.c_str(), triangles,
+                mesh.size());
 }
 }  // namespace
 
@@ -57,6 +75,10 @@ void add_generate(CLI::App& app) {
                   "--transmit");
   cmd->add_option("--ior", args->o.ior, "Index of refraction of every sphere");
   cmd->add_flag("--no-plane", args->no_plane, "No ground plane");
+  cmd->add_option("--mesh-triangles", args->mesh_triangles,
+                  "Also a tessellated sphere of at least N triangles, written beside the scene as "
+                  "binary PLY (scene.json -> scene.ply)");
+  cmd->add_option("--cylinders", args->o.cylinders, "Also N cylinders in the box");
   cmd->add_option("--resolution", args->resolution, "Camera resolution NXxNY (default 600x400)");
   cmd->add_option("-o,--output", args->output, "Scene file to write (.json)")->required();
   cmd->callback([args] { run_generate(*args); });

@@ -46,6 +46,19 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
           : "";
   std::printf("  engine   width %d (%s), %s precision, %d thread%s%s\n", r.width, r.isa.c_str(),
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
+  if (!r.width_reason.empty()) std::printf("  width    1: %s\n", r.width_reason.c_str());
+  if (!scene.shapes.empty()) {
+    std::size_t meshes = 0, cylinders = 0, dropped = 0;
+    for (const Shape& sh : scene.shapes) {
+      (sh.kind == Shape::Kind::cylinder ? cylinders : meshes) += 1;
+      dropped += sh.mesh.dropped;
+    }
+    std::printf(
+        "  shapes   %zu triangle%s in %zu mesh%s, %zu cylinder%s; %zu zero-area triangle%s "
+        "dropped\n",
+        scene.triangles(), scene.triangles() == 1 ? "" : "s", meshes, meshes == 1 ? "" : "es",
+        cylinders, cylinders == 1 ? "" : "s", dropped, dropped == 1 ? "" : "s");
+  }
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
   const StructureInfo& st = r.structure;
