@@ -9,6 +9,7 @@
 #include <random>
 #include <tuple>
 
+#include "lancer/compare.hpp"
 #include "lancer/error.hpp"
 #include "lancer/mesh_io.hpp"
 #include "lancer/prepared.hpp"
@@ -196,6 +197,49 @@ TEST(Prims, CliRunsShapesOnTheReferenceOnly) {
                            out);
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+// The reference against the independent oracle (tests/oracle: Moller-Trumbore, the textbook
+// cylinder quadratic, double throughout) on a scene of triangle and cylinder objects with
+// shadows, a mirror and glass: as the shipped scenes are held to it (test_oracle.cpp).
+TEST(Prims, ReferenceAgreesWithTheOracle) {
+  TempDir dir;
+  const std::string path = dir.file("o.json");
+  write(path,
+        R"({"camera": {"type": "pinhole", "position": [0, 1.5, 6], "direction": [0, -0.25, -1],
+    "distance": 4, "resolution": [160, 120], "bounds": [-2.4, 2.4, -1.8, 1.8]},
+    "background": [0.3, 0.4, 0.6], "environment": 0.1, "max_depth": 3,
+    "lights": [{"position": [-4, 8, 6], "intensity": 0.8, "ambient": 0.2},
+               {"position": [5, 4, 3], "intensity": [0.3, 0.25, 0.2]}],
+    "objects": [
+      {"type": "triangle", "vertices": [[-4, -1, -4], [4, -1, -4], [4, -1, 4]],
+       "material": {"color": 0.8, "ka": 0.1}},
+      {"type": "triangle", "vertices": [[-4, -1, -4], [4, -1, 4], [-4, -1, 4]],
+       "material": {"color": 0.8, "ka": 0.1}},
+      {"type": "triangle", "vertices": [[-2, -1, -2], [0, 1.5, -2.5], [2, -1, -2]],
+       "material": {"color": 0.9, "kd": 0.2, "ks": 0.5, "reflect": 0.6}},
+      {"type": "cylinder", "base": [-1.3, -1, 0], "top": [-1.3, 0.6, 0.2], "radius": 0.45,
+       "material": {"color": [0.8, 0.3, 0.2], "ka": 0.1, "ks": 0.5, "shininess": 30}},
+      {"type": "cylinder", "base": [1.4, -0.4, 0.5], "top": [0.4, -0.4, 1.2], "radius": 0.35,
+       "caps": false, "material": {"color": [0.3, 0.7, 0.4], "ka": 0.15}},
+      {"type": "cylinder", "base": [0.2, -0.95, 1.8], "top": [0.2, -0.1, 1.8], "radius": 0.4,
+       "material": {"color": 1, "kd": 0.05, "ks": 0.8, "transmit": 0.8, "reflect": 0.1,
+                    "ior": 1.5}},
+      {"type": "sphere", "center": [1.6, 0, -1], "radius": 0.6,
+       "material": {"color": [0.3, 0.4, 0.9], "ka": 0.1, "ks": 0.4}}
+    ]})");
+  const std::string truth_path = dir.file("oracle.pfm");
+  const auto r = testing::run_command(std::string(LANCER_ORACLE) + " " + path + " " + truth_path);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const Image truth = read_image(truth_path);
+  const Scene s = load_scene(path);
+  const double tol = 2.0 / 255.0;
+  const ErrorStats dbl = error_stats(testing::render_with(s, 1, Precision::dbl, 2), truth, tol);
+  const ErrorStats exact = error_stats(testing::render_with(s, 1, Precision::exact, 2), truth, tol);
+  std::printf("pixels off by > 2/255: double %.4f%%, exact %.4f%%\n", 100 * dbl.off_fraction,
+              100 * exact.off_fraction);
+  EXPECT_LE(dbl.off_fraction, 0.001) << "double: " << dbl.off_pixels << " pixels off";
+  EXPECT_LE(exact.off_fraction, 0.005) << "exact: " << exact.off_pixels << " pixels off";
 }
 
 // lancer generate --mesh-triangles writes the mesh beside the scene, and the scene loads it.
