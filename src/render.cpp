@@ -12,6 +12,7 @@
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
+#include "lancer/shapes.hpp"
 #include "lancer/tiles.hpp"
 
 namespace lancer {
@@ -234,6 +235,12 @@ double timed(Fn fn) {
 template <class T>
 StructureInfo structure_of(const PreparedScene<T>& p) {
   StructureInfo info;
+  if (p.shapes) {
+    info.shape_primitives = p.shapes->prim.size();
+    info.shape_nodes = p.shapes->nodes.size();
+    info.shape_bytes = p.shapes->bytes();
+    info.shape_build_seconds = p.shapes->build_seconds;
+  }
   if (!p.bvh.active()) return info;
   info.kind = "bvh";
   info.spheres = p.num_spheres;

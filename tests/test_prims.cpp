@@ -192,11 +192,19 @@ TEST(Prims, CliRunsShapesOnTheReferenceOnly) {
   EXPECT_NE(r.out.find("width 1 (scalar)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("the reference only until the packets model them"), std::string::npos);
   EXPECT_NE(r.out.find("12 triangles in 1 mesh"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("their hierarchy: 12 primitives"), std::string::npos) << r.out;
   std::filesystem::remove(out);
   r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " --width 8 -o " +
                            out);
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_FALSE(std::filesystem::exists(out));
+  // Nothing to validate or profile on packets: one line, status 2, before any other output.
+  for (const char* command : {" validate ", " profile "}) {
+    r = testing::run_command(testing::cli() + command + dir.file("s.json"));
+    EXPECT_EQ(r.status, 2) << command << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    EXPECT_NE(r.out.find("triangles, meshes"), std::string::npos) << r.out;
+  }
 }
 
 // The reference against the independent oracle (tests/oracle: Moller-Trumbore, the textbook

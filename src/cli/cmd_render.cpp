@@ -58,6 +58,12 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
         "dropped\n",
         scene.triangles(), scene.triangles() == 1 ? "" : "s", meshes, meshes == 1 ? "" : "es",
         cylinders, cylinders == 1 ? "" : "s", dropped, dropped == 1 ? "" : "s");
+    const StructureInfo& st = r.structure;
+    std::printf(
+        "           their hierarchy: %zu primitives, %zu nodes, built in %.1f ms, %zu bytes "
+        "(%.1f per primitive)\n",
+        st.shape_primitives, st.shape_nodes, st.shape_build_seconds * 1e3, st.shape_bytes,
+        st.shape_primitives ? double(st.shape_bytes) / double(st.shape_primitives) : 0.0);
   }
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
