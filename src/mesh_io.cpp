@@ -231,6 +231,7 @@ class PlyBody {
   }
   std::string where() const {
     if (ascii_) return shown_ + ":" + std::to_string(line_);
+    if (!element_) return shown_;
     return shown_ + ": " + *element_ + " " + std::to_string(index_);
   }
   // The bytes left, for a count's plausibility (binary: every element takes at least one byte).
@@ -370,6 +371,7 @@ std::vector<PlyElement> ply_header(const std::string& text, const std::string& s
 
 // One vertex or face element's values into the mesh.
 void ply_vertices(PlyBody& b, const PlyElement& e, MeshFile& m) {
+  b.set_place(e.name, 0);
   int slot[6] = {-1, -1, -1, -1, -1, -1};
   static const char* names[6] = {"x", "y", "z", "nx", "ny", "nz"};
   for (std::size_t k = 0; k < e.props.size(); ++k)
@@ -403,6 +405,7 @@ void ply_vertices(PlyBody& b, const PlyElement& e, MeshFile& m) {
 }
 
 void ply_faces(PlyBody& b, const PlyElement& e, MeshFile& m, std::size_t vertices) {
+  b.set_place(e.name, 0);
   int slot = -1;
   for (std::size_t k = 0; k < e.props.size(); ++k)
     if (e.props[k].list &&

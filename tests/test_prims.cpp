@@ -250,6 +250,64 @@ TEST(Prims, ReferenceAgreesWithTheOracle) {
   EXPECT_LE(exact.off_fraction, 0.005) << "exact: " << exact.off_pixels << " pixels off";
 }
 
+// Seeded mutations of valid OBJ, ascii PLY and binary PLY files (bytes flipped, inserted,
+// deleted, the file cut): each parse succeeds or throws InputError, never anything else.
+TEST(Prims, MutatedMeshFilesLoadOrFailCleanly) {
+  const std::string ascii_ply =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+      "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n4 0 1 2 3\n";
+  const std::string seeds[3] = {std::string(kCube) + "vn 0 0 1\nf 1//1 2//1 3//1\n", ascii_ply,
+                                binary_ply(5)};
+  std::mt19937_64 rng(37);
+  int loaded = 0, refused = 0;
+  for (int round = 0; round < 20000; ++round) {
+    const int which = round % 3;
+    std::string text = seeds[which];
+    const int edits = 1 + int(rng() % 4);
+    for (int e = 0; e < edits && !text.empty(); ++e) {
+      const std::size_t at = rng() % text.size();
+      switch (rng() % 4) {
+        case 0:
+          text[at] = char(rng());
+          break;
+        case 1:
+          text.insert(at, 1, "0123456789-+. \n/ef"[rng() % 19]);
+          break;
+        case 2:
+          text.erase(at, 1 + rng() % 8);
+          break;
+        default:
+          text.resize(at);
+      }
+    }
+    try {
+      MeshFile m = which == 0 ? parse_obj(text, "f.obj") : parse_ply(text, "f.ply");
+      Mesh out;
+      place_mesh(std::move(m), MeshTransform{}, round % 2 == 0, "f", out);
+      for (std::uint32_t i : out.indices) ASSERT_LT(i, out.vertices.size());
+      ++loaded;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+      ++refused;
+    }
+  }
+  EXPECT_GT(loaded, 400);
+  EXPECT_GT(refused, 10000);
+}
+
+// lancer generate --mesh-triangles needs a scene file to put the mesh beside.
+TEST(Prims, GenerateRefusesAMeshWithoutASceneFile) {
+  TempDir dir;
+  auto r = testing::run_command(testing::cli() + " generate --spheres 1 --mesh-triangles 10 -o -");
+  EXPECT_EQ(r.status, 2) << r.out;
+  r = testing::run_command(testing::cli() + " generate --spheres 1 --mesh-triangles 10 -o " +
+                           dir.file("none/g.json"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("none")));
+}
+
 // lancer generate --mesh-triangles writes the mesh beside the scene, and the scene loads it.
 TEST(Prims, GenerateWritesAMeshBesideTheScene) {
   TempDir dir;

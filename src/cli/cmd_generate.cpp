@@ -35,6 +35,7 @@ void run_generate(GenerateArgs a) {
   std::string mesh_path;
   if (a.mesh_triangles != 0) {
     // The mesh beside the scene, named after it: scene.json -> scene.ply.
+    if (a.output == "-") throw InputError("--mesh-triangles: needs a scene file (-o), not stdout");
     mesh = generate::sphere_ply(a.mesh_triangles, &triangles);
     const std::filesystem::path out(a.output);
     mesh_path = std::filesystem::path(out).replace_extension(".ply").string();
@@ -43,8 +44,16 @@ void run_generate(GenerateArgs a) {
   }
   const std::string text = generate::scene_json(a.o);
   if (!mesh.empty()) plot::write_text_file(mesh, mesh_path);
-  parse_scene(text, a.output);  // never write a scene lancer cannot load
-  plot::write_text_file(text, a.output);
+  try {
+    // Never write a scene lancer cannot load (it reads the mesh just written).
+    parse_scene(text, a.output);
+    plot::write_text_file(text, a.output);
+  } catch (...) {
+    // No mesh left behind without its scene.
+    std::error_code ec;
+    if (!mesh.empty()) std::filesystem::remove(mesh_path, ec);
+    throw;
+  }
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("lancer generate: %s (%lld spheres%s, seed %llu, %zu bytes, %.2f s)\n",
               a.output.c_str(), a.o.spheres, a.o.plane ? " and a ground plane" : "",
