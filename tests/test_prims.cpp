@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <tuple>
 
@@ -193,6 +194,15 @@ TEST(Prims, CliRunsShapesOnTheReferenceOnly) {
   EXPECT_NE(r.out.find("the reference only until the packets model them"), std::string::npos);
   EXPECT_NE(r.out.find("12 triangles in 1 mesh"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("their hierarchy: 12 primitives"), std::string::npos) << r.out;
+  std::filesystem::remove(out);
+  r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " --json -o " + out +
+                           " 2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["width"], 1);
+  EXPECT_EQ(j["shapes"]["triangles"], 12);
+  EXPECT_EQ(j["shapes"]["primitives"], 12);
+  EXPECT_TRUE(j.contains("width_reason"));
   std::filesystem::remove(out);
   r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " --width 8 -o " +
                            out);

@@ -120,6 +120,22 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                    {"write_seconds", write_seconds},
                    {"mrays_per_s", r.seconds > 0 ? r.rays.total() / r.seconds * 1e-6 : 0.0}};
   if (!r.precision_reason.empty()) j["precision_reason"] = r.precision_reason;
+  if (!r.width_reason.empty()) j["width_reason"] = r.width_reason;
+  if (!scene.shapes.empty()) {
+    std::size_t meshes = 0, cylinders = 0, dropped = 0;
+    for (const Shape& sh : scene.shapes) {
+      (sh.kind == Shape::Kind::cylinder ? cylinders : meshes) += 1;
+      dropped += sh.mesh.dropped;
+    }
+    j["shapes"] = {{"triangles", scene.triangles()},
+                   {"meshes", meshes},
+                   {"cylinders", cylinders},
+                   {"dropped_zero_area", dropped},
+                   {"primitives", st.shape_primitives},
+                   {"nodes", st.shape_nodes},
+                   {"bytes", st.shape_bytes},
+                   {"build_seconds", st.shape_build_seconds}};
+  }
   std::printf("%s\n", j.dump(2).c_str());
 }
 
