@@ -17,6 +17,7 @@ packages=(
   clang libclang-rt-14-dev  # libFuzzer and the sanitizer runtimes
   libopenmpi-dev openmpi-bin  # mpirun -np N lancer render (docs/mpi.md; optional at build time)
   qemu-user               # runs the binary as CPUs without AVX / AVX-512 (.ci/qemu.sh)
+  glmark2-data            # the Stanford bunny (scenes/prims/bunny.json, test Prims.WatertightStanfordBunny)
 )
 
 missing=()

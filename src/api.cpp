@@ -286,11 +286,20 @@ Scene Scene::make(SceneDescription description, const Options& options) {
     info.precision = c.precision;
     info.precision_reason = c.reason;
   }
-  info.width = resolve_width(options.width, info.precision, "width");
+  if (!s.shapes.empty()) {
+    // Triangles, meshes and cylinders: the reference only until the packets model them, as
+    // lancer render runs them (render.cpp).
+    if (info.precision == Precision::fast || (options.width != 0 && options.width != 1))
+      throw InputError("width: scenes with triangles, meshes or cylinders run on the reference "
+                       "only (width 1, exact or double precision) until the packets model them");
+    info.width = 1;
+  } else {
+    info.width = resolve_width(options.width, info.precision, "width");
+  }
   info.isa = packet::isa_name(info.width, info.precision);
   info.threads = resolve_threads(options.threads, "threads");
   info.nx = s.camera.nx, info.ny = s.camera.ny, info.supersample = s.supersample;
-  info.objects = static_cast<int>(s.spheres.size() + s.planes.size());
+  info.objects = static_cast<int>(s.num_objects());
   impl->dbl = info.precision == Precision::dbl;
   if (impl->dbl) {
     impl->d.scene = prepare<double>(s);

@@ -39,6 +39,11 @@ FluxScene parse_flux_scene(const std::string& text, const std::string& name) {
   FluxScene f;
   std::vector<bool> is_plane;
   f.scene = parse_scene(text, name, &is_plane);
+  // Flux diagrams section spheres and planes by a plane; other objects have no section there.
+  if (!f.scene.shapes.empty())
+    throw InputError(name +
+                     ": lancer flux draws scenes of spheres and planes only, not "
+                     "triangles, meshes or cylinders");
   f.names = names_from_order(is_plane);
   return f;
 }

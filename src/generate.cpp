@@ -1,9 +1,12 @@
 #include "lancer/generate.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <string>
+#include <unordered_map>
 
 #include "lancer/error.hpp"
+#include "lancer/mesh_io.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer::generate {
@@ -64,6 +67,8 @@ constexpr int kMaterials = 16;
 }  // namespace
 
 std::string scene_json(const Options& o) {
+  if (o.cylinders < 0 || o.cylinders > static_cast<long long>(kMaxObjects) / 2)
+    throw InputError("--cylinders: must be from 0 to " + std::to_string(kMaxObjects / 2));
   if (o.spheres < 0 || o.spheres > static_cast<long long>(kMaxObjects) - 1)
     throw InputError("--spheres: must be from 0 to " + std::to_string(kMaxObjects - 1));
   if (!(o.reflect >= 0 && o.reflect <= 1)) throw InputError("--reflect: must be from 0 to 1");
@@ -146,8 +151,84 @@ std::string scene_json(const Options& o) {
     put_micro(out, r);
     out += ",\"material\":\"m" + std::to_string(m) + "\"}";
   }
+  if (!o.mesh_file.empty()) {
+    out += first ? "    " : ",\n    ";
+    first = false;
+    out += "{\"type\": \"mesh\", \"file\": \"" + o.mesh_file +
+           "\", \"scale\": 1.5, \"translate\": [0, 2.5, -5], \"material\": \"m0\"}";
+  }
+  for (long long i = 0; i < o.cylinders; ++i) {
+    const Micro r = r_mean / 4 + static_cast<Micro>(rng.below(static_cast<std::uint64_t>(r_mean)));
+    const Micro x = -kHalfX + 2 * r + static_cast<Micro>(rng.below(2 * (kHalfX - 2 * r)));
+    const Micro z = kFar + 2 * r + static_cast<Micro>(rng.below(kNear - kFar - 4 * r));
+    const Micro h = 2 * r + static_cast<Micro>(rng.below(kHeight / 2));
+    const int m = static_cast<int>(rng.below(kMaterials));
+    out += first ? "    " : ",\n    ";
+    first = false;
+    out += "{\"type\":\"cylinder\",\"base\":[";
+    put_micro(out, x), out += ",0,", put_micro(out, z);
+    out += "],\"top\":[";
+    put_micro(out, x + r), out += ',', put_micro(out, h), out += ',', put_micro(out, z);
+    out += "],\"radius\":";
+    put_micro(out, r);
+    out += ",\"material\":\"m" + std::to_string(m) + "\"}";
+  }
   out += "\n  ]\n}\n";
   return out;
+}
+
+std::string sphere_ply(long long triangles, long long* written) {
+  if (triangles < 1 || triangles > static_cast<long long>(kMaxTriangles))
+    throw InputError("--mesh-triangles: must be from 1 to " + std::to_string(kMaxTriangles));
+  long long n = 1;
+  while (12 * n * n < triangles) ++n;
+  // Vertices: the cube [-n, n]^3's surface points of even coordinates... on the grid of step 2,
+  // numbered as first met.
+  std::unordered_map<std::uint64_t, std::uint32_t> ids;
+  ids.reserve(static_cast<std::size_t>(6 * (n + 1) * (n + 1)));
+  std::string verts, faces;
+  std::uint32_t count = 0;
+  auto vertex = [&](long long a, long long b, long long c) {
+    const std::uint64_t key =
+        (std::uint64_t(a + n) * std::uint64_t(2 * n + 1) + std::uint64_t(b + n)) *
+            std::uint64_t(2 * n + 1) +
+        std::uint64_t(c + n);
+    auto [it, added] = ids.emplace(key, count);
+    if (added) {
+      const double len = std::sqrt(double(a * a + b * b + c * c));
+      const float p[3] = {float(a / len), float(b / len), float(c / len)};
+      verts.append(reinterpret_cast<const char*>(p), sizeof p);
+      ++count;
+    }
+    return it->second;
+  };
+  long long tris = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = -1; side <= 1; side += 2)
+      for (long long i = 0; i < n; ++i)
+        for (long long j = 0; j < n; ++j) {
+          auto corner = [&](long long di, long long dj) {
+            long long q[3];
+            q[axis] = side * n, q[(axis + 1) % 3] = 2 * (i + di) - n,
+            q[(axis + 2) % 3] = 2 * (j + dj) - n;
+            return vertex(q[0], q[1], q[2]);
+          };
+          const std::uint32_t c[4] = {corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)};
+          const std::uint32_t f[2][3] = {{c[0], c[1], c[2]}, {c[0], c[2], c[3]}};
+          for (const auto& t : f) {
+            faces.push_back(char(3));
+            std::uint32_t v[3] = {t[0], side > 0 ? t[1] : t[2], side > 0 ? t[2] : t[1]};
+            faces.append(reinterpret_cast<const char*>(v), sizeof v);
+            ++tris;
+          }
+        }
+  if (written) *written = tris;
+  return "ply\nformat binary_little_endian 1.0\ncomment lancer generate: unit sphere\n"
+         "element vertex " +
+         std::to_string(count) +
+         "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+         std::to_string(tris) + "\nproperty list uchar int vertex_indices\nend_header\n" + verts +
+         faces;
 }
 
 }  // namespace lancer::generate

@@ -665,6 +665,11 @@ struct EmbreeScene::Impl {
 EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config,
                          const EmbreeConfig& how)
     : impl_(std::make_unique<Impl>()) {
+  // The peer is given spheres and planes; a scene with more would be measured without them.
+  if (!scene.shapes.empty())
+    throw InputError(
+        "the Embree peer takes spheres and planes only, not triangles, meshes or "
+        "cylinders");
   impl_->mode = planes;
   impl_->config = how;
   impl_->build(scene, config);

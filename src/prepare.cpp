@@ -10,6 +10,7 @@
 #include "lancer/formulas.hpp"
 #include "lancer/huge_pages.hpp"
 #include "lancer/prepared.hpp"
+#include "lancer/shapes.hpp"
 
 namespace lancer {
 
@@ -35,7 +36,7 @@ void set_view_depth(const Scene& scene, Frame& frame) {
   // Planes keep their hit points at o + t d and leave them by 64 ulps of |o| + t: an eye moved
   // away from the origin doubles both (measured: a cloud on a ground plane seen from afar,
   // FloatEnvelope.TelescopeViewsOfACloud, lost more pixels than it won).
-  if (scene.spheres.empty() || !scene.planes.empty()) return;
+  if (scene.spheres.empty() || !scene.planes.empty() || !scene.shapes.empty()) return;
   double nearest = INFINITY;
   for (const Sphere& s : scene.spheres)
     nearest = std::min(nearest, -frame.point(s.center).z - s.radius);
@@ -189,7 +190,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   // Arrays of one entry per object (materials) or per sphere, each allocated once with its pages
   // huge and present (lancer/huge_pages.hpp): at one million spheres these 22 arrays grew by
   // doubling, each growth a copy into fresh pages, a fault per page.
-  const std::size_t objects = scene.spheres.size() + scene.planes.size();
+  const std::size_t objects = scene.num_objects();
   const std::size_t spheres = scene.spheres.size();
   for (auto* v :
        {&p.materials.r, &p.materials.g, &p.materials.b, &p.materials.ka, &p.materials.kd,
@@ -261,6 +262,13 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     p.planes.nz.push_back(T(n.z));
     add_material(scene.materials[pl.material]);
   }
+  p.num_shapes = static_cast<int>(scene.shapes.size());
+  for (const Shape& sh : scene.shapes)
+    add_material(
+        scene.materials[sh.kind == Shape::Kind::mesh ? sh.mesh.material : sh.cylinder.material]);
+  if (p.num_shapes > 0)
+    p.shapes = std::make_shared<const PreparedShapes<T>>(
+        prepare_shapes<T>(scene, frame, p.num_spheres + p.num_planes));
   p.num_lights = static_cast<int>(scene.lights.size());
   for (const Light& l : scene.lights) {
     const Vec3<double> position = frame.point(l.position);
@@ -289,6 +297,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     if (field->size() < std::size_t(kMaxLanes)) field->resize(kMaxLanes, T(0));
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;
+  p.features.shapes = p.num_shapes > 0;
   p.features.lights = p.num_lights > 0;
   p.features.refraction = p.features.transparency && scene.max_depth > 0;
   if (resolve_accel(scene, accel) == Accel::bvh && p.num_spheres > 0) add_bvh(p);

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "lancer/formulas.hpp"
+#include "lancer/shapes.hpp"
 #include "lancer/traverse.hpp"
 
 namespace lancer::reference {
@@ -14,6 +15,12 @@ namespace {
 
 template <class T>
 using Color = std::array<T, 3>;
+
+// Step 1 over every object; `shape` gets the primitive and part of a triangle, mesh or
+// cylinder hit (object -1 otherwise).
+template <class T>
+Hit<T> closest_hit_detail(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir,
+                          ShapeHit<T>& shape, T eps);
 
 template <class T>
 class Tracer {
@@ -32,7 +39,8 @@ class Tracer {
   Color<T> trace(const Vec3<T>& origin, const Vec3<T>& dir, int depth,
                  PathLog::Segment::Kind kind = PathLog::Segment::camera) {
     // 1. The closest hit with t > epsilon.
-    const Hit<T> hit = closest_hit(s_, origin, dir);
+    ShapeHit<T> shape;
+    const Hit<T> hit = closest_hit_detail(s_, origin, dir, shape, s_.epsilon);
     if (log_) log_ray(origin, dir, depth, hit, kind);
     // 2. No hit: background for camera rays, environment for secondary ones.
     if (hit.id < 0) {
@@ -41,25 +49,29 @@ class Tracer {
     }
     // 3. The hit point and the normal facing the ray; the geometric normal's side tells
     // whether the ray enters the object (step 7).
-    const SurfacePoint<T> at = surface_point(hit.id, origin, dir, hit.t);
+    Vec3<T> shading;
+    const SurfacePoint<T> at = surface_point(hit.id, shape, origin, dir, hit.t, shading);
     const Vec3<T>& p = at.p;
     const Vec3<T>& geometric = at.normal;
     const T cos_in = dot(geometric, dir);
-    const Vec3<T> n = cos_in > T(0) ? -geometric : geometric;
+    // The shading normal faces the ray (a smooth mesh's blend, else the geometric normal);
+    // secondary rays leave by the side of the surface itself, the geometric normal's.
+    const Vec3<T> n = dot(shading, dir) > T(0) ? -shading : shading;
+    const Vec3<T> side = cos_in > T(0) ? -geometric : geometric;
     const Vec3<T> view = -dir;
 
     // 4 and 5. One shading sum scaled by the colour for grey lights, one per channel otherwise:
     // the same bits per channel when the channels are equal.
     const int m = hit.id;
-    Color<T> local = s_.features.coloured_lights ? lights<3>(at.delta, p, n, view, m, depth)
-                                                 : lights<1>(at.delta, p, n, view, m, depth);
+    Color<T> local = s_.features.coloured_lights ? lights<3>(at.delta, p, n, side, view, m, depth)
+                                                 : lights<1>(at.delta, p, n, side, view, m, depth);
 
     // 6. Mirror reflection, recursively.
     const T reflect_k = s_.materials.reflect[m];
     if (depth < s_.max_depth && reflect_k > T(0)) {
       ++counts_.reflected;
       const Vec3<T> r = normalize(reflect(dir, n));
-      const Color<T> child = trace(offset_origin(p, n, dot(r, n), at.delta), r, depth + 1,
+      const Color<T> child = trace(offset_origin(p, side, dot(r, side), at.delta), r, depth + 1,
                                    PathLog::Segment::reflected);
       for (int c = 0; c < 3; ++c) local[c] = local[c] + reflect_k * child[c];
     }
@@ -72,7 +84,7 @@ class Tracer {
       const T eta = cos_in < T(0) ? s_.materials.inv_ior[m] : s_.materials.ior[m];
       const Refraction<T> rf = refract(dir, n, eta);
       const Vec3<T> t = rf.k >= T(0) ? normalize(rf.dir) : normalize(reflect(dir, n));
-      const Color<T> child = trace(offset_origin(p, n, dot(t, n), at.delta), t, depth + 1,
+      const Color<T> child = trace(offset_origin(p, side, dot(t, side), at.delta), t, depth + 1,
                                    PathLog::Segment::refracted);
       for (int c = 0; c < 3; ++c) local[c] = local[c] + transmit_k * child[c];
     }
@@ -84,8 +96,11 @@ class Tracer {
   // Steps 4 and 5 over C channels of the lights (1: grey, 3: coloured): each light's ambient
   // always; diffuse and specular scaled by the light's transmittance where it is not 0.
   template <int C>
+  // n: the shading normal facing the ray; side: the geometric one facing it, for the shadow
+  // rays' origins (the same as n but on smooth meshes).
   [[gnu::always_inline]] Color<T> lights(const T& delta, const Vec3<T>& p, const Vec3<T>& n,
-                                         const Vec3<T>& view, int m, int depth) {
+                                         const Vec3<T>& side, const Vec3<T>& view, int m,
+                                         int depth) {
     const auto& in = s_.lights.intensity_rgb;
     const auto& am = s_.lights.ambient_rgb;
     T ambient[C], diffuse[C], specular[C];
@@ -98,7 +113,7 @@ class Tracer {
       if (!(dist > T(0))) continue;  // a light on the surface itself lights nothing
       ++counts_.shadow;
       const Vec3<T> l = to_light / dist;
-      const Vec3<T> from = offset_origin(p, n, dot(l, n), delta);
+      const Vec3<T> from = offset_origin(p, side, dot(l, side), delta);
       const T transmittance = s_.features.transparency ? shadow_transmittance<true>(from, l, dist)
                                                        : shadow_transmittance<false>(from, l, dist);
       if (log_) log_light(p, k, depth, transmittance == T(0));
@@ -131,20 +146,32 @@ class Tracer {
   }
 
   // Step 3's point and geometric normal, and the offset of the rays that leave it.
-  [[gnu::always_inline]] SurfacePoint<T> surface_point(int id, const Vec3<T>& origin,
-                                                       const Vec3<T>& dir, const T& t) const {
+  // `shading` gets the normal shading uses (differs from the geometric one on smooth meshes).
+  [[gnu::always_inline]] SurfacePoint<T> surface_point(int id, const ShapeHit<T>& shape,
+                                                       const Vec3<T>& origin, const Vec3<T>& dir,
+                                                       const T& t, Vec3<T>& shading) const {
     const T magnitude = hit_magnitude(origin, t);
+    SurfacePoint<T> at;
     if (id < s_.num_spheres) {
       const Vec3<T> c{s_.spheres.cx[id], s_.spheres.cy[id], s_.spheres.cz[id]};
       const T r2 = s_.spheres.r2[id];
       if (sphere_is_small(r2, magnitude) || sphere_is_large(r2, magnitude))
-        return sphere_point_extreme(origin, dir, t, c, r2, magnitude);
-      return sphere_point_along<T>(origin, dir, t, c, magnitude);
-    }
-    const int k = id - s_.num_spheres;
-    return {along(origin, dir, t),
+        at = sphere_point_extreme(origin, dir, t, c, r2, magnitude);
+      else
+        at = sphere_point_along<T>(origin, dir, t, c, magnitude);
+    } else if (id < s_.num_spheres + s_.num_planes) {
+      const int k = id - s_.num_spheres;
+      at = {along(origin, dir, t),
             {s_.planes.nx[k], s_.planes.ny[k], s_.planes.nz[k]},
             offset_delta<T>(magnitude)};
+    } else {
+      at.p = along(origin, dir, t);
+      at.delta = offset_delta<T>(magnitude);
+      shapes_normals(*s_.shapes, shape, origin, dir, at.p, at.normal, shading);
+      return at;
+    }
+    shading = at.normal;
+    return at;
   }
 
   // Spheres small or huge against the hit's magnitude: out of the hot path.
@@ -209,6 +236,15 @@ class Tracer {
         if (transmittance == T(0)) return transmittance;
       }
     }
+    // Triangles, meshes and cylinders last, each object once (a mesh is one), in id order.
+    if (s_.shapes) {
+      shapes_met(*s_.shapes, p, l, eps, dist, !kGlass, met_);
+      for (const int id : met_) {
+        if (!kGlass) return T(0);
+        transmittance = attenuate(transmittance, s_.materials.transmit[id]);
+        if (transmittance == T(0)) return transmittance;
+      }
+    }
     return transmittance;
   }
 
@@ -249,6 +285,7 @@ class Tracer {
   }
 
   const PreparedScene<T>& s_;
+  mutable std::vector<int> met_;  // shapes_met's list, kept between shadow rays
   RayCounts& counts_;
   PathLog* log_ = nullptr;  // null but in render_rows_recorded
   int pixel_ = 0, sample_ = 0;
@@ -286,12 +323,22 @@ void render_rows_impl(const PreparedScene<T>& s, Image& image, int row_begin, in
 
 template <class T>
 Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir) {
-  return closest_hit(s, origin, dir, s.epsilon);
+  ShapeHit<T> shape;
+  return closest_hit_detail(s, origin, dir, shape, s.epsilon);
 }
 
 template <class T>
 Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir,
                    const T eps) {
+  ShapeHit<T> shape;
+  return closest_hit_detail(s, origin, dir, shape, eps);
+}
+
+namespace {
+
+template <class T>
+Hit<T> closest_hit_detail(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir,
+                          ShapeHit<T>& shape, const T eps) {
   // A hit must be nearer than infinity: a plane hit whose t overflows is no hit.
   Hit<T> best{-1, std::numeric_limits<T>::infinity()};
   const Bvh<T>& h = s.bvh;
@@ -325,8 +372,17 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
         dot(Vec3<T>{s.planes.px[k], s.planes.py[k], s.planes.pz[k]} - origin, normal) / denom;
     if (t > eps && t < best.t) best = {s.num_spheres + k, t};
   }
+  // Triangles, meshes and cylinders: strictly nearer than the spheres' and planes' hit (those
+  // come first), ties among them to the lower primitive.
+  shape = ShapeHit<T>{};
+  if (s.shapes) {
+    shape = shapes_closest(*s.shapes, origin, dir, eps, best.t);
+    if (shape.object >= 0) best = {shape.object, shape.t};
+  }
   return best;
 }
+
+}  // namespace
 
 template <class T>
 void render_rows(const PreparedScene<T>& s, Image& image, int row_begin, int row_end,

@@ -17,6 +17,7 @@
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
+#include "lancer/shapes.hpp"
 #include "lancer/tiles.hpp"
 
 namespace lancer {
@@ -78,6 +79,27 @@ int resolve_width(int requested, Precision precision, const std::string& option)
   throw InputError(option + ": width " + w + " in " + to_string(precision) + " precision needs " +
                    isa + ", which this CPU or OS does not run");
 }
+
+namespace {
+
+// Triangles, meshes and cylinders: the reference models them, the packets do not yet, so such a
+// scene runs at width 1 (auto) and a packet width asked for is refused rather than rendered
+// without them.
+int width_for(int requested, Precision precision, bool shapes) {
+  if (!shapes) return resolve_width(requested, precision);
+  if (precision == Precision::fast)
+    throw InputError(
+        "--precision: fast runs on packets only, and the packets do not model triangles, meshes "
+        "or cylinders yet: use exact or double");
+  if (requested != 0 && requested != 1)
+    throw InputError(
+        "--width: scenes with triangles, meshes or cylinders run on the reference "
+        "only (width 1) until the packets model them, not width " +
+        std::to_string(requested));
+  return 1;
+}
+
+}  // namespace
 
 // The float envelope, measured by the stability tests (tests/test_extremes.cpp, docs/precision.md):
 // in camera-relative coordinates, float renders within a fraction of a percent of double while
@@ -347,6 +369,12 @@ struct SampleOff {
 
 // The float scene it prepared goes to `keep` where given: a render that keeps float need not
 // prepare it again.
+// The widest packets of a precision, or the reference where the packets do not model the scene
+// (width_for).
+int sample_width(const Scene& scene, Precision precision) {
+  return scene.shapes.empty() ? packet::supported_widths(precision).front() : 1;
+}
+
 SampleOff measure_sample(const Scene& scene, int threads,
                          std::unique_ptr<PreparedScene<float>>* keep) {
   const int nx = scene.camera.nx, ny = scene.camera.ny;
@@ -357,12 +385,11 @@ SampleOff measure_sample(const Scene& scene, int threads,
   {
     // One precision prepared at a time: the peak memory of a double render, not of both.
     const PreparedScene<double> d = prepare<double>(scene);
-    render_sample(d, double_rows(packet::supported_widths(Precision::dbl).front()), dbl, threads);
+    render_sample(d, double_rows(sample_width(scene, Precision::dbl)), dbl, threads);
   }
   auto f = std::make_unique<PreparedScene<float>>(prepare<float>(scene));
-  render_sample(*f,
-                float_rows(packet::supported_widths(Precision::exact).front(), Precision::exact),
-                flt, threads);
+  render_sample(*f, float_rows(sample_width(scene, Precision::exact), Precision::exact), flt,
+                threads);
   if (keep) *keep = std::move(f);
   SampleOff s;
   s.seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -430,6 +457,12 @@ PrecisionChoice choose_precision(const Scene& scene) {
 template <class T>
 StructureInfo structure_of(const PreparedScene<T>& p) {
   StructureInfo info;
+  if (p.shapes) {
+    info.shape_primitives = p.shapes->prim.size();
+    info.shape_nodes = p.shapes->nodes.size();
+    info.shape_bytes = p.shapes->bytes();
+    info.shape_build_seconds = p.shapes->build_seconds;
+  }
   if (!p.bvh.active()) return info;
   info.kind = "bvh";
   info.spheres = p.num_spheres;
@@ -464,7 +497,9 @@ std::string secondary_walk(const StructureInfo& st, int width) {
 }
 
 struct PreparedRun::State {
-  RenderOptions opt;  // accel, model_everything and on_progress of every run
+  RenderOptions opt;
+  bool shapes = false;  // triangles, meshes or cylinders: the reference only  // accel,
+                        // model_everything and on_progress of every run
   Precision precision = Precision::exact;
   std::string reason;
   int nx = 0, ny = 0;
@@ -492,7 +527,8 @@ PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
     st.reason = c.reason;
   }
   // Bad options fail before the work of preparing.
-  resolve_width(opt.width, st.precision);
+  st.shapes = !scene.shapes.empty();
+  width_for(opt.width, st.precision, st.shapes);
   st.nx = scene.camera.nx, st.ny = scene.camera.ny;
   if (st.precision == Precision::dbl)
     st.d = std::make_unique<PreparedScene<double>>(prepare_for<double>(scene, opt));
@@ -507,7 +543,7 @@ PreparedRun::~PreparedRun() = default;
 template <class Result, class Body>
 void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   const State& st = *state_;
-  res.width = resolve_width(width, st.precision);
+  res.width = width_for(width, st.precision, st.shapes);
   res.threads = resolve_threads(threads);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
@@ -538,6 +574,10 @@ RenderResult PreparedRun::render(int width, int threads) const {
           rows.render(prepared, res.image, r0, r1, c);
         });
   res.isa = packet::isa_name(res.width, res.precision);
+  if (st.shapes)
+    res.width_reason =
+        "triangles, meshes and cylinders: the reference only until the packets "
+        "model them";
   return res;
 }
 
@@ -581,6 +621,8 @@ PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
     : state_(std::make_unique<State>()) {
   if (opt.precision != Precision::exact && opt.precision != Precision::fast)
     throw InputError("--precision: the kernel alone runs float packets: exact or fast");
+  if (!scene.shapes.empty())
+    throw InputError("--mode kernel: the packets do not model triangles, meshes or cylinders yet");
   const int width = resolve_width(opt.width, opt.precision);
   if (width == 1) throw InputError("--width: the kernel alone runs packets: 4, 8 or 16, not 1");
   State& st = *state_;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "lancer/error.hpp"
+#include "lancer/mesh_io.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/text.hpp"
 #include "scene_rules.hpp"
@@ -401,6 +402,8 @@ class MaterialTable {
     auto resolve = [&](int& code) { code = code < 0 ? index[-1 - code] : next + code; };
     for (Sphere& sp : s.spheres) resolve(sp.material);
     for (Plane& p : s.planes) resolve(p.material);
+    for (Shape& sh : s.shapes)
+      resolve(sh.kind == Shape::Kind::mesh ? sh.mesh.material : sh.cylinder.material);
   }
 
  private:
@@ -422,6 +425,101 @@ class MaterialTable {
   int default_ = -1;
   bool closed_ = false;
 };
+
+// Every object's material, in object-id order.
+
+Vec3<double> positive_scale(ObjectReader& o) {
+  if (!o.has("scale")) return {1, 1, 1};
+  const json& v = o.get("scale");
+  const std::string at = o.at("scale");
+  Vec3<double> sc;
+  if (v.is_number()) {
+    const double k = ObjectReader::as_number(v, at);
+    sc = {k, k, k};
+  } else if (v.is_array() && v.size() == 3) {
+    sc = ObjectReader::as_vec3(v, at);
+  } else {
+    fail(at, "must be a positive number or an array of 3 positive numbers");
+  }
+  for (double k : {sc.x, sc.y, sc.z})
+    if (!(k > 0) || k < kMinLength || k > kMaxCoordinate)
+      fail(at, "must be from " + ObjectReader::show(kMinLength) + " to " +
+                   ObjectReader::show(kMaxCoordinate));
+  return sc;
+}
+
+// A mesh file's path: absolute as written, else relative to the scene file's folder.
+std::string mesh_path(const std::string& scene_name, const std::string& file) {
+  const std::filesystem::path f(file);
+  if (f.is_absolute()) return file;
+  return (std::filesystem::path(scene_name).parent_path() / f).string();
+}
+
+void check_mesh_coordinates(const Mesh& m, const std::string& where) {
+  for (const Vec3<double>& v : m.vertices)
+    for (double c : {v.x, v.y, v.z})
+      if (!(std::fabs(c) <= kMaxCoordinate))
+        fail(where,
+             "a vertex lies beyond " + ObjectReader::show(kMaxCoordinate) + " after the transform");
+}
+
+// "triangle", "mesh" and "cylinder": one Shape each.
+void read_shape(ObjectReader& o, const std::string& type, int material, Scene& s) {
+  Shape sh;
+  if (type == "triangle") {
+    const json& vs = o.get("vertices");
+    if (!vs.is_array() || vs.size() != 3) fail(o.at("vertices"), "must be an array of 3 points");
+    Mesh& m = sh.mesh;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string at = index_path(o.at("vertices"), k);
+      const Vec3<double> v = ObjectReader::as_vec3(vs[k], at);
+      for (double c : {v.x, v.y, v.z})
+        if (std::fabs(c) > kMaxCoordinate)
+          fail(at, "must be from " + ObjectReader::show(-kMaxCoordinate) + " to " +
+                       ObjectReader::show(kMaxCoordinate));
+      m.vertices.push_back(v);
+    }
+    const Vec3<double> e = cross(m.vertices[1] - m.vertices[0], m.vertices[2] - m.vertices[0]);
+    if (e.x == 0 && e.y == 0 && e.z == 0)
+      fail(o.at("vertices"), "the three vertices lie on one line (zero area)");
+    m.indices = {0, 1, 2};
+    m.material = material;
+    o.finish();
+  } else if (type == "mesh") {
+    const std::string file = o.string("file");
+    MeshTransform t;
+    t.scale = positive_scale(o);
+    if (o.has("rotate")) t.rotate = o.point("rotate");
+    if (o.has("translate")) t.translate = o.point("translate");
+    const bool smooth = o.boolean_or("smooth", false);
+    o.finish();
+    const std::string path = mesh_path(s.name, file);
+    Mesh& m = sh.mesh;
+    m.file = file;
+    m.material = material;
+    try {
+      place_mesh(read_mesh_file(path, path), t, smooth, path, m);
+    } catch (const InputError& e) {
+      fail(o.at("file"), e.what());
+    }
+    check_mesh_coordinates(m, o.at("file"));
+    if (s.triangles() + m.triangles() > kMaxTriangles)
+      fail(o.at("file"), "the scene's meshes hold more than " + std::to_string(kMaxTriangles) +
+                             " triangles (docs/limits.md)");
+  } else {
+    sh.kind = Shape::Kind::cylinder;
+    Cylinder& c = sh.cylinder;
+    c.base = o.point("base");
+    c.top = o.point("top");
+    c.radius = o.length("radius");
+    c.caps = o.boolean_or("caps", true);
+    c.material = material;
+    if (c.base.x == c.top.x && c.base.y == c.top.y && c.base.z == c.top.z)
+      fail(o.at("top"), "must differ from base");
+    o.finish();
+  }
+  s.shapes.push_back(std::move(sh));
+}
 
 // One element of "objects", converted at once and dropped.
 void read_object(const json& j, std::size_t index, MaterialTable& materials, Scene& s,
@@ -454,8 +552,10 @@ void read_object(const json& j, std::size_t index, MaterialTable& materials, Sce
     p.normal = o.direction("normal");
     p.material = material;
     s.planes.push_back(p);
+  } else if (type == "triangle" || type == "mesh" || type == "cylinder") {
+    read_shape(o, type, material, s);
   } else {
-    fail(o.at("type"), "must be \"sphere\" or \"plane\"");
+    fail(o.at("type"), "must be \"sphere\", \"plane\", \"triangle\", \"mesh\" or \"cylinder\"");
   }
   o.finish();
   if (is_plane) is_plane->push_back(type == "plane");
@@ -712,14 +812,17 @@ class SceneSax {
 
 }  // namespace
 
-Scene parse_scene(const std::string& text, const std::string& name, std::vector<bool>* is_plane) {
+namespace {
+// parse_scene, messages naming the file `name` (as shown), mesh files found beside `path`.
+Scene parse_scene_at(const std::string& text, const std::string& name, const std::string& path,
+                     std::vector<bool>* is_plane) {
   if (text.size() > kMaxSceneBytes) fail(name, "file larger than 1 GiB");
   // nlohmann's lexer takes a NUL for the end of the input and would ignore what follows.
   if (const std::size_t nul = text.find('\0'); nul != std::string::npos)
     fail(name + ":" + std::to_string(line_of(text, nul)),
          "syntax error: NUL byte at offset " + std::to_string(nul) + " (a scene is JSON text)");
   Scene s;
-  s.name = name;
+  s.name = path;
   if (is_plane) is_plane->clear();
   try {
     SceneSax sax(s, name, is_plane);
@@ -750,25 +853,36 @@ Scene parse_scene(const std::string& text, const std::string& name, std::vector<
     }
   } catch (const std::bad_alloc&) {
     fail(name, "out of memory while loading the scene (" + std::to_string(text.size()) +
-                   " bytes, " + std::to_string(s.spheres.size() + s.planes.size()) +
-                   " objects read)");
+                   " bytes, " + std::to_string(s.num_objects()) + " objects read)");
   }
   if (const std::string e = message_of([&] { rules::sample_count(s); }); !e.empty()) fail(name, e);
   return s;
 }
 
-Scene parse_scene(const std::string& text, const std::string& name) {
-  return parse_scene(text, name, nullptr);
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& name, std::vector<bool>* is_plane) {
+  return parse_scene_at(text, name, name, is_plane);
 }
 
-std::string read_scene_file(const std::string& path) {
+Scene parse_scene(const std::string& text, const std::string& name) {
+  return parse_scene_at(text, name, name, nullptr);
+}
+
+namespace {
+
+// Reads at most 1 GiB + 1 byte, so that /dev/zero or a runaway pipe fails instead of filling
+// memory; reserves once when the size is known (a regular file).
+std::string read_bounded(const std::string& path, const std::string& what, bool regular_only) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw InputError(shown_path(path) + ": is a folder, not a scene file");
+    throw InputError(shown_path(path) + ": is a folder, not a " + what);
+  // A FIFO or a device would block on open or never end: mesh files must be regular files.
+  if (regular_only && std::filesystem::exists(path, ec) &&
+      !std::filesystem::is_regular_file(path, ec))
+    throw InputError(shown_path(path) + ": not a regular file (a " + what + " must be one)");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(shown_path(path) + ": cannot open scene file");
-  // Read at most 1 GiB + 1 byte, so that /dev/zero or a runaway pipe fails instead of filling
-  // memory; reserve once when the size is known (a regular file).
+  if (!in) throw InputError(shown_path(path) + ": cannot open " + what);
   std::string text;
   try {
     const auto size = std::filesystem::file_size(path, ec);
@@ -782,15 +896,25 @@ std::string read_scene_file(const std::string& path) {
         throw InputError(shown_path(path) + ": file larger than 1 GiB");
     }
   } catch (const std::bad_alloc&) {
-    throw InputError(shown_path(path) + ": out of memory while reading the scene file");
+    throw InputError(shown_path(path) + ": out of memory while reading the " + what);
   }
-  if (in.bad()) throw InputError(shown_path(path) + ": cannot read scene file");
+  if (in.bad()) throw InputError(shown_path(path) + ": cannot read " + what);
   return text;
+}
+
+}  // namespace
+
+std::string read_scene_file(const std::string& path) {
+  return read_bounded(path, "scene file", false);
+}
+
+std::string read_input_file(const std::string& path, const std::string& what) {
+  return read_bounded(path, what, true);
 }
 
 // Messages name the file as shown_path() shows it: one line whatever the name holds.
 Scene load_scene(const std::string& path) {
-  return parse_scene(read_scene_file(path), shown_path(path));
+  return parse_scene_at(read_scene_file(path), shown_path(path), path, nullptr);
 }
 
 }  // namespace lancer

@@ -172,12 +172,11 @@ RadianceBound radiance_bound(const Scene& s) {
   for (const Light& l : s.lights)
     sum_intensity += max3(l.intensity), sum_ambient += max3(l.ambient);
   std::vector<bool> used(s.materials.size(), false);
-  for (const Sphere& sp : s.spheres) used[sp.material] = true;
-  for (const Plane& p : s.planes) used[p.material] = true;
   double transmittance = 1;
-  for (const Sphere& sp : s.spheres)
-    transmittance *= std::max(1.0, s.materials[sp.material].transmit);
-  for (const Plane& p : s.planes) transmittance *= std::max(1.0, s.materials[p.material].transmit);
+  for_each_material(s, [&](int m) {
+    used[m] = true;
+    transmittance *= std::max(1.0, s.materials[m].transmit);
+  });
   RadianceBound next;  // the level below (none below max_depth)
   for (int depth = s.max_depth; depth >= 0; --depth) {
     RadianceBound level{max3(depth == 0 ? s.background : s.environment), -1};
@@ -205,8 +204,7 @@ RadianceBound radiance_bound(const Scene& s) {
 void ray_tree(const Scene& s, const std::vector<std::string>& material_where) {
   if (s.max_depth <= kMaxSplitDepth) return;
   std::vector<bool> used(s.materials.size(), false);
-  for (const Sphere& sp : s.spheres) used[sp.material] = true;
-  for (const Plane& p : s.planes) used[p.material] = true;
+  for_each_material(s, [&](int m) { used[m] = true; });
   for (std::size_t m = 0; m < s.materials.size(); ++m)
     if (used[m] && s.materials[m].reflect > 0 && s.materials[m].transmit > 0)
       fail(material_where[m],

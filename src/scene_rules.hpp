@@ -70,6 +70,15 @@ void object_count(std::size_t n);
 void light_count(std::size_t n);
 
 // The whole scene's rules, once every part is read; material_where[m] names material m.
+// fn(material index) for each object's material: spheres, planes, then shapes, in file order.
+template <class Fn>
+void for_each_material(const Scene& s, Fn fn) {
+  for (const Sphere& sp : s.spheres) fn(sp.material);
+  for (const Plane& p : s.planes) fn(p.material);
+  for (const Shape& sh : s.shapes)
+    fn(sh.kind == Shape::Kind::mesh ? sh.mesh.material : sh.cylinder.material);
+}
+
 void ray_tree(const Scene& s, const std::vector<std::string>& material_where);
 void radiance(const Scene& s, const std::vector<std::string>& material_where);
 void sample_count(const Scene& s);  // nx * ny * supersample^2

@@ -181,7 +181,7 @@ const BadCase kBadCases[] = {
     {"undefined material", [](json& j) { j["objects"][0]["material"] = "gold"; },
      "objects[0].material: material \"gold\" is not defined"},
     {"unknown object type", [](json& j) { j["objects"][0]["type"] = "cube"; },
-     "objects[0].type: must be \"sphere\" or \"plane\""},
+     "objects[0].type: must be \"sphere\", \"plane\", \"triangle\", \"mesh\" or \"cylinder\""},
     {"unknown camera type", [](json& j) { j["camera"]["type"] = "fisheye"; },
      "camera.type: must be \"pinhole\" or \"orthographic\""},
     {"max_depth over the cap", [](json& j) { j["max_depth"] = 1000; },

@@ -20,7 +20,17 @@ struct Options {
   double transmit_spread = 0;
   bool plane = true;       // a ground plane under the box
   int nx = 600, ny = 400;  // camera resolution
+  // A mesh in the middle of the box: its file's name as the scene gives it (beside the scene),
+  // written by the caller from sphere_ply(); none when empty.
+  std::string mesh_file;
+  long long cylinders = 0;  // cylinders among the spheres
 };
+
+// The unit sphere as a cube's faces of n x n quads pushed onto it (n chosen so the count is at
+// least `triangles`, 12 n^2 triangles, vertices shared), as binary little-endian PLY. Only
+// integer arithmetic, division and sqrt (correctly rounded everywhere): the same bytes on any
+// machine. InputError beyond kMaxTriangles.
+std::string sphere_ply(long long triangles, long long* written = nullptr);
 
 // Checks the options (InputError naming the option) and returns the scene as JSON text.
 std::string scene_json(const Options& o);

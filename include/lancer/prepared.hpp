@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "lancer/bvh.hpp"
@@ -14,8 +15,11 @@ namespace lancer {
 
 // What a scene needs modelled. Decided once per scene; a path skips the work a scene lacks.
 struct Features {
-  bool spheres = false;               // any sphere
-  bool planes = false;                // any plane
+  bool spheres = false;  // any sphere
+  bool planes = false;   // any plane
+  // any triangle, mesh or cylinder: the reference alone models them so far (render.cpp runs
+  // such scenes at width 1)
+  bool shapes = false;
   bool lights = false;                // any light (else no shadow rays and no diffuse/specular)
   bool specular = false;              // any material with ks > 0
   bool reflection = false;            // max_depth > 0 and any material with reflect > 0
@@ -29,6 +33,9 @@ struct Features {
   // transparency and max_depth > 0: rays split (refracted children), the packets trace a tree.
   bool refraction = false;
 };
+
+template <class T>
+struct PreparedShapes;  // lancer/shapes.hpp
 
 template <class T>
 struct PreparedCamera {
@@ -165,7 +172,11 @@ struct PreparedScene {
   int num_lights = 0;
   LightBlock<T> lights;
 
-  int num_objects() const { return num_spheres + num_planes; }
+  // Triangles, meshes and cylinders (lancer/shapes.hpp): object ids num_spheres + num_planes on.
+  int num_shapes = 0;
+  std::shared_ptr<const PreparedShapes<T>> shapes;
+
+  int num_objects() const { return num_spheres + num_planes + num_shapes; }
 };
 
 // Radius over distance from the camera above which b^2 - c still classifies >= 99.6% of rays

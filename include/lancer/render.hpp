@@ -33,6 +33,9 @@ struct StructureInfo {
   // many lanes of its packet entered (0: packets only; the width or more: every ray alone).
   int one_ray_lanes = 0;
   int shadow_one_ray_lanes = 0;  // the same for the shadow rays from secondary hits
+  // Triangles, meshes and cylinders: their own hierarchy (lancer/shapes.hpp), when any.
+  std::size_t shape_primitives = 0, shape_nodes = 0, shape_bytes = 0;
+  double shape_build_seconds = 0;
 };
 // One line for both: "closest hits one ray at a time; shadow rays packets, one ray alone at 1
 // lane" (each "packets", "one ray at a time" or "packets, one ray alone at N lanes or fewer").
@@ -64,6 +67,7 @@ struct RenderResult {
   int width = 1;
   int threads = 1;
   std::string isa;
+  std::string width_reason;                // why the width is what it is, when not as asked
   Precision precision = Precision::exact;  // as resolved: never automatic
   std::string precision_reason;            // why, when automatic chose it
   StructureInfo structure;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -49,9 +50,45 @@ struct Plane {
   int material = 0;
 };
 
+// A triangle mesh (a lone "triangle" is a mesh of one): its vertices after the scene's transform,
+// in double, and its triangles as index triples in file order (zero-area ones already dropped).
+// Indexed, not expanded: a vertex shared by triangles is one set of coordinates, so every
+// triangle meeting at it sees the same bits (the watertight test relies on it), and 10 million
+// triangles take some 250 MB here (docs/limits.md).
+struct Mesh {
+  std::string file;  // as written in the scene ("" for a triangle), for messages
+  std::vector<Vec3<double>> vertices;
+  std::vector<std::uint32_t> indices;  // 3 per triangle: v0, v1, v2
+  // smooth: unit vertex normals (transformed as normals), and per corner (3 per triangle) the
+  // normal it takes; empty when not smooth.
+  bool smooth = false;
+  std::vector<Vec3<double>> normals;
+  std::vector<std::uint32_t> normal_indices;
+  std::size_t dropped = 0;  // zero-area triangles left out
+  int material = 0;
+  std::size_t triangles() const { return indices.size() / 3; }
+};
+
+// A capped or open cylinder: the points at `radius` from segment base-top, plus the two end
+// discs when `caps`.
+struct Cylinder {
+  Vec3<double> base{0, 0, 0}, top{0, 1, 0};
+  double radius = 1;
+  bool caps = true;
+  int material = 0;
+};
+
+// One "triangle", "mesh" or "cylinder" of the file, in file order.
+struct Shape {
+  enum class Kind { mesh, cylinder } kind = Kind::mesh;
+  Mesh mesh;  // kind mesh (a "triangle" too)
+  Cylinder cylinder;
+};
+
 // Spheres and planes are kept apart. Every path tests spheres first, then planes, each in file
 // order, and keeps the first of equally near hits: that fixes the tie-break the contract leaves
-// open, identically for the reference and the packets.
+// open, identically for the reference and the packets. Shapes (triangles, meshes, cylinders) come
+// after the planes, in file order: object ids spheres, then planes, then shapes.
 struct Scene {
   std::string name;  // file name, for messages
   CameraSpec camera;
@@ -64,6 +101,13 @@ struct Scene {
   std::vector<Light> lights;
   std::vector<Sphere> spheres;
   std::vector<Plane> planes;
+  std::vector<Shape> shapes;
+  std::size_t triangles() const {
+    std::size_t n = 0;
+    for (const Shape& sh : shapes) n += sh.mesh.triangles();
+    return n;
+  }
+  std::size_t num_objects() const { return spheres.size() + planes.size() + shapes.size(); }
 };
 
 // Limits that keep a render from exhausting memory or recursing without end.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 
 #include "commands.hpp"
@@ -24,6 +25,7 @@ struct GenerateArgs {
   CLI::Option *resolution_opt = nullptr, *seed_opt = nullptr, *transmit_opt = nullptr,
               *ior_opt = nullptr;
   bool no_plane = false;
+  long long mesh_triangles = 0;
 };
 
 // A decimal whole number from 0 to 2^64 - 1, digits only (no sign, no spaces, no wrap-around).
@@ -60,13 +62,38 @@ void run_generate(GenerateArgs a) {
   a.o.plane = !a.no_plane;
   plot::check_text_path(a.output, "-o");
   const auto t0 = std::chrono::steady_clock::now();
+  std::string mesh;
+  long long triangles = 0;
+  std::string mesh_path;
+  if (a.mesh_triangles != 0) {
+    // The mesh beside the scene, named after it: scene.json -> scene.ply.
+    if (a.output == "-") throw InputError("--mesh-triangles: needs a scene file (-o), not stdout");
+    mesh = generate::sphere_ply(a.mesh_triangles, &triangles);
+    const std::filesystem::path out(a.output);
+    mesh_path = std::filesystem::path(out).replace_extension(".ply").string();
+    a.o.mesh_file = std::filesystem::path(mesh_path).filename().string();
+    plot::check_text_path(mesh_path, "-o");
+  }
   const std::string text = generate::scene_json(a.o);
-  parse_scene(text, a.output);  // never write a scene lancer cannot load
-  plot::write_text_file(text, a.output);
+  if (!mesh.empty()) plot::write_text_file(mesh, mesh_path);
+  try {
+    // Never write a scene lancer cannot load (it reads the mesh just written).
+    parse_scene(text, a.output);
+    plot::write_text_file(text, a.output);
+  } catch (...) {
+    // No mesh left behind without its scene.
+    std::error_code ec;
+    if (!mesh.empty()) std::filesystem::remove(mesh_path, ec);
+    throw;
+  }
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("lancer generate: %s (%lld spheres%s, seed %llu, %zu bytes, %.2f s)\n",
               shown_path(a.output).c_str(), a.o.spheres, a.o.plane ? " and a ground plane" : "",
               (unsigned long long)a.o.seed, text.size(), s);
+  if (a.o.cylinders > 0) std::printf("  and %lld cylinders\n", a.o.cylinders);
+  if (!mesh.empty())
+    std::printf("  mesh %s: %lld triangles, %zu bytes\n", mesh_path.c_str(), triangles,
+                mesh.size());
 }
 }  // namespace
 
@@ -91,6 +118,10 @@ void add_generate(CLI::App& app) {
   args->ior_opt =
       cmd->add_option("--ior", args->ior, "Index of refraction of every sphere, 1 to 10");
   cmd->add_flag("--no-plane", args->no_plane, "No ground plane");
+  cmd->add_option("--mesh-triangles", args->mesh_triangles,
+                  "Also a tessellated sphere of at least N triangles, written beside the scene as "
+                  "binary PLY (scene.json -> scene.ply)");
+  cmd->add_option("--cylinders", args->o.cylinders, "Also N cylinders in the box");
   args->resolution_opt = cmd->add_option("--resolution", args->resolution,
                                          "Camera resolution NXxNY (default 600x400)");
   cmd->add_option("-o,--output", args->output, "Scene file to write (.json)")->required();

@@ -47,6 +47,25 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
           : "";
   std::printf("  engine   width %d (%s), %s precision, %d thread%s%s\n", r.width, r.isa.c_str(),
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
+  if (!r.width_reason.empty()) std::printf("  width    1: %s\n", r.width_reason.c_str());
+  if (!scene.shapes.empty()) {
+    std::size_t meshes = 0, cylinders = 0, dropped = 0;
+    for (const Shape& sh : scene.shapes) {
+      (sh.kind == Shape::Kind::cylinder ? cylinders : meshes) += 1;
+      dropped += sh.mesh.dropped;
+    }
+    std::printf(
+        "  shapes   %zu triangle%s in %zu mesh%s, %zu cylinder%s; %zu zero-area triangle%s "
+        "dropped\n",
+        scene.triangles(), scene.triangles() == 1 ? "" : "s", meshes, meshes == 1 ? "" : "es",
+        cylinders, cylinders == 1 ? "" : "s", dropped, dropped == 1 ? "" : "s");
+    const StructureInfo& st = r.structure;
+    std::printf(
+        "           their hierarchy: %zu primitives, %zu nodes, built in %.1f ms, %zu bytes "
+        "(%.1f per primitive)\n",
+        st.shape_primitives, st.shape_nodes, st.shape_build_seconds * 1e3, st.shape_bytes,
+        st.shape_primitives ? double(st.shape_bytes) / double(st.shape_primitives) : 0.0);
+  }
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
   const StructureInfo& st = r.structure;
@@ -113,6 +132,22 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                 {"compute_seconds_mean", ranks->compute_mean_seconds},
                 {"gather_seconds", ranks->gather_seconds},
                 {"gather_bytes", ranks->gather_bytes}};
+  }
+  if (!r.width_reason.empty()) j["width_reason"] = r.width_reason;
+  if (!scene.shapes.empty()) {
+    std::size_t meshes = 0, cylinders = 0, dropped = 0;
+    for (const Shape& sh : scene.shapes) {
+      (sh.kind == Shape::Kind::cylinder ? cylinders : meshes) += 1;
+      dropped += sh.mesh.dropped;
+    }
+    j["shapes"] = {{"triangles", scene.triangles()},
+                   {"meshes", meshes},
+                   {"cylinders", cylinders},
+                   {"dropped_zero_area", dropped},
+                   {"primitives", st.shape_primitives},
+                   {"nodes", st.shape_nodes},
+                   {"bytes", st.shape_bytes},
+                   {"build_seconds", st.shape_build_seconds}};
   }
   std::printf("%s\n", j.dump(2).c_str());
 }

@@ -71,13 +71,15 @@ struct Light {
   Rgb intensity{1, 1, 1}, ambient{0, 0, 0};
 };
 
-enum class Shape { kSphere, kPlane };
+enum class Shape { kSphere, kPlane, kTriangle, kCylinder };
 
 struct Object {
   Shape shape = Shape::kSphere;
   Vec center;         // sphere centre, or a point of the plane
   Vec normal;         // plane only: unit normal
-  double radius = 0;  // sphere only
+  double radius = 0;  // sphere and cylinder
+  Vec v[3];           // triangle: its vertices; cylinder: v[0] base, v[1] top
+  bool caps = true;   // cylinder
   Material material;
 };
 
@@ -221,8 +223,29 @@ Object parse_object(const json& j, const std::string& where, const MaterialTable
     Vec n = vec3(required(j, where, "normal"), at(where, "normal"));
     if (is_zero(n)) bad(at(where, "normal"), "must not be zero");
     o.normal = normalize(n);
+  } else if (type == "triangle") {
+    only_keys(j, where, {"type", "vertices", "material"});
+    o.shape = Shape::kTriangle;
+    const json& vs = required(j, where, "vertices");
+    if (!vs.is_array() || vs.size() != 3) bad(at(where, "vertices"), "must be 3 points");
+    for (int k = 0; k < 3; ++k) o.v[k] = vec3(vs[std::size_t(k)], at(where, "vertices"));
+    o.normal = cross(o.v[1] - o.v[0], o.v[2] - o.v[0]);
+    if (is_zero(o.normal)) bad(at(where, "vertices"), "on one line");
+    o.normal = normalize(o.normal);
+  } else if (type == "cylinder") {
+    only_keys(j, where, {"type", "base", "top", "radius", "caps", "material"});
+    o.shape = Shape::kCylinder;
+    o.v[0] = vec3(required(j, where, "base"), at(where, "base"));
+    o.v[1] = vec3(required(j, where, "top"), at(where, "top"));
+    o.radius = number(required(j, where, "radius"), at(where, "radius"));
+    if (o.radius <= 0) bad(at(where, "radius"), "must be > 0");
+    if (is_zero(o.v[1] - o.v[0])) bad(at(where, "top"), "must differ from base");
+    if (const json* c = field(j, "caps")) {
+      if (!c->is_boolean()) bad(at(where, "caps"), "must be true or false");
+      o.caps = c->get<bool>();
+    }
   } else {
-    bad(at(where, "type"), "must be \"sphere\" or \"plane\"");
+    bad(at(where, "type"), "must be \"sphere\", \"plane\", \"triangle\" or \"cylinder\"");
   }
   o.material = object_material(j, where, named);
   return o;
@@ -323,7 +346,68 @@ Scene parse_scene(const json& j) {
 // Tracing, step by step as in the contract's "Tracing" section.
 
 // Smallest t > epsilon where the ray meets the object, if any.
+// Moller-Trumbore (a different test from the engine's), edges included.
+std::optional<double> intersect_triangle(const Object& o, Vec origin, Vec dir, double epsilon) {
+  const Vec e1 = o.v[1] - o.v[0], e2 = o.v[2] - o.v[0];
+  const Vec pv = cross(dir, e2);
+  const double det = dot(e1, pv);
+  if (det == 0) return std::nullopt;
+  const Vec tv = origin - o.v[0];
+  const double u = dot(tv, pv) / det;
+  const Vec qv = cross(tv, e1);
+  const double v = dot(dir, qv) / det;
+  if (u < 0 || v < 0 || u + v > 1) return std::nullopt;
+  const double t = dot(e2, qv) / det;
+  if (t > epsilon) return t;
+  return std::nullopt;
+}
+
+// The textbook quadratic in the plane across the axis, then the two cap planes.
+std::optional<double> intersect_cylinder(const Object& o, Vec origin, Vec dir, double epsilon) {
+  const Vec axis = normalize(o.v[1] - o.v[0]);
+  const double h = length(o.v[1] - o.v[0]);
+  const Vec f = origin - o.v[0];
+  const Vec fp = f - dot(f, axis) * axis, dp = dir - dot(dir, axis) * axis;
+  std::optional<double> best;
+  auto take = [&](double t) {
+    if (t > epsilon && (!best || t < *best)) best = t;
+  };
+  const double a = dot(dp, dp), b = 2 * dot(fp, dp), c = dot(fp, fp) - o.radius * o.radius;
+  const double disc = b * b - 4 * a * c;
+  if (a > 0 && disc >= 0) {
+    for (double t : {(-b - std::sqrt(disc)) / (2 * a), (-b + std::sqrt(disc)) / (2 * a)}) {
+      const double s = dot(f + t * dir, axis);
+      if (s >= 0 && s <= h) take(t);
+    }
+  }
+  const double da = dot(dir, axis);
+  if (o.caps && da != 0)
+    for (double s : {0.0, h}) {
+      const double t = (s - dot(f, axis)) / da;
+      const Vec q = f + t * dir - s * axis;
+      if (dot(q, q) <= o.radius * o.radius) take(t);
+    }
+  return best;
+}
+
+// The cylinder's geometric normal at p: a cap's where p lies in its plane (within rounding) and
+// inside its disc, else the side's.
+Vec cylinder_normal(const Object& o, Vec p) {
+  const Vec axis = normalize(o.v[1] - o.v[0]);
+  const double h = length(o.v[1] - o.v[0]);
+  const double s = dot(p - o.v[0], axis);
+  const Vec radial = (p - o.v[0]) - s * axis;
+  const double tol = 1e-9 * (h + o.radius + length(p));
+  if (o.caps && length(radial) < o.radius * (1 - 1e-9)) {
+    if (std::fabs(s) <= tol) return -axis;
+    if (std::fabs(s - h) <= tol) return axis;
+  }
+  return normalize(radial);
+}
+
 std::optional<double> intersect(const Object& o, Vec origin, Vec dir, double epsilon) {
+  if (o.shape == Shape::kTriangle) return intersect_triangle(o, origin, dir, epsilon);
+  if (o.shape == Shape::kCylinder) return intersect_cylinder(o, origin, dir, epsilon);
   if (o.shape == Shape::kSphere) {
     // Textbook quadratic with a = 1 (dir is unit length): t^2 + b t + c = 0.
     Vec f = origin - o.center;
@@ -383,6 +467,7 @@ Rgb trace(const Scene& s, Vec origin, Vec dir, int depth) {
     Vec d = p - o.center;
     geometric = {d.x / o.radius, d.y / o.radius, d.z / o.radius};
   }
+  if (o.shape == Shape::kCylinder) geometric = cylinder_normal(o, p);
   Vec n = dot(geometric, dir) > 0 ? -geometric : geometric;
   Vec view = -dir;
 

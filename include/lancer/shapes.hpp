@@ -1,0 +1,93 @@
+// Triangles, meshes and cylinders, prepared in the scene's frame and number type T, with a
+// bounding volume hierarchy over them for the reference's closest-hit and shadow queries.
+//
+// Every triangle of every mesh and every cylinder is one primitive; primitives are numbered in
+// object-id order, and within a mesh in its file's order, so "the first in the file" of equally
+// near hits is the lowest primitive number. The queries' results do not depend on the order the
+// hierarchy visits primitives in: the closest hit is the least (t, primitive) pair, and a shadow
+// ray's transmittance multiplies the objects met in object-id order.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "lancer/prepared.hpp"
+#include "lancer/scene.hpp"
+#include "lancer/vec3.hpp"
+
+namespace lancer {
+
+template <class T>
+struct PreparedShapes {
+  int first_object = 0;  // the object id of shape 0 (spheres and planes come first)
+  int num_shapes = 0;
+
+  // Every mesh's vertices, concatenated, in the frame; each vertex once, so that triangles
+  // sharing it read the same bits.
+  std::vector<T> vx, vy, vz;
+  // Smooth meshes' unit vertex normals, in the frame.
+  std::vector<T> nx, ny, nz;
+
+  // Primitives in order: >= 0 a triangle's index, < 0 ~(a cylinder's index).
+  std::vector<std::int32_t> prim;
+  // Triangles: 3 vertex indices each, their object id, and, for smooth meshes, 3 normal indices
+  // (kNoNormal for flat ones; empty when no mesh is smooth).
+  static constexpr std::uint32_t kNoNormal = 0xffffffffu;
+  std::vector<std::uint32_t> tri;
+  std::vector<std::int32_t> tri_object;
+  std::vector<std::uint32_t> tri_normals;
+  // Cylinders: base, unit axis, height, squared radius, caps, object id.
+  std::vector<Vec3<T>> cyl_base, cyl_axis;
+  std::vector<T> cyl_h, cyl_r2;
+  std::vector<std::uint8_t> cyl_caps;
+  std::vector<std::int32_t> cyl_object;
+
+  // The hierarchy: count > 0 a leaf of order[first .. first+count), else an inner node whose
+  // children are nodes first and first + 1. Boxes enclose their primitives' computed bounds.
+  struct Node {
+    T lo[3], hi[3];
+    std::uint32_t first = 0, count = 0;
+  };
+  std::vector<Node> nodes;
+  std::vector<std::uint32_t> order;  // primitive numbers in leaf order
+  double build_seconds = 0;
+
+  std::size_t triangles() const { return tri_object.size(); }
+  std::size_t bytes() const;  // everything above, as allocated
+};
+
+// The scene's shapes in `frame`, rounded to T once per vertex, and their hierarchy. Object ids
+// start at `first_object`.
+template <class T>
+PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int first_object);
+
+// The nearest primitive hit with epsilon < t < t_limit (ties to the lower primitive number),
+// from origin o along unit d: object -1 when none.
+template <class T>
+struct ShapeHit {
+  int object = -1;
+  std::int64_t prim = -1;
+  T t = 0;
+  T part = 0;  // cylinders: prim::kCylinderSide, kCylinderBase or kCylinderTop
+};
+template <class T>
+ShapeHit<T> shapes_closest(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
+                           T epsilon, T t_limit);
+
+// The objects a shadow segment from o along unit l meets before `dist` (a hit with
+// epsilon < t < dist), each once, in ascending object id. `stop_at_first`: one is enough (an
+// opaque scene), the list then holds at most one.
+template <class T>
+void shapes_met(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& l, T epsilon, T dist,
+                bool stop_at_first, std::vector<int>& objects);
+
+// The geometric normal (unit) at the hit, and the shading normal (smooth meshes: the blend of
+// the vertex normals; else the geometric one), neither yet turned to the ray.
+template <class T>
+void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
+                    const Vec3<T>& d, const Vec3<T>& p, Vec3<T>& geometric, Vec3<T>& shading);
+
+extern template PreparedShapes<float> prepare_shapes<float>(const Scene&, const Frame&, int);
+extern template PreparedShapes<double> prepare_shapes<double>(const Scene&, const Frame&, int);
+
+}  // namespace lancer

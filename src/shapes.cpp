@@ -1,0 +1,426 @@
+// Triangles, meshes and cylinders prepared for the reference: the arrays, a binned-SAH hierarchy
+// over them, and the closest-hit and shadow queries.
+#include "lancer/shapes.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "lancer/prim/cylinder.hpp"
+#include "lancer/prim/triangle.hpp"
+
+namespace lancer {
+
+namespace {
+
+constexpr int kBins = 16;
+constexpr std::uint32_t kLeafSize = 4;
+constexpr int kMedianDepth = 64;
+constexpr int kMaxDepth = 128;
+
+template <class T>
+struct Box {
+  T lo[3], hi[3];
+  static Box empty() {
+    Box b;
+    for (int k = 0; k < 3; ++k)
+      b.lo[k] = std::numeric_limits<T>::infinity(), b.hi[k] = -std::numeric_limits<T>::infinity();
+    return b;
+  }
+  void grow(const Box& o) {
+    for (int k = 0; k < 3; ++k) b_min(lo[k], o.lo[k]), b_max(hi[k], o.hi[k]);
+  }
+  static void b_min(T& a, T b) { a = b < a ? b : a; }
+  static void b_max(T& a, T b) { a = b > a ? b : a; }
+  double area() const {
+    const double x = double(hi[0]) - lo[0], y = double(hi[1]) - lo[1], z = double(hi[2]) - lo[2];
+    return x < 0 ? 0 : 2 * (x * y + y * z + z * x);
+  }
+  double centre(int k) const { return 0.5 * (double(lo[k]) + double(hi[k])); }
+};
+
+// A cylinder's box in double (each end's disc spans r sqrt(1 - a_k^2) along axis k), rounded
+// outwards to T.
+template <class T>
+Box<T> cylinder_box(const Cylinder& c, const Frame& frame) {
+  const Vec3<double> a = frame.point(c.base), b = frame.point(c.top);
+  const Vec3<double> axis = normalize(b - a);
+  const double ak[3] = {axis.x, axis.y, axis.z}, pa[3] = {a.x, a.y, a.z}, pb[3] = {b.x, b.y, b.z};
+  Box<T> box;
+  for (int k = 0; k < 3; ++k) {
+    const double reach =
+        c.radius * std::sqrt(std::max(0.0, 1 - ak[k] * ak[k])) * (1 + 1e-12) + 1e-300;
+    const double lo = std::min(pa[k], pb[k]) - reach, hi = std::max(pa[k], pb[k]) + reach;
+    box.lo[k] = std::nextafter(T(lo), -std::numeric_limits<T>::infinity());
+    box.hi[k] = std::nextafter(T(hi), std::numeric_limits<T>::infinity());
+  }
+  return box;
+}
+
+// Binned SAH over primitive boxes; children of a node are stored side by side.
+template <class T>
+void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
+  using Node = typename PreparedShapes<T>::Node;
+  const std::uint32_t n = static_cast<std::uint32_t>(boxes.size());
+  s.order.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) s.order[i] = i;
+  s.nodes.clear();
+  s.nodes.reserve(std::size_t(2) * n / kLeafSize + 2);
+  s.nodes.emplace_back();
+  struct Task {
+    std::uint32_t node, first, count;
+    int depth;
+  };
+  std::vector<Task> stack{{0, 0, n, 0}};
+  while (!stack.empty()) {
+    const Task task = stack.back();
+    stack.pop_back();
+    Box<T> box = Box<T>::empty(), cbox = Box<T>::empty();
+    for (std::uint32_t i = task.first; i < task.first + task.count; ++i) {
+      const Box<T>& b = boxes[s.order[i]];
+      box.grow(b);
+      for (int k = 0; k < 3; ++k) {
+        const T c = T(b.centre(k));
+        Box<T>::b_min(cbox.lo[k], c), Box<T>::b_max(cbox.hi[k], c);
+      }
+    }
+    Node& node = s.nodes[task.node];
+    for (int k = 0; k < 3; ++k) node.lo[k] = box.lo[k], node.hi[k] = box.hi[k];
+    node.first = task.first, node.count = task.count;
+    if (task.count <= kLeafSize) continue;
+    int axis = 0;
+    double extent = -1;
+    for (int k = 0; k < 3; ++k)
+      if (double(cbox.hi[k]) - cbox.lo[k] > extent)
+        extent = double(cbox.hi[k]) - cbox.lo[k], axis = k;
+    std::uint32_t mid = task.first + task.count / 2;
+    auto* begin = s.order.data() + task.first;
+    auto* end = begin + task.count;
+    // Past kMedianDepth the split is the median (depth then grows by log2 of the count at
+    // most), so the walks' fixed stacks of kMaxDepth entries always suffice.
+    if (extent > 0 && task.depth < kMedianDepth) {
+      Box<T> bin_box[kBins];
+      std::uint32_t bin_count[kBins] = {};
+      for (auto& b : bin_box) b = Box<T>::empty();
+      const double lo = cbox.lo[axis], scale = kBins / extent;
+      auto bin_of = [&](std::uint32_t p) {
+        return std::min(kBins - 1, int((boxes[p].centre(axis) - lo) * scale));
+      };
+      for (auto* it = begin; it != end; ++it) {
+        const int b = bin_of(*it);
+        bin_box[b].grow(boxes[*it]), ++bin_count[b];
+      }
+      double right_area[kBins];
+      std::uint32_t right_count[kBins];
+      Box<T> acc = Box<T>::empty();
+      std::uint32_t cnt = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        acc.grow(bin_box[b]), cnt += bin_count[b];
+        right_area[b] = acc.area(), right_count[b] = cnt;
+      }
+      acc = Box<T>::empty(), cnt = 0;
+      double best = std::numeric_limits<double>::infinity();
+      int split = -1;
+      for (int b = 1; b < kBins; ++b) {
+        acc.grow(bin_box[b - 1]), cnt += bin_count[b - 1];
+        if (cnt == 0 || right_count[b] == 0) continue;
+        const double cost = acc.area() * cnt + right_area[b] * right_count[b];
+        if (cost < best) best = cost, split = b;
+      }
+      if (split > 0 && split < kBins) {
+        auto* m = std::partition(begin, end, [&](std::uint32_t p) { return bin_of(p) < split; });
+        mid = static_cast<std::uint32_t>(m - s.order.data());
+      } else {
+        extent = 0;
+      }
+    }
+    if (!(extent > 0 && task.depth < kMedianDepth) || mid == task.first ||
+        mid == task.first + task.count) {
+      mid = task.first + task.count / 2;
+      {
+        std::nth_element(begin, begin + task.count / 2, end, [&](std::uint32_t a, std::uint32_t b) {
+          return boxes[a].centre(axis) < boxes[b].centre(axis);
+        });
+      }
+    }
+    const std::uint32_t left = static_cast<std::uint32_t>(s.nodes.size());
+    s.nodes.emplace_back(), s.nodes.emplace_back();
+    Node& parent = s.nodes[task.node];  // emplace_back may have moved it
+    parent.first = left, parent.count = 0;
+    stack.push_back({left, task.first, mid - task.first, task.depth + 1});
+    stack.push_back({left + 1, mid, task.first + task.count - mid, task.depth + 1});
+  }
+}
+
+// The slab test in double, never turning away a ray the primitive tests would accept. Two
+// margins: the box's entry and exit carry three roundings each, covered by widening [t0, t1]
+// by a few ulps of double (Ize, "Robust BVH Ray Traversal", JCGT 2013); and the watertight
+// triangle test, in T, accepts rays that pass outside the triangle by a few ulps of T of the
+// vertices relative to the origin (its edge functions round; an edge is included), so each box
+// grows by 2^-19 (float; 2^-48 for double) of |origin|inf + |box|inf, some 30 times that.
+struct SlabRay {
+  double o[3], inv[3];
+  bool zero[3];
+  double o_mag = 0, pad_rel;
+  template <class T>
+  explicit SlabRay(const Vec3<T>& org, const Vec3<T>& dir)
+      : pad_rel(sizeof(T) == 4 ? 0x1p-19 : 0x1p-48) {
+    const T od[3] = {org.x, org.y, org.z}, dd[3] = {dir.x, dir.y, dir.z};
+    for (int k = 0; k < 3; ++k) {
+      o[k] = double(od[k]);
+      o_mag = std::max(o_mag, std::fabs(o[k]));
+      zero[k] = dd[k] == T(0);
+      inv[k] = zero[k] ? 0 : 1.0 / double(dd[k]);
+    }
+  }
+  // Whether [0, t_max] along the ray meets the box (t_max inclusive: a tie may still win).
+  template <class T>
+  bool meets(const T lo_t[3], const T hi_t[3], double t_max) const {
+    double mag = 0;
+    for (int k = 0; k < 3; ++k)
+      mag = std::max({mag, std::fabs(double(lo_t[k])), std::fabs(double(hi_t[k]))});
+    const double pad = pad_rel * (o_mag + mag);
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) lo[k] = double(lo_t[k]) - pad, hi[k] = double(hi_t[k]) + pad;
+    double t0 = 0, t1 = t_max * (1 + 0x1p-50);
+    for (int k = 0; k < 3; ++k) {
+      if (zero[k]) {
+        if (o[k] < lo[k] || o[k] > hi[k]) return false;
+        continue;
+      }
+      double a = (lo[k] - o[k]) * inv[k], b = (hi[k] - o[k]) * inv[k];
+      if (a > b) std::swap(a, b);
+      t0 = std::max(t0, a * (1 - 0x1p-50));
+      t1 = std::min(t1, b * (1 + 0x1p-50));
+      if (t0 > t1) return false;
+    }
+    return true;
+  }
+};
+
+// One ray's view of the primitives: the shear for triangles, and the tests.
+template <class T>
+struct PrimRay {
+  const PreparedShapes<T>& s;
+  Vec3<T> o, d;
+  prim::RayShear<T> shear;
+  T eps;
+
+  PrimRay(const PreparedShapes<T>& shapes, const Vec3<T>& org, const Vec3<T>& dir, T epsilon)
+      : s(shapes), o(org), d(dir), shear(prim::ray_shear(dir)), eps(epsilon) {}
+
+  Vec3<T> vertex(std::uint32_t v) const { return {s.vx[v] - o.x, s.vy[v] - o.y, s.vz[v] - o.z}; }
+
+  prim::TriangleEdges<T> edges(std::uint32_t t) const {
+    const std::uint32_t* v = &s.tri[3 * std::size_t(t)];
+    return prim::triangle_edges<T>(
+        prim::permuted(vertex(v[0]), shear), prim::permuted(vertex(v[1]), shear),
+        prim::permuted(vertex(v[2]), shear), shear.sx, shear.sy, shear.sz);
+  }
+  // The primitive's nearest hit beyond epsilon (infinity for none) and its part.
+  prim::CylinderHit<T> hit(std::int32_t ref) const {
+    const T inf = std::numeric_limits<T>::infinity();
+    if (ref >= 0) {
+      const prim::TriangleEdges<T> e = edges(std::uint32_t(ref));
+      if (!prim::triangle_inside(e)) return {inf, T(0)};
+      const T t = prim::triangle_t(e);
+      return {t > eps ? t : inf, T(0)};
+    }
+    const std::size_t c = std::size_t(~ref);
+    return prim::cylinder_closest(o - s.cyl_base[c], d, s.cyl_axis[c], s.cyl_h[c], s.cyl_r2[c],
+                                  s.cyl_caps[c] != 0, eps);
+  }
+  int object(std::int32_t ref) const {
+    return ref >= 0 ? s.tri_object[std::size_t(ref)] : s.cyl_object[std::size_t(~ref)];
+  }
+};
+
+// Visits the leaves whose boxes [0, limit()] meets, depth first; `leaf(first, count)` returns
+// true to stop.
+template <class T, class Limit, class Leaf>
+void walk(const PreparedShapes<T>& s, const SlabRay& slab, Limit limit, Leaf leaf) {
+  if (s.nodes.empty()) return;
+  std::uint32_t stack[kMaxDepth];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const auto& node = s.nodes[stack[--top]];
+    if (!slab.meets(node.lo, node.hi, limit())) continue;
+    if (node.count > 0) {
+      if (leaf(node.first, node.count)) return;
+      continue;
+    }
+    stack[top++] = node.first + 1;
+    stack[top++] = node.first;
+  }
+}
+
+}  // namespace
+
+template <class T>
+std::size_t PreparedShapes<T>::bytes() const {
+  return (vx.capacity() + vy.capacity() + vz.capacity() + nx.capacity() + ny.capacity() +
+          nz.capacity() + cyl_h.capacity() + cyl_r2.capacity()) *
+             sizeof(T) +
+         (prim.capacity() + tri.capacity() + tri_object.capacity() + tri_normals.capacity() +
+          cyl_object.capacity() + order.capacity()) *
+             4 +
+         (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
+         nodes.capacity() * sizeof(Node);
+}
+
+template <class T>
+PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int first_object) {
+  const auto start = std::chrono::steady_clock::now();
+  PreparedShapes<T> s;
+  s.first_object = first_object;
+  s.num_shapes = static_cast<int>(scene.shapes.size());
+  std::size_t nv = 0, nt = 0, nn = 0, nc = 0;
+  bool smooth = false;
+  for (const Shape& sh : scene.shapes) {
+    nv += sh.mesh.vertices.size(), nt += sh.mesh.triangles(), nn += sh.mesh.normals.size();
+    nc += sh.kind == Shape::Kind::cylinder;
+    smooth = smooth || sh.mesh.smooth;
+  }
+  for (auto* v : {&s.vx, &s.vy, &s.vz}) v->reserve(nv);
+  for (auto* v : {&s.nx, &s.ny, &s.nz}) v->reserve(nn);
+  s.tri.reserve(3 * nt);
+  s.tri_object.reserve(nt);
+  if (smooth) s.tri_normals.reserve(3 * nt);
+  s.prim.reserve(nt + nc);
+  std::vector<Box<T>> boxes;
+  boxes.reserve(nt + nc);
+  for (int k = 0; k < s.num_shapes; ++k) {
+    const Shape& sh = scene.shapes[std::size_t(k)];
+    const int object = first_object + k;
+    if (sh.kind == Shape::Kind::cylinder) {
+      const Cylinder& c = sh.cylinder;
+      const Vec3<double> a = frame.point(c.base), b = frame.point(c.top);
+      const Vec3<double> axis = frame.direction(normalize(c.top - c.base));
+      s.cyl_base.push_back(Vec3<T>::from(a));
+      s.cyl_axis.push_back(Vec3<T>::from(axis));
+      s.cyl_h.push_back(T(length(b - a)));
+      s.cyl_r2.push_back(T(c.radius) * T(c.radius));
+      s.cyl_caps.push_back(c.caps ? 1 : 0);
+      s.cyl_object.push_back(object);
+      s.prim.push_back(~std::int32_t(s.cyl_object.size() - 1));
+      boxes.push_back(cylinder_box<T>(c, frame));
+      continue;
+    }
+    const Mesh& m = sh.mesh;
+    const std::uint32_t base = static_cast<std::uint32_t>(s.vx.size());
+    for (const Vec3<double>& v : m.vertices) {
+      const Vec3<double> p = frame.point(v);
+      s.vx.push_back(T(p.x)), s.vy.push_back(T(p.y)), s.vz.push_back(T(p.z));
+    }
+    const std::uint32_t nbase = static_cast<std::uint32_t>(s.nx.size());
+    for (const Vec3<double>& n : m.normals) {
+      const Vec3<double> r = frame.direction(n);
+      s.nx.push_back(T(r.x)), s.ny.push_back(T(r.y)), s.nz.push_back(T(r.z));
+    }
+    for (std::size_t t = 0; t < m.triangles(); ++t) {
+      Box<T> box = Box<T>::empty();
+      for (int c = 0; c < 3; ++c) {
+        const std::uint32_t v = base + m.indices[3 * t + std::size_t(c)];
+        s.tri.push_back(v);
+        const T p[3] = {s.vx[v], s.vy[v], s.vz[v]};
+        for (int a = 0; a < 3; ++a) Box<T>::b_min(box.lo[a], p[a]), Box<T>::b_max(box.hi[a], p[a]);
+        if (smooth)
+          s.tri_normals.push_back(m.smooth ? nbase + m.normal_indices[3 * t + std::size_t(c)]
+                                           : PreparedShapes<T>::kNoNormal);
+      }
+      s.prim.push_back(static_cast<std::int32_t>(s.tri_object.size()));
+      s.tri_object.push_back(object);
+      boxes.push_back(box);
+    }
+  }
+  build_hierarchy(s, boxes);
+  s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return s;
+}
+
+template <class T>
+ShapeHit<T> shapes_closest(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
+                           T epsilon, T t_limit) {
+  ShapeHit<T> best;
+  best.t = t_limit;
+  const PrimRay<T> ray(s, o, d, epsilon);
+  const SlabRay slab(o, d);
+  walk(
+      s, slab, [&] { return double(best.t); },
+      [&](std::uint32_t first, std::uint32_t count) {
+        for (std::uint32_t j = first; j < first + count; ++j) {
+          const std::uint32_t p = s.order[j];
+          const prim::CylinderHit<T> h = ray.hit(s.prim[p]);
+          // Strictly nearer than t_limit; among shapes, an equal t keeps the lower primitive.
+          if (h.t < best.t || (h.t == best.t && best.prim >= 0 && std::int64_t(p) < best.prim))
+            best = {ray.object(s.prim[p]), std::int64_t(p), h.t, h.part};
+        }
+        return false;
+      });
+  return best;
+}
+
+template <class T>
+void shapes_met(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& l, T epsilon, T dist,
+                bool stop_at_first, std::vector<int>& objects) {
+  objects.clear();
+  const PrimRay<T> ray(s, o, l, epsilon);
+  const SlabRay slab(o, l);
+  walk(
+      s, slab, [&] { return double(dist); },
+      [&](std::uint32_t first, std::uint32_t count) {
+        for (std::uint32_t j = first; j < first + count; ++j) {
+          const std::uint32_t p = s.order[j];
+          const int object = ray.object(s.prim[p]);
+          if (std::find(objects.begin(), objects.end(), object) != objects.end()) continue;
+          if (ray.hit(s.prim[p]).t < dist) {
+            objects.push_back(object);
+            if (stop_at_first) return true;
+          }
+        }
+        return false;
+      });
+  std::sort(objects.begin(), objects.end());
+}
+
+template <class T>
+void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
+                    const Vec3<T>& d, const Vec3<T>& p, Vec3<T>& geometric, Vec3<T>& shading) {
+  const std::int32_t ref = s.prim[std::size_t(hit.prim)];
+  if (ref < 0) {
+    const std::size_t c = std::size_t(~ref);
+    geometric = prim::cylinder_normal(p, s.cyl_base[c], s.cyl_axis[c], hit.part);
+    shading = geometric;
+    return;
+  }
+  const std::size_t t = std::size_t(ref);
+  const std::uint32_t* v = &s.tri[3 * t];
+  auto vertex = [&](std::uint32_t k) { return Vec3<T>{s.vx[k], s.vy[k], s.vz[k]}; };
+  geometric = prim::triangle_normal(vertex(v[0]), vertex(v[1]), vertex(v[2]));
+  shading = geometric;
+  if (s.tri_normals.empty() || s.tri_normals[3 * t] == PreparedShapes<T>::kNoNormal) return;
+  const PrimRay<T> ray(s, o, d, T(0));
+  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(t)));
+  auto normal = [&](int c) {
+    const std::uint32_t k = s.tri_normals[3 * t + std::size_t(c)];
+    return Vec3<T>{s.nx[k], s.ny[k], s.nz[k]};
+  };
+  shading = prim::smooth_normal(bary, normal(0), normal(1), normal(2), geometric);
+}
+
+#define LANCER_SHAPES(T)                                                                           \
+  template struct PreparedShapes<T>;                                                               \
+  template PreparedShapes<T> prepare_shapes<T>(const Scene&, const Frame&, int);                   \
+  template ShapeHit<T> shapes_closest<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, \
+                                         T, T);                                                    \
+  template void shapes_met<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, T, T,      \
+                              bool, std::vector<int>&);                                            \
+  template void shapes_normals<T>(const PreparedShapes<T>&, const ShapeHit<T>&, const Vec3<T>&,    \
+                                  const Vec3<T>&, const Vec3<T>&, Vec3<T>&, Vec3<T>&);
+LANCER_SHAPES(float)
+LANCER_SHAPES(double)
+#undef LANCER_SHAPES
+
+}  // namespace lancer

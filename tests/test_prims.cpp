@@ -1,0 +1,340 @@
+// Triangles, meshes and cylinders: mesh files and their errors, watertight triangles, cylinders
+// against an independent computation, smooth normals, ties, shadows through a mesh.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <tuple>
+
+#include "lancer/compare.hpp"
+#include "lancer/error.hpp"
+#include "lancer/mesh_io.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/prim/triangle.hpp"
+#include "lancer/reference.hpp"
+#include "lancer/scene.hpp"
+#include "lancer/shapes.hpp"
+#include "support/test_util.hpp"
+
+namespace lancer {
+namespace {
+
+using testing::TempDir;
+
+void write(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// A scene file around `objects`, camera at the origin looking down -z: its frame is the
+// world's, so prepared coordinates are the scene's own.
+std::string scene_text(const std::string& objects) {
+  return R"({"camera": {"type": "pinhole", "position": [0, 0, 0], "direction": [0, 0, -1],
+    "distance": 1, "resolution": [8, 8], "bounds": [-1, 1, -1, 1]},
+    "lights": [{"position": [0, 10, 0]}], "objects": [)" +
+         objects + "]}";
+}
+
+std::string load_message(const TempDir& dir, const std::string& objects) {
+  const std::string path = dir.file("s.json");
+  write(path, scene_text(objects));
+  try {
+    load_scene(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+const char* kCube =
+    "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
+    "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+TEST(Prims, ObjLoadsFansNegativeIndicesAndIgnoresOtherLines) {
+  TempDir dir;
+  write(dir.file("q.obj"),
+        "mtllib x.mtl\no thing\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\ng g\nusemtl m\n"
+        "f -4 -3 -2 -1\n");
+  const Scene s = [&] {
+    write(dir.file("s.json"), scene_text(R"({"type": "mesh", "file": "q.obj"})"));
+    return load_scene(dir.file("s.json"));
+  }();
+  ASSERT_EQ(s.shapes.size(), 1u);
+  const Mesh& m = s.shapes[0].mesh;
+  EXPECT_EQ(m.indices, (std::vector<std::uint32_t>{0, 1, 2, 0, 2, 3}));
+}
+
+TEST(Prims, MeshErrorsNameTheFileAndLine) {
+  TempDir dir;
+  write(dir.file("range.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+  write(dir.file("nan.obj"), "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+  write(dir.file("two.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2\n");
+  write(dir.file("flat.obj"), "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+  write(dir.file("neg.obj"), "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n");
+  const std::string where = "objects[0].file: " + dir.file("");
+  auto msg = [&](const std::string& file) {
+    return load_message(dir, R"({"type": "mesh", "file": ")" + file + R"("})");
+  };
+  EXPECT_EQ(msg("range.obj"), dir.file("s.json") + ": " + where +
+                                  "range.obj:4: vertex index 4 out of range (1 to 3 or -1 to -3)");
+  EXPECT_EQ(msg("nan.obj"),
+            dir.file("s.json") + ": " + where + "nan.obj:2: vertex coordinate is not finite");
+  EXPECT_EQ(msg("two.obj"), dir.file("s.json") + ": " + where +
+                                "two.obj:5: a face needs at least 3 vertices, not 2");
+  EXPECT_EQ(msg("flat.obj"),
+            dir.file("s.json") + ": " + where + "flat.obj: no triangle left: all 1 have zero area");
+  // Negative indices count back from the last vertex read before the face line.
+  EXPECT_EQ(msg("neg.obj"), dir.file("s.json") + ": " + where +
+                                "neg.obj:3: vertex index -3 out of range (1 to 2 or -1 to -2)");
+  EXPECT_EQ(msg("missing.obj"),
+            dir.file("s.json") + ": " + where + "missing.obj: cannot open mesh file");
+  std::filesystem::create_directory(dir.file("folder.obj"));
+  EXPECT_EQ(msg("folder.obj"),
+            dir.file("s.json") + ": " + where + "folder.obj: is a folder, not a mesh file");
+}
+
+// A binary little-endian PLY of `faces` triangles over 3 vertices, cut to `keep` bytes of body.
+std::string binary_ply(int faces, std::size_t cut = 0) {
+  std::string h =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face " +
+      std::to_string(faces) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string body;
+  const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  body.append(reinterpret_cast<const char*>(v), sizeof v);
+  for (int f = 0; f < faces; ++f) {
+    body.push_back(char(3));
+    const std::int32_t idx[3] = {0, 1, 2};
+    body.append(reinterpret_cast<const char*>(idx), sizeof idx);
+  }
+  if (cut) body.resize(body.size() - cut);
+  return h + body;
+}
+
+TEST(Prims, PlyBinaryAndAsciiLoadAndTruncationIsNamed) {
+  TempDir dir;
+  write(dir.file("ok.ply"), binary_ply(2));
+  write(dir.file("cut.ply"), binary_ply(2, 5));
+  write(dir.file("a.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+        "property double z\nelement face 1\nproperty list uchar uint vertex_index\nend_header\n"
+        "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+  write(dir.file("s.json"), scene_text(R"({"type": "mesh", "file": "ok.ply"})"));
+  const Scene s = load_scene(dir.file("s.json"));
+  EXPECT_EQ(s.shapes[0].mesh.triangles(), 2u);
+  auto msg = [&](const std::string& file) {
+    return load_message(dir, R"({"type": "mesh", "file": ")" + file + R"("})");
+  };
+  const std::string where = dir.file("s.json") + ": objects[0].file: " + dir.file("");
+  EXPECT_EQ(msg("cut.ply"), where + "cut.ply: face 1: file ends inside the element (truncated)");
+  EXPECT_EQ(msg("a.ply"), where + "a.ply:13: vertex index 7 out of range (0 to 2)");
+}
+
+TEST(Prims, ShapeFieldErrors) {
+  TempDir dir;
+  EXPECT_EQ(load_message(dir, R"({"type": "cylinder", "base": [0, 0, 0], "top": [0, 1, 0],
+    "radius": 0})"),
+            dir.file("s.json") + ": objects[0].radius: must be > 0");
+  EXPECT_EQ(load_message(dir, R"({"type": "cylinder", "base": [0, 1, 0], "top": [0, 1, 0],
+    "radius": 1})"),
+            dir.file("s.json") + ": objects[0].top: must differ from base");
+  EXPECT_EQ(load_message(dir, R"({"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1],
+    [2, 2, 2]]})"),
+            dir.file("s.json") +
+                ": objects[0].vertices: the three vertices lie on one line "
+                "(zero area)");
+  write(dir.file("c.obj"), kCube);
+  EXPECT_EQ(load_message(dir, R"({"type": "mesh", "file": "c.obj", "scale": -1})"),
+            dir.file("s.json") + ": objects[0].scale: must be from 1e-18 to 1e+18");
+  EXPECT_EQ(load_message(dir, R"({"type": "mesh", "file": "c.obj", "smooth": 1})"),
+            dir.file("s.json") + ": objects[0].smooth: must be true or false");
+  EXPECT_EQ(load_message(dir, R"({"type": "mesh", "file": "c.obj", "colour": 1})"),
+            dir.file("s.json") + ": objects[0].colour: unknown key");
+}
+
+// The CLI: each bad mesh is one line naming the file and place, exit status 2, no image.
+TEST(Prims, CliRefusesBadMeshesWithStatus2AndNoOutput) {
+  TempDir dir;
+  write(dir.file("range.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+  write(dir.file("nan.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 nan\nf 1 2 3\n");
+  write(dir.file("two.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n");
+  write(dir.file("cut.ply"), binary_ply(4, 1));
+  const std::pair<const char*, const char*> cases[] = {{"missing.obj", "missing.obj: cannot open"},
+                                                       {"range.obj", "range.obj:4: "},
+                                                       {"nan.obj", "nan.obj:3: "},
+                                                       {"two.obj", "two.obj:4: "},
+                                                       {"cut.ply", "cut.ply: face 3: "}};
+  for (const auto& [file, expect] : cases) {
+    write(dir.file("s.json"),
+          scene_text(std::string(R"({"type": "mesh", "file": ")") + file + R"("})"));
+    const std::string out = dir.file("out.pfm");
+    const auto r =
+        testing::run_command(testing::cli() + " render " + dir.file("s.json") + " -o " + out);
+    EXPECT_EQ(r.status, 2) << file << ": " << r.out;
+    EXPECT_NE(r.out.find(expect), std::string::npos) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(out)) << file;
+  }
+}
+
+// Until the packets model them, scenes with shapes run on the reference: auto resolves to
+// width 1 (and says so), an explicit packet width is refused.
+TEST(Prims, CliRunsShapesOnTheReferenceOnly) {
+  TempDir dir;
+  write(dir.file("c.obj"), kCube);
+  write(dir.file("s.json"),
+        scene_text(R"({"type": "mesh", "file": "c.obj", "translate": [0, 0, -4]})"));
+  const std::string out = dir.file("out.pfm");
+  auto r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " -o " + out);
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("width 1 (scalar)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("the reference only until the packets model them"), std::string::npos);
+  EXPECT_NE(r.out.find("12 triangles in 1 mesh"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("their hierarchy: 12 primitives"), std::string::npos) << r.out;
+  std::filesystem::remove(out);
+  r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " --json -o " + out +
+                           " 2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["width"], 1);
+  EXPECT_EQ(j["shapes"]["triangles"], 12);
+  EXPECT_EQ(j["shapes"]["primitives"], 12);
+  EXPECT_TRUE(j.contains("width_reason"));
+  std::filesystem::remove(out);
+  r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " --width 8 -o " +
+                           out);
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  // Nothing to validate or profile on packets: one line, status 2, before any other output.
+  for (const char* command : {" validate ", " profile "}) {
+    r = testing::run_command(testing::cli() + command + dir.file("s.json"));
+    EXPECT_EQ(r.status, 2) << command << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    EXPECT_NE(r.out.find("triangles, meshes"), std::string::npos) << r.out;
+  }
+}
+
+// The reference against the independent oracle (tests/oracle: Moller-Trumbore, the textbook
+// cylinder quadratic, double throughout) on a scene of triangle and cylinder objects with
+// shadows, a mirror and glass: as the shipped scenes are held to it (test_oracle.cpp).
+TEST(Prims, ReferenceAgreesWithTheOracle) {
+  TempDir dir;
+  const std::string path = dir.file("o.json");
+  write(path,
+        R"({"camera": {"type": "pinhole", "position": [0, 1.5, 6], "direction": [0, -0.25, -1],
+    "distance": 4, "resolution": [160, 120], "bounds": [-2.4, 2.4, -1.8, 1.8]},
+    "background": [0.3, 0.4, 0.6], "environment": 0.1, "max_depth": 3,
+    "lights": [{"position": [-4, 8, 6], "intensity": 0.8, "ambient": 0.2},
+               {"position": [5, 4, 3], "intensity": [0.3, 0.25, 0.2]}],
+    "objects": [
+      {"type": "triangle", "vertices": [[-4, -1, -4], [4, -1, -4], [4, -1, 4]],
+       "material": {"color": 0.8, "ka": 0.1}},
+      {"type": "triangle", "vertices": [[-4, -1, -4], [4, -1, 4], [-4, -1, 4]],
+       "material": {"color": 0.8, "ka": 0.1}},
+      {"type": "triangle", "vertices": [[-2, -1, -2], [0, 1.5, -2.5], [2, -1, -2]],
+       "material": {"color": 0.9, "kd": 0.2, "ks": 0.5, "reflect": 0.6}},
+      {"type": "cylinder", "base": [-1.3, -1, 0], "top": [-1.3, 0.6, 0.2], "radius": 0.45,
+       "material": {"color": [0.8, 0.3, 0.2], "ka": 0.1, "ks": 0.5, "shininess": 30}},
+      {"type": "cylinder", "base": [1.4, -0.4, 0.5], "top": [0.4, -0.4, 1.2], "radius": 0.35,
+       "caps": false, "material": {"color": [0.3, 0.7, 0.4], "ka": 0.15}},
+      {"type": "cylinder", "base": [0.2, -0.95, 1.8], "top": [0.2, -0.1, 1.8], "radius": 0.4,
+       "material": {"color": 1, "kd": 0.05, "ks": 0.8, "transmit": 0.8, "reflect": 0.1,
+                    "ior": 1.5}},
+      {"type": "sphere", "center": [1.6, 0, -1], "radius": 0.6,
+       "material": {"color": [0.3, 0.4, 0.9], "ka": 0.1, "ks": 0.4}}
+    ]})");
+  const std::string truth_path = dir.file("oracle.pfm");
+  const auto r = testing::run_command(std::string(LANCER_ORACLE) + " " + path + " " + truth_path);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const Image truth = read_image(truth_path);
+  const Scene s = load_scene(path);
+  const double tol = 2.0 / 255.0;
+  const ErrorStats dbl = error_stats(testing::render_with(s, 1, Precision::dbl, 2), truth, tol);
+  const ErrorStats exact = error_stats(testing::render_with(s, 1, Precision::exact, 2), truth, tol);
+  std::printf("pixels off by > 2/255: double %.4f%%, exact %.4f%%\n", 100 * dbl.off_fraction,
+              100 * exact.off_fraction);
+  EXPECT_LE(dbl.off_fraction, 0.001) << "double: " << dbl.off_pixels << " pixels off";
+  EXPECT_LE(exact.off_fraction, 0.005) << "exact: " << exact.off_pixels << " pixels off";
+}
+
+// Seeded mutations of valid OBJ, ascii PLY and binary PLY files (bytes flipped, inserted,
+// deleted, the file cut): each parse succeeds or throws InputError, never anything else.
+TEST(Prims, MutatedMeshFilesLoadOrFailCleanly) {
+  const std::string ascii_ply =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+      "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n4 0 1 2 3\n";
+  const std::string seeds[3] = {std::string(kCube) + "vn 0 0 1\nf 1//1 2//1 3//1\n", ascii_ply,
+                                binary_ply(5)};
+  std::mt19937_64 rng(37);
+  int loaded = 0, refused = 0;
+  for (int round = 0; round < 20000; ++round) {
+    const int which = round % 3;
+    std::string text = seeds[which];
+    const int edits = 1 + int(rng() % 4);
+    for (int e = 0; e < edits && !text.empty(); ++e) {
+      const std::size_t at = rng() % text.size();
+      switch (rng() % 4) {
+        case 0:
+          text[at] = char(rng());
+          break;
+        case 1:
+          text.insert(at, 1, "0123456789-+. \n/ef"[rng() % 19]);
+          break;
+        case 2:
+          text.erase(at, 1 + rng() % 8);
+          break;
+        default:
+          text.resize(at);
+      }
+    }
+    try {
+      MeshFile m = which == 0 ? parse_obj(text, "f.obj") : parse_ply(text, "f.ply");
+      Mesh out;
+      place_mesh(std::move(m), MeshTransform{}, round % 2 == 0, "f", out);
+      for (std::uint32_t i : out.indices) ASSERT_LT(i, out.vertices.size());
+      ++loaded;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+      ++refused;
+    }
+  }
+  EXPECT_GT(loaded, 400);
+  EXPECT_GT(refused, 10000);
+}
+
+// lancer generate --mesh-triangles needs a scene file to put the mesh beside.
+TEST(Prims, GenerateRefusesAMeshWithoutASceneFile) {
+  TempDir dir;
+  auto r = testing::run_command(testing::cli() + " generate --spheres 1 --mesh-triangles 10 -o -");
+  EXPECT_EQ(r.status, 2) << r.out;
+  r = testing::run_command(testing::cli() + " generate --spheres 1 --mesh-triangles 10 -o " +
+                           dir.file("none/g.json"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("none")));
+}
+
+// lancer generate --mesh-triangles writes the mesh beside the scene, and the scene loads it.
+TEST(Prims, GenerateWritesAMeshBesideTheScene) {
+  TempDir dir;
+  const auto r = testing::run_command(testing::cli() +
+                                      " generate --spheres 3 --mesh-triangles 5000 --cylinders 4 "
+                                      "--resolution 16x12 -o " +
+                                      dir.file("g.json"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  ASSERT_TRUE(std::filesystem::exists(dir.file("g.ply")));
+  const Scene s = load_scene(dir.file("g.json"));
+  ASSERT_EQ(s.shapes.size(), 5u);
+  EXPECT_GE(s.shapes[0].mesh.triangles(), 5000u);
+  for (std::size_t k = 1; k < 5; ++k) EXPECT_EQ(s.shapes[k].kind, Shape::Kind::cylinder);
+  const auto again = testing::run_command(testing::cli() + " render " + dir.file("g.json") +
+                                          " -o " + dir.file("g.pfm"));
+  EXPECT_EQ(again.status, 0) << again.out;
+}
+
+}  // namespace
+}  // namespace lancer
