@@ -1,4 +1,4 @@
-// The interface between image_io.cpp and lancer's image module (src/image_oiio.cpp, the only
+// The interface between image_io.cpp and lancer's image module (src/tools/image_oiio.cpp, the only
 // code that links OpenImageIO), which image_io.cpp loads with dlopen on first use. Internal: one
 // build makes both sides.
 #pragma once

@@ -1,4 +1,4 @@
-// The peak-arithmetic kernels of src/isa/peak_*.cpp (and the scalar one of src/peak.cpp), declared
+// The peak-arithmetic kernels of src/isa/peak_*.cpp (and the scalar one of src/tools/peak.cpp), declared
 // without SIMD types so that baseline code can call them once the CPU is known to run them.
 // Each runs `iterations` rounds of independent chains x = x * a + b and returns the flops done
 // (2 per lane per chain per round: one FMA, or one mul and one add). See include/lancer/peak.hpp.
@@ -6,7 +6,7 @@
 
 namespace lancer::peak_kernels {
 
-double scalar_muladd(long iterations);  // src/peak.cpp, baseline x86-64
+double scalar_muladd(long iterations);  // src/tools/peak.cpp, baseline x86-64
 
 // N independent chains on batch<float, Arch>: xsimd::fma (one vfmadd, for fma3<avx2> and
 // avx512f) or a mul then an add (never fused: -ffp-contract=off). Defined in

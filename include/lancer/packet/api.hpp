@@ -46,7 +46,7 @@ struct KernelTable {
                          int* lanes, std::uint32_t* where);
   void (*intersect_camera_packets)(const PreparedScene<Real>&, const Real* rays, const int* lanes,
                                    std::size_t count, Real* t_out, RayCounts&);
-  // One packet through the closest-hit kernel, for tests and the library API (src/api.cpp,
+  // One packet through the closest-hit kernel, for tests and the library API (src/engine/api.cpp,
   // which moves world-space rays into the prepared frame first): rays in SoA arrays of `width`
   // lanes (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
   // t and id. hit_out gets the lanes hit.

@@ -1,5 +1,5 @@
 // Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); every other
-// format through OpenImageIO, in lancer's image module (src/image_oiio.cpp), loaded on first use.
+// format through OpenImageIO, in lancer's image module (src/tools/image_oiio.cpp), loaded on first use.
 // Files appear whole or not at all.
 #include <dlfcn.h>
 #include <fcntl.h>

@@ -1,6 +1,6 @@
 // The data side of lancer's figures, in the core library (no drawing library): charts as plain
 // values, tick positions, clipping, output-path checks, charts from CSV. Drawing them is
-// src/plot_cairo.cpp, in lancer_plot.
+// src/tools/plot_cairo.cpp, in lancer_plot.
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
