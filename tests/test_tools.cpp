@@ -146,7 +146,7 @@ TEST(BenchGbench, HasTheFieldsCompareNeeds) {
     }
   }
   EXPECT_EQ(iterations, 6);
-  EXPECT_EQ(b[0]["name"], "lancer/primary/exact/w1/threads:1");
+  EXPECT_EQ(b[0]["name"], "lancer/primary/exact/w1/threads:1/real_time");
   // The median aggregate is the median of the three repetitions.
   std::vector<double> t{b[0]["real_time"], b[1]["real_time"], b[2]["real_time"]};
   std::sort(t.begin(), t.end());
