@@ -17,6 +17,10 @@ packages=(
   clang libclang-rt-14-dev  # libFuzzer and the sanitizer runtimes
   libopenmpi-dev openmpi-bin  # mpirun -np N lancer render (docs/mpi.md; optional at build time)
   qemu-user               # runs the binary as CPUs without AVX / AVX-512 (.ci/qemu.sh)
+  ccache                  # setup.sh and test.sh compile through it when present
+  jq python3              # scripts/measure.sh and scaling.sh read bench's JSON; CI's skip check
+  libbenchmark-tools python3-scipy  # Google Benchmark's compare.py (README), which imports scipy
+  strace                  # the fsync-order test of atomic replace (tests/fuzz/test_edges.cpp)
 )
 
 missing=()

@@ -27,8 +27,11 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-command -v jq >/dev/null || { echo "measure.sh: needs jq (apt-get install jq)" >&2; exit 2; }
-[ -x "$lancer" ] || { echo "measure.sh: no lancer at $lancer (build first)" >&2; exit 2; }
+command -v jq >/dev/null || { echo "measure.sh: needs jq (scripts/deps.sh installs it)" >&2; exit 2; }
+[ -x "$lancer" ] || {
+  echo "measure.sh: no lancer at $lancer: run scripts/setup.sh (it builds build/lancer), or pass --lancer PATH" >&2
+  exit 2
+}
 mkdir -p "$out"
 scene="$root/scenes/lorenzi-reflections.json"
 glass="$root/scenes/lorenzi-glass.json"
