@@ -11,8 +11,10 @@
 # plain CMake build (a full build from nothing, what setup.sh already did). Each command has
 # LANCER_README_BUDGET seconds (default 300), the whole stage LANCER_README_TOTAL (default 900):
 # a command that runs longer fails the stage, so a README command never grows unbounded unseen.
+# The commands run with CDPATH=. exported, as some users' shells have it.
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+# cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
+root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 build="build" list=0
 for a in "$@"; do
   case "$a" in
@@ -46,7 +48,7 @@ if [ "$list" -eq 1 ]; then
 fi
 [ -x "$root/$build/lancer" ] || [ -x "$build/lancer" ] ||
   { echo "readme: no lancer in $build (run scripts/setup.sh first)" >&2; exit 2; }
-build_abs="$(cd "$root" && cd "$build" && pwd)"
+build_abs="$(cd -- "$root" >/dev/null && cd -- "$build" >/dev/null && pwd)"
 
 scratch="$(mktemp -d "${TMPDIR:-/tmp}/lancer-readme.XXXXXX")"
 trap 'rm -rf "$scratch"' EXIT
@@ -72,7 +74,9 @@ for rec in "${records[@]}"; do
   fi
   t0=$(date +%s%N)
   status=0
-  (cd "$scratch" && timeout --kill-after=10 "$budget" bash -o pipefail -c "$rest") \
+  # CDPATH set as some users' shells have it: a script that captures `cd`'s output then got
+  # the directory twice (measure.sh: "no lancer at ...").
+  (cd "$scratch" && CDPATH=. timeout --kill-after=10 "$budget" bash -o pipefail -c "$rest") \
     >"$scratch/.readme-out" 2>&1 || status=$?
   ms=$((($(date +%s%N) - t0) / 1000000))
   if [ "$status" -ne 0 ]; then

@@ -13,7 +13,8 @@
 # Needs jq. Medians of R runs (default 7), configurations interleaved within each bench call.
 set -euo pipefail
 
-root="$(cd "$(dirname "$0")/.." && pwd)"
+# cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
+root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 lancer="$root/build/lancer"
 out="$root/out/measured"
 repeat=7

@@ -15,7 +15,8 @@
 # Needs jq and python3.
 set -euo pipefail
 
-root="$(cd "$(dirname "$0")/.." && pwd)"
+# cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
+root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 lancer="$root/build/lancer"
 out="$root/out/scaling"
 repeat=5
