@@ -16,7 +16,8 @@ set -euo pipefail
 seconds="${1:-120}"
 case "$seconds" in ''|*[!0-9]*) echo "usage: $0 [SECONDS]" >&2; exit 2 ;; esac
 
-root="$(cd "$(dirname "$0")/.." && pwd)"
+# cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
+root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 build="${BUILD_DIR:-$root/build-fuzz}"
 
 cxx="${CXX:-}"

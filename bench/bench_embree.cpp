@@ -85,10 +85,12 @@ void register_embree_benchmarks(const std::string& scene_path) {
       if (how.tiles && width == 1) continue;  // square packets: widths 4, 8 and 16
       const std::string tail = "/embree/" + slug(how);
       benchmark::RegisterBenchmark(("primary/" + name + w + tail).c_str(), embree_primary, c, width)
-          ->Unit(benchmark::kMillisecond);
+          ->UseRealTime()
+          ->Unit(benchmark::kMicrosecond);
       if (how.tiles || how.streams) continue;  // camera rays only
       benchmark::RegisterBenchmark(("full/" + name + w + tail).c_str(), embree_full, c, width)
-          ->Unit(benchmark::kMillisecond);
+          ->UseRealTime()
+          ->Unit(benchmark::kMicrosecond);
     }
   }
 }

@@ -10,6 +10,18 @@ if(NOT TARGET xtl)
 endif()
 find_package(xsimd 8 REQUIRED)
 
+# Debian 12's libimath-dev exports Imath::PyImath_Python3_11, whose library only python3-imath
+# ships: the check of its file printed a screen of "does not exist" on every configure, burying
+# real warnings. Imath found first with its status messages held back; OpenImageIO's
+# find_dependency(Imath) then finds the targets defined and reads nothing again.
+set(_lancer_log_level "${CMAKE_MESSAGE_LOG_LEVEL}")
+set(CMAKE_MESSAGE_LOG_LEVEL NOTICE)
+find_package(Imath CONFIG QUIET)
+if(_lancer_log_level)
+  set(CMAKE_MESSAGE_LOG_LEVEL "${_lancer_log_level}")
+else()
+  unset(CMAKE_MESSAGE_LOG_LEVEL)
+endif()
 # OpenImageIO 2.4 (Debian) lists /usr/include/opencv4, which does not exist without OpenCV.
 find_package(OpenImageIO REQUIRED)
 foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)

@@ -18,6 +18,10 @@ packages=(
   libopenmpi-dev openmpi-bin  # mpirun -np N lancer render (docs/mpi.md; optional at build time)
   qemu-user               # runs the binary as CPUs without AVX / AVX-512 (.ci/qemu.sh)
   glmark2-data            # the Stanford bunny (scenes/prims/bunny.json, test Prims.WatertightStanfordBunny)
+  ccache                  # setup.sh and test.sh compile through it when present
+  jq python3              # scripts/measure.sh and scaling.sh read bench's JSON; CI's skip check
+  libbenchmark-tools python3-scipy  # Google Benchmark's compare.py (README), which imports scipy
+  strace                  # the fsync-order test of atomic replace (tests/fuzz/test_edges.cpp)
 )
 
 missing=()

@@ -13,7 +13,8 @@
 # Needs jq. Medians of R runs (default 7), configurations interleaved within each bench call.
 set -euo pipefail
 
-root="$(cd "$(dirname "$0")/.." && pwd)"
+# cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
+root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 lancer="$root/build/lancer"
 out="$root/out/measured"
 repeat=7
@@ -27,8 +28,11 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-command -v jq >/dev/null || { echo "measure.sh: needs jq (apt-get install jq)" >&2; exit 2; }
-[ -x "$lancer" ] || { echo "measure.sh: no lancer at $lancer (build first)" >&2; exit 2; }
+command -v jq >/dev/null || { echo "measure.sh: needs jq (scripts/deps.sh installs it)" >&2; exit 2; }
+[ -x "$lancer" ] || {
+  echo "measure.sh: no lancer at $lancer: run scripts/setup.sh (it builds build/lancer), or pass --lancer PATH" >&2
+  exit 2
+}
 mkdir -p "$out"
 scene="$root/scenes/lorenzi-reflections.json"
 glass="$root/scenes/lorenzi-glass.json"

@@ -15,7 +15,8 @@
 # Needs jq and python3.
 set -euo pipefail
 
-root="$(cd "$(dirname "$0")/.." && pwd)"
+# cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
+root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 lancer="$root/build/lancer"
 out="$root/out/scaling"
 repeat=5
@@ -34,8 +35,11 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-command -v jq >/dev/null || { echo "scaling.sh: needs jq (apt-get install jq)" >&2; exit 2; }
-[ -x "$lancer" ] || { echo "scaling.sh: no lancer at $lancer (build first)" >&2; exit 2; }
+command -v jq >/dev/null || { echo "scaling.sh: needs jq (scripts/deps.sh installs it)" >&2; exit 2; }
+[ -x "$lancer" ] || {
+  echo "scaling.sh: no lancer at $lancer: run scripts/setup.sh (it builds build/lancer), or pass --lancer PATH" >&2
+  exit 2
+}
 mkdir -p "$out"
 # The widest packet width this CPU runs (16 with AVX-512, 8 with AVX2, else 4): what render picks.
 width="$("$lancer" render "$root/scenes/lorenzi-diffuse.json" --resolution 8x8 --precision exact \

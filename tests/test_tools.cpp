@@ -8,6 +8,7 @@
 
 #include "lancer/bench.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/diff_map.hpp"
 #include "lancer/progress.hpp"
 #include "support/test_util.hpp"
 
@@ -59,6 +60,34 @@ TEST(CompareImages, CountsThresholdsAndUlps) {
   EXPECT_TRUE(std::isinf(same.error.psnr_db));
 }
 
+// 64 pixels off by 1/255 beside one off by 0.5: on a linear scale the 64 were black. On the log
+// map each differing pixel is bright, the smallest difference blue, the largest yellow.
+TEST(CompareDiff, EveryDifferingPixelIsVisible) {
+  const Image a = gradient(32, 16);
+  Image b = a;
+  for (int k = 0; k < 64; ++k) b.pixel(k % 32, 2 + k / 32)[0] += 1.0f / 255;
+  b.pixel(10, 10)[2] += 0.5f;
+  const DiffMap m = false_colour_difference(a, b);
+  EXPECT_EQ(m.coloured, 65u);
+  EXPECT_NEAR(m.low, 1.0 / 255, 1e-6);
+  EXPECT_NEAR(m.high, 0.5, 1e-6);
+  ASSERT_EQ(m.image.ny, 16 + 1 + m.bar_rows);
+  int visible = 0;
+  for (int j = 0; j < 16; ++j)
+    for (int i = 0; i < 32; ++i) {
+      const float* p = m.image.pixel(i, j);
+      visible += std::max({p[0], p[1], p[2]}) >= 0.5f;
+    }
+  EXPECT_EQ(visible, 65);
+  float low[3], high[3];
+  diff_colour(0, low);
+  diff_colour(1, high);
+  EXPECT_EQ(m.image.pixel(0, 2)[2], low[2]);     // the smallest difference: the bar's left end
+  EXPECT_EQ(m.image.pixel(10, 10)[0], high[0]);  // the largest: its right end
+  EXPECT_EQ(m.image.pixel(31, 16 + 1)[0], high[0]);
+  EXPECT_EQ(m.image.pixel(0, 16)[0], 0.0f);  // the black row above the bar
+}
+
 TEST(CompareCli, ExitStatusIdenticalDifferentBadInput) {
   TempDir dir;
   const Image a = gradient(16, 8);
@@ -75,7 +104,18 @@ TEST(CompareCli, ExitStatusIdenticalDifferentBadInput) {
   EXPECT_NE(diff.out.find("differing pixels  1 of 128"), std::string::npos) << diff.out;
   const Image d = read_image(dir.file("d.png"));
   EXPECT_EQ(d.nx, 16);
-  EXPECT_NEAR(d.pixel(5, 5)[1], 1.0, 1e-6);  // the largest difference scaled to 1
+  EXPECT_EQ(d.ny, 8 + 1 + 4);                         // a black row and the colour bar below
+  EXPECT_NEAR(d.pixel(5, 5)[0], 1.0, 1.0 / 255);      // the largest difference: yellow
+  EXPECT_EQ(d.pixel(0, 0)[0] + d.pixel(0, 0)[1], 0);  // identical: black
+  EXPECT_NE(diff.out.find("log scale, blue 0.25 to yellow 0.25"), std::string::npos) << diff.out;
+  // --diff-scale: |a - b| times the factor, linear, the inputs' size.
+  ASSERT_EQ(run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("b.pfm") +
+                        " --diff " + dir.file("s.pfm") + " --diff-scale 4")
+                .status,
+            1);
+  const Image s = read_image(dir.file("s.pfm"));
+  EXPECT_EQ(s.ny, 8);
+  EXPECT_NEAR(s.pixel(5, 5)[1], 1.0, 1e-6);
   // Sizes differ: one line, exit 2.
   const auto size = run_command(cli() + " compare " + dir.file("a.pfm") + " " + dir.file("c.pfm"));
   EXPECT_EQ(size.status, 2);
@@ -146,7 +186,7 @@ TEST(BenchGbench, HasTheFieldsCompareNeeds) {
     }
   }
   EXPECT_EQ(iterations, 6);
-  EXPECT_EQ(b[0]["name"], "lancer/primary/exact/w1/threads:1");
+  EXPECT_EQ(b[0]["name"], "lancer/primary/exact/w1/threads:1/real_time");
   // The median aggregate is the median of the three repetitions.
   std::vector<double> t{b[0]["real_time"], b[1]["real_time"], b[2]["real_time"]};
   std::sort(t.begin(), t.end());
@@ -359,6 +399,18 @@ TEST(PlotCli, CsvToSvgAndOneLineErrors) {
                         "--log z -o " + dir.file("t.svg"))
                 .status,
             2);
+}
+
+// Every command that writes a file names it in its summary: trade --plot wrote its figure
+// silently.
+TEST(TradeCli, SummaryNamesTheFigure) {
+  TempDir dir;
+  const std::string scene = source_path("scenes/lorenzi-diffuse.json");
+  const auto r = run_command(cli() + " trade " + scene + " --resolution 24x16 --repeat 1 --plot " +
+                             dir.file("t.svg"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("lancer trade: wrote " + dir.file("t.svg")), std::string::npos) << r.out;
+  EXPECT_TRUE(std::ifstream(dir.file("t.svg")).good());
 }
 
 }  // namespace

@@ -32,7 +32,10 @@ struct BenchRow {
   RayCounts by_kind;            // the same rays by kind (camera, shadow, reflected, refracted)
   double seconds = 0;           // per render, median over the repeats
   std::vector<double> samples;  // seconds per render of each repeat, in the order they ran
-  std::string secondary;        // lancer's full renders through a hierarchy: secondary_walk()
+  // The process's CPU seconds per render over the same timed runs (every thread of it, the
+  // run's untimed set-up, if any, included).
+  std::vector<double> cpu_samples;
+  std::string secondary;  // lancer's full renders through a hierarchy: secondary_walk()
   double mrays_per_s() const { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
   // With --peak, lancer's exact primary and kernel rows: intersection GFLOP/s
   // (include/lancer/peak.hpp), what the SIMD lanes execute, and the first against the
@@ -55,6 +58,12 @@ struct BenchOptions {
   std::vector<int> threads;                           // e.g. {1}
   std::vector<std::string> modes{"primary", "full"};  // and/or "kernel"
   int repeat = 5;
+  // Untimed runs of every configuration before the first round.
+  int warmup = 1;
+  // More rounds after `repeat` until every configuration has been timed this many seconds in
+  // all (0: exactly `repeat` rounds), at most max_rounds rounds in all.
+  double min_time = 0;
+  int max_rounds = 1000;
   // Each timed run renders the scene as often as it takes to last this long, so that a small
   // scene is timed over milliseconds, not microseconds; its time per render is what counts.
   double min_seconds = 0.05;
@@ -107,6 +116,24 @@ std::vector<double> time_interleaved(const std::vector<std::function<double()>>&
 std::vector<std::vector<double>> time_interleaved_samples(
     const std::vector<std::function<double()>>& run, int repeat, double min_seconds);
 
+// How configurations are timed: `warmup` untimed runs of each, then rounds with the
+// configurations interleaved, each timed run repeated until it lasts min_seconds; `repeat`
+// rounds, and more while a configuration's timed seconds add up to less than min_time, up to
+// max_rounds.
+struct TimingPlan {
+  int repeat = 5;
+  int warmup = 1;
+  double min_seconds = 0.05;
+  double min_time = 0;
+  int max_rounds = 1000;
+};
+// Per configuration, per round: wall seconds per render (what run[k]() returns) and the
+// process's CPU seconds per render over the same runs.
+struct RoundSamples {
+  std::vector<std::vector<double>> wall, cpu;
+};
+RoundSamples time_rounds(const std::vector<std::function<double()>>& run, const TimingPlan& plan);
+
 // The spread of a row's samples, as rays per second would show it (seconds: lower is faster).
 struct Spread {
   double min = 0, median = 0, max = 0;
@@ -115,11 +142,22 @@ struct Spread {
 };
 Spread spread(const std::vector<double>& samples);
 
+// Above this coefficient of variation a row's median is flagged as unreliable (bench warns).
+constexpr double kNoisyCv = 0.05;
+// Repeats further than 1.5 interquartile ranges outside the quartiles (Tukey's fences, which
+// hyperfine's outlier warning uses too).
+int outliers(const std::vector<double>& samples);
+
 // A row's name in Google Benchmark's JSON: engine/mode/precision/wWIDTH/threads:N.
 std::string bench_row_name(const BenchRow& row);
 // The rows in Google Benchmark's JSON shape (context; per row one "iteration" entry per repeat and
 // mean, median, stddev and cv aggregates), readable by its tools/compare.py.
+// time_unit: ns, us, ms or s; "" or "auto" picks one per row, the largest in which the row's
+// median is at least 100. cpu_time is the rows' cpu_samples.
 std::string gbench_json(const BenchResult& result, const std::string& scene,
-                        const std::string& executable);
+                        const std::string& executable, const std::string& time_unit = "auto");
+// The context both JSON outputs carry (date, host, CPU, caches, commit, lancer's version), as
+// a JSON object's text.
+std::string bench_context_json(const std::string& executable, const std::string& scene);
 
 }  // namespace lancer

@@ -105,8 +105,13 @@ void write_text_file(const std::string& text, const std::string& path);
 bool clip_segment(double& ax, double& ay, double& bx, double& by, double x0, double y0, double x1,
                   double y1);
 
+// An axis label for a CSV column, with its unit: the header's own "time (s)" or "time [s]" as
+// written, else one read from the name's suffix ("build_s": "build (s)", "mrays_per_s":
+// "Mrays/s", "_ms", "_us", "_ns", "_db", "_mb", "_bytes", "_per_s"), else the name.
+std::string column_label(const std::string& header_cell);
 // A chart from CSV text (a header row, then numbers): `y` against `x`, one series per distinct
-// value of `group` (none: one series). Throws InputError naming `source` and the line.
+// value of `group` (none: one series); a column is named with or without its "(unit)", and the
+// axes are labelled by column_label. Throws InputError naming `source` and the line.
 Chart chart_from_csv(const std::string& csv, const std::string& source, const std::string& x,
                      const std::string& y, const std::string& group, Mark mark);
 

@@ -17,6 +17,10 @@
 namespace lancer::cli {
 
 namespace {
+constexpr int kMaxWarmup = 100;
+constexpr double kMaxMinTime = 3600;
+constexpr int kMaxRounds = 1000;
+
 struct BenchArgs {
   std::string accel = "auto";
   std::vector<std::string> scenes;
@@ -24,9 +28,14 @@ struct BenchArgs {
   std::vector<std::string> threads{"1"};
   std::vector<std::string> modes{"primary", "full"};
   std::vector<std::string> precisions{"exact"};
+  // Unless given: 5, or 9 with --format gbench (compare.py's U test wants 9 or more).
   int repeat = 5;
+  bool repeat_given = false;
+  int warmup = 1;
+  double min_time = 0;
+  std::string time_unit = "auto";
   bool json = false;
-  std::string format;  // table, json or gbench (Google Benchmark's JSON)
+  std::string format;  // table, json, csv or gbench (Google Benchmark's JSON)
   std::vector<std::string> peers;
   bool peak = false;
   SceneOverrides overrides;
@@ -61,10 +70,66 @@ void print_peaks(const std::vector<PeakRow>& peaks) {
                 p.width >= 8 ? "fma (2 flops)" : "mul+add (2 flops)", p.gflops, p.muladd_gflops);
 }
 
+// What the timing ran with, for the summaries.
+struct Timing {
+  int warmup = 1;
+  double min_time = 0;
+};
+
+// As hyperfine does: a warning naming the rows whose repeats spread too widely for their median
+// to be trusted, and those with outliers.
+void print_noise_warning(const std::vector<BenchRow>& rows) {
+  std::vector<std::string> noisy;
+  for (const BenchRow& r : rows) {
+    const double cv = spread(r.samples).cv();
+    const int out = outliers(r.samples);
+    if (cv > kNoisyCv || out > 0) {
+      char line[64];
+      std::snprintf(line, sizeof line, ": cv %.1f%%, %d outlier%s", 100 * cv, out,
+                    out == 1 ? "" : "s");
+      noisy.push_back(bench_row_name(r) + (r.config.empty() ? "" : " (" + r.config + ")") + line);
+    }
+  }
+  if (noisy.empty()) return;
+  std::printf(
+      "  Warning: %zu of %zu rows spread widely (coefficient of variation over %.0f%%) or have "
+      "statistical outliers (repeats beyond 1.5 interquartile ranges): their medians may be "
+      "off. A quieter machine, more --repeat or --min-time help:\n",
+      noisy.size(), rows.size(), 100 * kNoisyCv);
+  for (const std::string& n : noisy) std::printf("    %s\n", n.c_str());
+}
+
+std::string csv_cell(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string q = "\"";
+  for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+// One line per row, for `lancer plot` and spreadsheets: the columns of --json's results.
+void print_csv(const std::vector<std::string>& scenes, const std::vector<BenchResult>& results) {
+  std::printf(
+      "scene,engine,mode,precision,width,isa,threads,rays,seconds,mrays_per_s,seconds_min,"
+      "seconds_max,cv,repeats,config\n");
+  for (std::size_t i = 0; i < results.size(); ++i)
+    for (const BenchRow& r : results[i].rows) {
+      const Spread sp = spread(r.samples);
+      std::printf("%s,%s,%s,%s,%d,%s,%d,%llu,%.9g,%.6g,%.9g,%.9g,%.4g,%zu,%s\n",
+                  csv_cell(scenes[i]).c_str(), r.engine.c_str(), r.mode.c_str(),
+                  r.precision.c_str(), r.width, r.isa.c_str(), r.threads,
+                  (unsigned long long)r.rays, r.seconds, r.mrays_per_s(), sp.min, sp.max, sp.cv(),
+                  r.samples.size(), csv_cell(r.config).c_str());
+    }
+}
+
 void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
-                 const StructureInfo& structure, int repeat, bool peak) {
-  std::printf("lancer bench: %s, median of %d runs, configurations interleaved\n", scene.c_str(),
-              repeat);
+                 const StructureInfo& structure, const Timing& timing, bool peak) {
+  const int rounds = rows.empty() ? 0 : int(rows[0].samples.size());
+  std::printf("lancer bench: %s, median of %d runs, configurations interleaved", scene.c_str(),
+              rounds);
+  if (timing.warmup != 1) std::printf(", %d warm-up runs each", timing.warmup);
+  if (timing.min_time > 0) std::printf(", at least %g s timed each", timing.min_time);
+  std::printf("\n");
   std::printf("  %-8s %-8s %-9s %5s %-10s %7s %12s %10s %10s %9s", "engine", "mode", "precision",
               "width", "isa", "threads", "rays", "seconds", "Mrays/s", "vs w=1");
   std::printf(" %17s %6s", "min..max Mrays/s", "cv");
@@ -97,6 +162,7 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
     if (!r.config.empty()) std::printf("  (%s)", r.config.c_str());
     std::printf("\n");
   }
+  print_noise_warning(rows);
   // What a full render traces, by kind: the same for every width (exact, double) of a scene.
   for (const BenchRow& r : rows)
     if (r.engine == "lancer" && r.mode == "full") {
@@ -139,6 +205,7 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
   const StructureInfo& st = result.structure;
   nlohmann::json out;
   out["scene"] = scene;
+  out["repeats"] = rows.empty() ? 0 : rows[0].samples.size();
   if (result.peer_build_seconds >= 0) out["peer_build_seconds"] = result.peer_build_seconds;
   out["structure"] = {{"kind", st.kind},
                       {"build_seconds", st.build_seconds},
@@ -158,6 +225,7 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
     row["samples_seconds"] = r.samples;
     row["seconds_min"] = sp.min, row["seconds_max"] = sp.max;
     row["cv"] = sp.cv();
+    row["outliers"] = outliers(r.samples);
     row["rays_by_kind"] = {{"camera", r.by_kind.camera},
                            {"shadow", r.by_kind.shadow},
                            {"reflected", r.by_kind.reflected},
@@ -270,7 +338,19 @@ void run_bench_cmd(const BenchArgs& a) {
       opt.threads.push_back(ran);
   }
   if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
-  opt.repeat = a.repeat;
+  opt.repeat = !a.repeat_given && a.format == "gbench" ? 9 : a.repeat;
+  // Limits that keep a typo from running for days (docs/limits.md).
+  if (a.warmup < 0 || a.warmup > kMaxWarmup)
+    throw InputError("--warmup: must be 0 to " + std::to_string(kMaxWarmup) + ", not " +
+                     std::to_string(a.warmup));
+  opt.warmup = a.warmup;
+  if (!(a.min_time >= 0 && a.min_time <= kMaxMinTime))
+    throw InputError("--min-time: must be 0 to " + std::to_string(int(kMaxMinTime)) + " seconds");
+  opt.min_time = a.min_time;
+  opt.max_rounds = kMaxRounds;
+  if (a.time_unit != "auto" && a.time_unit != "ns" && a.time_unit != "us" && a.time_unit != "ms" &&
+      a.time_unit != "s")
+    throw InputError("--time-unit: must be auto, ns, us, ms or s, not '" + a.time_unit + "'");
   opt.modes.clear();
   for (const std::string& m : split_list(a.modes)) {
     if (m != "primary" && m != "full" && m != "kernel")
@@ -290,8 +370,9 @@ void run_bench_cmd(const BenchArgs& a) {
   }
   opt.peak = a.peak;
   opt.accel = parse_accel(a.accel, "--accel");
-  if (!a.format.empty() && a.format != "table" && a.format != "json" && a.format != "gbench")
-    throw InputError("--format: must be table, json or gbench, not '" + a.format + "'");
+  if (!a.format.empty() && a.format != "table" && a.format != "json" && a.format != "gbench" &&
+      a.format != "csv")
+    throw InputError("--format: must be table, json, csv or gbench, not '" + a.format + "'");
   if (a.json && !a.format.empty() && a.format != "json")
     throw InputError("--json: conflicts with --format " + a.format);
   if (a.format == "gbench" && a.scenes.size() > 1)
@@ -313,14 +394,20 @@ void run_bench_cmd(const BenchArgs& a) {
       add_flops(scenes[i], results[i].structure, results[i].peaks, results[i].rows);
   const std::vector<SideBySide> ratios = bench_side_by_side(results);
   const bool json = a.json || a.format == "json";
+  const auto context = [&] {
+    return nlohmann::json::parse(bench_context_json("lancer bench", a.scenes[0]));
+  };
   if (a.format == "gbench") {
-    std::printf("%s\n", gbench_json(results[0], a.scenes[0], "lancer bench").c_str());
+    std::printf("%s\n", gbench_json(results[0], a.scenes[0], "lancer bench", a.time_unit).c_str());
+  } else if (a.format == "csv") {
+    print_csv(a.scenes, results);
   } else if (json && scenes.size() == 1) {
-    std::printf(
-        "%s\n",
-        result_json(a.scenes[0], results[0], a.peak ? &results[0].peaks : nullptr).dump(2).c_str());
+    nlohmann::json out = result_json(a.scenes[0], results[0], a.peak ? &results[0].peaks : nullptr);
+    out["context"] = context();
+    std::printf("%s\n", out.dump(2).c_str());
   } else if (json) {
     nlohmann::json out;
+    out["context"] = context();
     out["scenes"] = nlohmann::json::array();
     for (std::size_t i = 0; i < scenes.size(); ++i)
       out["scenes"].push_back(result_json(a.scenes[i], results[i], nullptr));
@@ -329,7 +416,8 @@ void run_bench_cmd(const BenchArgs& a) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     for (std::size_t i = 0; i < scenes.size(); ++i)
-      print_table(a.scenes[i], results[i].rows, results[i].structure, a.repeat, a.peak);
+      print_table(a.scenes[i], results[i].rows, results[i].structure, {opt.warmup, opt.min_time},
+                  a.peak);
     if (scenes.size() > 1) print_side_by_side(a.scenes, results, ratios);
     if (a.peak) print_peaks(results[0].peaks);
   }
@@ -360,12 +448,27 @@ void add_bench(CLI::App& app) {
                   "only; default primary,full)");
   cmd->add_option("--precision", args->precisions,
                   "exact, fast and/or double, e.g. exact,fast (default exact)");
-  cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
+  CLI::Option* repeat =
+      cmd->add_option("--repeat", args->repeat,
+                      "Timed runs per configuration; the median is shown (default 5; 9 with "
+                      "--format gbench)");
+  cmd->add_option("--warmup", args->warmup,
+                  "Untimed runs of each configuration before the first timed one (0 to " +
+                      std::to_string(kMaxWarmup) + ")")
+      ->capture_default_str();
+  cmd->add_option("--min-time", args->min_time,
+                  "Seconds: after --repeat rounds, more rounds until every configuration has been "
+                  "timed at least this long in all (at most " +
+                      std::to_string(int(kMaxMinTime)) + " s, " + std::to_string(kMaxRounds) +
+                      " rounds)");
+  cmd->add_option("--time-unit", args->time_unit,
+                  "--format gbench's unit: ns, us, ms, s, or auto (per row, the largest in which "
+                  "its median is >= 100; fix it when comparing runs whose rows may cross a unit)")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--format", args->format,
-                  "table, json (as --json) or gbench: Google Benchmark's JSON, which its "
-                  "tools/compare.py reads");
+                  "table, json (as --json), csv (one line per row, for lancer plot) or gbench: "
+                  "Google Benchmark's JSON, which its tools/compare.py reads");
   cmd->add_option("--peer", args->peers,
                   "Run a peer beside lancer, interleaved: embree (Embree 3, if built with it)");
   cmd->add_flag("--peak", args->peak,
@@ -374,7 +477,10 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");
   // Under mpirun, main() ends every rank with one line for an error here (mpi::end_job).
-  cmd->callback([args] { run_bench_cmd(*args); });
+  cmd->callback([args, repeat] {
+    args->repeat_given = repeat->count() > 0;
+    run_bench_cmd(*args);
+  });
 }
 
 }  // namespace lancer::cli

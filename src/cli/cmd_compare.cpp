@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "lancer/compare.hpp"
+#include "lancer/diff_map.hpp"
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/text.hpp"
@@ -21,7 +22,7 @@ struct CompareArgs {
   std::string a, b;
   std::vector<std::string> thresholds{"1/255", "2/255"};
   std::string diff;
-  double diff_scale = 0;  // 0: the largest difference becomes 1
+  double diff_scale = 0;  // 0: a false-colour log map (diff_map.hpp); else |a - b| x this
   bool as_displayed = false;
   bool json = false;
 };
@@ -71,10 +72,16 @@ void run_compare(const CompareArgs& args, int& status) {
                      args.b + " is " + std::to_string(b.nx) + "x" + std::to_string(b.ny) +
                      ": sizes differ");
   const ImageComparison c = compare_images(a, b, thresholds, args.as_displayed);
-  const double scale = args.diff_scale > 0                                     ? args.diff_scale
-                       : c.error.max_abs > 0 && std::isfinite(c.error.max_abs) ? 1 / c.error.max_abs
-                                                                               : 1;
-  if (!args.diff.empty()) write_image(difference_image(a, b, scale), args.diff);
+  const double scale = args.diff_scale;
+  DiffMap map;
+  if (!args.diff.empty()) {
+    if (scale > 0) {
+      write_image(difference_image(a, b, scale), args.diff);
+    } else {
+      map = false_colour_difference(a, b);
+      write_image(map.image, args.diff);
+    }
+  }
 
   const std::uint64_t pixels = std::uint64_t(a.nx) * std::uint64_t(a.ny);
   if (args.json) {
@@ -97,7 +104,12 @@ void run_compare(const CompareArgs& args, int& status) {
                      {"pixels", c.off_pixels[k]},
                      {"fraction", c.off_fractions[k]}});
     j["off"] = off;
-    if (!args.diff.empty()) j["diff"] = {{"path", args.diff}, {"scale", scale}};
+    if (!args.diff.empty() && scale > 0)
+      j["diff"] = {{"path", args.diff}, {"map", "linear"}, {"scale", scale}};
+    else if (!args.diff.empty())
+      j["diff"] = {{"path", args.diff},        {"map", "log"},
+                   {"low", map.low},           {"high", map.high},
+                   {"bar_rows", map.bar_rows}, {"coloured_pixels", map.coloured}};
     std::printf("%s\n", j.dump(2).c_str());
   } else {
     std::printf("lancer compare: %s vs %s, %d x %d, values %s\n", args.a.c_str(), args.b.c_str(),
@@ -116,8 +128,16 @@ void run_compare(const CompareArgs& args, int& status) {
     for (std::size_t k = 0; k < thresholds.size(); ++k)
       std::printf("  off by > %-8s %llu pixels (%.4g%%)\n", args.thresholds[k].c_str(),
                   (unsigned long long)c.off_pixels[k], 100.0 * c.off_fractions[k]);
-    if (!args.diff.empty())
+    if (!args.diff.empty() && scale > 0)
       std::printf("  difference image  %s (|a - b| x %.6g)\n", args.diff.c_str(), scale);
+    else if (!args.diff.empty() && map.coloured == 0)
+      std::printf("  difference image  %s (black: no pixel differs)\n", args.diff.c_str());
+    else if (!args.diff.empty())
+      std::printf(
+          "  difference image  %s: each pixel's largest |a - b| on a log scale, blue %.3g to "
+          "yellow %.3g (the colour bar in the %d rows below the image), black identical, white "
+          "NaN against a number; %llu pixels coloured\n",
+          args.diff.c_str(), map.low, map.high, map.bar_rows, (unsigned long long)map.coloured);
     std::printf("%s\n", c.bits.identical() ? "identical" : "DIFFERENT");
   }
   status = c.bits.identical() ? 0 : 1;
@@ -135,9 +155,11 @@ void add_compare(CLI::App& app) {
                   "Count pixels with a channel off by more than each, e.g. 1/255,0.01")
       ->delimiter(',')
       ->capture_default_str();
-  cmd->add_option("--diff", args->diff, "Write |a - b| per channel to this image");
+  cmd->add_option("--diff", args->diff,
+                  "Write the differences to this image: each pixel's largest |a - b| in false "
+                  "colour on a log scale, with a colour bar below (or see --diff-scale)");
   cmd->add_option("--diff-scale", args->diff_scale,
-                  "Multiply the difference image by this (default: largest difference -> 1)");
+                  "Write |a - b| per channel times this instead, the inputs' size, linear");
   cmd->add_flag("--as-displayed", args->as_displayed,
                 "Clamp values to [0, 1] first, as an 8-bit file would show them");
   cmd->add_flag("--json", args->json, "Print one JSON object");

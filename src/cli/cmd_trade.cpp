@@ -60,7 +60,13 @@ void run_trade_cmd(const TradeArgs& a) {
                   std::isfinite(r.psnr_db) ? r.psnr_db : INFINITY, 100 * r.off_pixel_frac,
                   100 * r.hit_mismatch_frac);
   }
-  if (!a.plot.empty()) plot::write_chart(trade_chart(rows, a.scene), a.plot);
+  if (!a.plot.empty()) {
+    plot::write_chart(trade_chart(rows, a.scene), a.plot);
+    // On stderr beside --json, whose stdout is one JSON object.
+    std::fprintf(a.json ? stderr : stdout,
+                 "lancer trade: wrote %s (Mrays/s against error, %zu points)\n", a.plot.c_str(),
+                 rows.size());
+  }
 }
 }  // namespace
 

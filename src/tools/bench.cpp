@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <map>
 #include <memory>
@@ -263,12 +264,19 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
     });
   }
 
-  const std::vector<std::vector<double>> samples =
-      time_interleaved_samples(run, opt.repeat, opt.min_seconds);
+  TimingPlan plan;
+  plan.repeat = opt.repeat;
+  plan.warmup = opt.warmup;
+  plan.min_seconds = opt.min_seconds;
+  plan.min_time = opt.min_time;
+  plan.max_rounds = std::max(opt.max_rounds, opt.repeat);
+  const RoundSamples rounds = time_rounds(run, plan);
+  const std::vector<std::vector<double>>& samples = rounds.wall;
   for (std::size_t k = 0; k < n_rows; ++k)
     for (std::size_t i = 0; i < runs.size(); ++i) {
       BenchRow& row = runs[i].out.rows[k];
       row.samples = samples[k * runs.size() + i];
+      row.cpu_samples = rounds.cpu[k * runs.size() + i];
       row.seconds = median(row.samples);
     }
   for (std::size_t k = 0; k < peak_runs.size(); ++k) {
@@ -331,19 +339,62 @@ Spread spread(const std::vector<double>& v) {
 
 std::vector<std::vector<double>> time_interleaved_samples(
     const std::vector<std::function<double()>>& run, int repeat, double min_seconds) {
-  std::vector<std::vector<double>> times(run.size());
-  for (int rep = -1; rep < repeat; ++rep) {
+  TimingPlan plan;
+  plan.repeat = repeat;
+  plan.min_seconds = min_seconds;
+  return time_rounds(run, plan).wall;
+}
+
+namespace {
+double process_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+}  // namespace
+
+RoundSamples time_rounds(const std::vector<std::function<double()>>& run, const TimingPlan& plan) {
+  RoundSamples out;
+  out.wall.resize(run.size());
+  out.cpu.resize(run.size());
+  for (int w = 0; w < plan.warmup; ++w)
+    for (const auto& r : run) r();
+  std::vector<double> total(run.size(), 0.0);
+  for (int rep = 0; rep < plan.max_rounds; ++rep) {
+    const bool enough =
+        std::all_of(total.begin(), total.end(), [&](double t) { return t >= plan.min_time; });
+    if (rep >= plan.repeat && enough) break;
     for (std::size_t k = 0; k < run.size(); ++k) {
       double seconds = 0;
       int renders = 0;
+      const double cpu0 = process_cpu_seconds();
       do {
         seconds += run[k]();
         ++renders;
-      } while (rep >= 0 && seconds < min_seconds);
-      if (rep >= 0) times[k].push_back(seconds / renders);
+      } while (seconds < plan.min_seconds);
+      out.cpu[k].push_back((process_cpu_seconds() - cpu0) / renders);
+      out.wall[k].push_back(seconds / renders);
+      total[k] += seconds;
     }
   }
-  return times;
+  return out;
+}
+
+int outliers(const std::vector<double>& v) {
+  if (v.size() < 4) return 0;
+  std::vector<double> s = v;
+  std::sort(s.begin(), s.end());
+  // Quartiles by linear interpolation between closest ranks.
+  auto quantile = [&s](double q) {
+    const double at = q * double(s.size() - 1);
+    const std::size_t lo = std::size_t(at);
+    const double f = at - double(lo);
+    return lo + 1 < s.size() ? s[lo] + f * (s[lo + 1] - s[lo]) : s[lo];
+  };
+  const double q1 = quantile(0.25), q3 = quantile(0.75), iqr = q3 - q1;
+  int n = 0;
+  for (double x : s) n += x < q1 - 1.5 * iqr || x > q3 + 1.5 * iqr;
+  return n;
 }
 
 }  // namespace lancer

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <string>
 
+#include "lancer/lancer.hpp"
+
 #ifndef LANCER_GIT_COMMIT
 #define LANCER_GIT_COMMIT "unknown"
 #endif
@@ -85,6 +87,7 @@ nlohmann::json caches() {
   return out;
 }
 
+// What bench's JSON and Google Benchmark's both carry: where, when and what was measured.
 nlohmann::json context(const std::string& executable, const std::string& scene) {
   char host[256] = "";
   gethostname(host, sizeof host - 1);
@@ -114,11 +117,22 @@ nlohmann::json context(const std::string& executable, const std::string& scene) 
           // lancer's own additions; readers of Google Benchmark's JSON ignore unknown keys.
           {"cpu_model", cpuinfo_field("model name")},
           {"git_commit", LANCER_GIT_COMMIT},
-          {"scene", scene},
-          {"lancer_note",
-           "lancer times wall clock only: cpu_time repeats real_time. One iteration entry per "
-           "repeat (seconds per render of that repeat's timed run), configurations interleaved "
-           "within each repeat."}};
+          {"lancer_version", api::version()},
+          {"scene", scene}};
+}
+
+// Google Benchmark's units. Per row, the largest unit in which the row's median is at least 100,
+// so that compare.py's whole-number columns keep three digits (0.8 ms: 800 us, not "1").
+const char* pick_unit(double median_seconds, const std::string& fixed) {
+  if (!fixed.empty() && fixed != "auto") return fixed.c_str();
+  if (median_seconds >= 100) return "s";
+  if (median_seconds >= 100e-3) return "ms";
+  if (median_seconds >= 100e-6) return "us";
+  return "ns";
+}
+
+double per_second(const std::string& unit) {
+  return unit == "s" ? 1 : unit == "ms" ? 1e3 : unit == "us" ? 1e6 : 1e9;
 }
 
 }  // namespace
@@ -128,40 +142,58 @@ std::string bench_row_name(const BenchRow& r) {
          "/threads:" + std::to_string(r.threads);
 }
 
+std::string bench_context_json(const std::string& executable, const std::string& scene) {
+  return context(executable, scene).dump();
+}
+
 std::string gbench_json(const BenchResult& result, const std::string& scene,
-                        const std::string& executable) {
+                        const std::string& executable, const std::string& time_unit) {
   nlohmann::json out;
   out["context"] = context(executable, scene);
+  out["context"]["lancer_note"] =
+      "real_time: wall clock, what items_per_second and the names' /real_time say the rows are "
+      "timed by; cpu_time: the process's CPU time over the same runs, every thread. One "
+      "iteration entry per repeat (time per render over that repeat's timed run), "
+      "configurations interleaved within each repeat.";
   nlohmann::json& list = out["benchmarks"] = nlohmann::json::array();
   int family = 0;
   for (const BenchRow& r : result.rows) {
-    const std::string name = bench_row_name(r);
+    // As Google Benchmark names a case timed with UseRealTime().
+    const std::string name = bench_row_name(r) + "/real_time";
     const int n = int(r.samples.size());
-    auto entry = [&](const std::string& entry_name, double seconds) {
+    const Spread wall = spread(r.samples);
+    const std::vector<double>& cpu_samples =
+        r.cpu_samples.size() == r.samples.size() ? r.cpu_samples : r.samples;
+    const Spread cpu = spread(cpu_samples);
+    const std::string unit = pick_unit(wall.median, time_unit);
+    const double scale = per_second(unit);
+    auto entry = [&](const std::string& entry_name, double seconds, double cpu_seconds) {
       nlohmann::json e{{"name", entry_name},
                        {"family_index", family},
                        {"per_family_instance_index", 0},
                        {"run_name", name},
                        {"repetitions", n},
                        {"threads", r.threads},
-                       {"real_time", seconds * 1e3},
-                       {"cpu_time", seconds * 1e3},
-                       {"time_unit", "ms"}};
+                       {"real_time", seconds * scale},
+                       {"cpu_time", cpu_seconds * scale},
+                       {"time_unit", unit}};
       if (seconds > 0) e["items_per_second"] = double(r.rays) / seconds;
       e["label"] = r.isa;
       return e;
     };
     for (int k = 0; k < n; ++k) {
-      nlohmann::json e = entry(name, r.samples[k]);
+      nlohmann::json e = entry(name, r.samples[k], cpu_samples[k]);
       e["run_type"] = "iteration";
       e["repetition_index"] = k;
       e["iterations"] = 1;
       list.push_back(e);
     }
-    const Spread s = spread(r.samples);
-    for (const char* agg : {"mean", "median", "stddev"}) {
-      const double v = agg[1] == 'e' ? (agg[2] == 'a' ? s.mean : s.median) : s.stddev;
-      nlohmann::json e = entry(name + "_" + agg, v);
+    const std::pair<const char*, std::pair<double, double>> aggregates[] = {
+        {"mean", {wall.mean, cpu.mean}},
+        {"median", {wall.median, cpu.median}},
+        {"stddev", {wall.stddev, cpu.stddev}}};
+    for (const auto& [agg, v] : aggregates) {
+      nlohmann::json e = entry(name + "_" + agg, v.first, v.second);
       e["run_type"] = "aggregate";
       e["aggregate_name"] = agg;
       e["aggregate_unit"] = "time";
@@ -171,8 +203,9 @@ std::string gbench_json(const BenchResult& result, const std::string& scene,
       if (agg[0] == 's') e.erase("items_per_second");
       list.push_back(e);
     }
-    nlohmann::json cv = entry(name + "_cv", s.cv());
-    cv["real_time"] = cv["cpu_time"] = s.cv();  // a fraction, as Google Benchmark writes it
+    nlohmann::json cv = entry(name + "_cv", 0, 0);
+    cv["real_time"] = wall.cv();  // a fraction, as Google Benchmark writes it
+    cv["cpu_time"] = cpu.cv();
     cv.erase("items_per_second");
     cv["run_type"] = "aggregate";
     cv["aggregate_name"] = "cv";

@@ -135,7 +135,34 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   if (!line.empty() && line.back() == ',') cells.emplace_back();
   return cells;
 }
+
+// A header cell's name without the unit it may carry: "time (s)" and "time [s]" are "time".
+std::string column_name(const std::string& cell) {
+  const auto open = cell.find_first_of("([");
+  if (open == std::string::npos || open == 0) return cell;
+  std::string name = cell.substr(0, open);
+  name.erase(name.find_last_not_of(" \t") + 1);
+  return name;
+}
 }  // namespace
+
+std::string column_label(const std::string& cell) {
+  if (cell.find_first_of("([") != std::string::npos) return cell;  // the unit is written
+  auto ends = [&cell](const std::string& tail) {
+    return cell.size() > tail.size() &&
+           cell.compare(cell.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  auto head = [&cell](std::size_t tail) { return cell.substr(0, cell.size() - tail); };
+  if (cell == "mrays_per_s") return "Mrays/s";
+  if (ends("_per_s")) return head(6) + " (/s)";
+  for (const char* unit : {"s", "ms", "us", "ns", "db", "mb", "bytes"}) {
+    const std::string u = unit;
+    if (ends("_" + u))
+      return head(u.size() + 1) + " (" + (u == "db" ? "dB" : u == "mb" ? "MB" : u) + ")";
+  }
+  if (cell == "seconds") return "seconds (s)";
+  return cell;
+}
 
 Chart chart_from_csv(const std::string& csv, const std::string& source, const std::string& x,
                      const std::string& y, const std::string& group, Mark mark) {
@@ -148,7 +175,10 @@ Chart chart_from_csv(const std::string& csv, const std::string& source, const st
   if (line_no == 0 || line.empty()) throw InputError(source + ": empty, expected a header row");
   const std::vector<std::string> header = split_csv_line(line);
   auto column = [&](const std::string& name, const std::string& option) {
-    const auto it = std::find(header.begin(), header.end(), name);
+    auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end())
+      it = std::find_if(header.begin(), header.end(),
+                        [&](const std::string& cell) { return column_name(cell) == name; });
     if (it == header.end())
       throw InputError(source + ":" + std::to_string(line_no) + ": no column '" + name + "' (for " +
                        option + ")");
@@ -157,8 +187,8 @@ Chart chart_from_csv(const std::string& csv, const std::string& source, const st
   const std::size_t cx = column(x, "--x"), cy = column(y, "--y");
   const std::size_t cg = group.empty() ? std::size_t(-1) : column(group, "--group");
   Chart chart;
-  chart.x.label = x;
-  chart.y.label = y;
+  chart.x.label = column_label(header[cx]);
+  chart.y.label = column_label(header[cy]);
   std::map<std::string, std::size_t> index;
   while (std::getline(in, line)) {
     ++line_no;

@@ -555,6 +555,22 @@ TEST(Plot, ChartFromCsv) {
                InputError);
 }
 
+// Axis labels carry the unit the header gives, written out or read from the name's suffix; a
+// column is named with or without its unit.
+TEST(Plot, LabelsCarryUnits) {
+  EXPECT_EQ(plot::column_label("mrays_per_s"), "Mrays/s");
+  EXPECT_EQ(plot::column_label("build_s"), "build (s)");
+  EXPECT_EQ(plot::column_label("frame_ms"), "frame (ms)");
+  EXPECT_EQ(plot::column_label("psnr_db"), "psnr (dB)");
+  EXPECT_EQ(plot::column_label("time [us]"), "time [us]");
+  EXPECT_EQ(plot::column_label("spheres"), "spheres");
+  const plot::Chart c = plot::chart_from_csv("spheres,time (s)\n1,0.5\n2,0.75\n", "s.csv",
+                                             "spheres", "time", "", plot::Mark::points);
+  EXPECT_EQ(c.x.label, "spheres");
+  EXPECT_EQ(c.y.label, "time (s)");
+  EXPECT_EQ(c.series.at(0).y, (std::vector<double>{0.5, 0.75}));
+}
+
 TEST(Figures, CliWritesPlotAndDiagram) {
   const std::string dir = temp_dir("figures");
   const Ran r = run(std::string(LANCER_CLI) + " flux " + kFluxScene + " --plot " + dir +
