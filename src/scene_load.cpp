@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "lancer/error.hpp"
+#include "lancer/input_file.hpp"
 #include "lancer/scene.hpp"
 
 namespace lancer {
@@ -912,28 +913,7 @@ Scene parse_scene(const std::string& text, const std::string& name) {
 }
 
 std::string read_scene_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(path + ": is a folder, not a scene file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open scene file");
-  // Read at most 1 GiB + 1 byte, so that /dev/zero or a runaway pipe fails instead of filling
-  // memory; reserve once when the size is known (a regular file).
-  std::string text;
-  try {
-    const auto size = std::filesystem::file_size(path, ec);
-    if (!ec && size > kMaxSceneBytes) throw InputError(path + ": file larger than 1 GiB");
-    if (!ec) text.reserve(static_cast<std::size_t>(size));
-    std::vector<char> buf(std::size_t(1) << 16);
-    while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0) {
-      text.append(buf.data(), static_cast<std::size_t>(in.gcount()));
-      if (text.size() > kMaxSceneBytes) throw InputError(path + ": file larger than 1 GiB");
-    }
-  } catch (const std::bad_alloc&) {
-    throw InputError(path + ": out of memory while reading the scene file");
-  }
-  if (in.bad()) throw InputError(path + ": cannot read scene file");
-  return text;
+  return read_input_file(path, kMaxSceneBytes, "scene file", "1 GiB");
 }
 
 Scene load_scene(const std::string& path) { return parse_scene(read_scene_file(path), path); }

@@ -269,7 +269,7 @@ void run_bench_cmd(const BenchArgs& a) {
     if (std::find(opt.threads.begin(), opt.threads.end(), ran) == opt.threads.end())
       opt.threads.push_back(ran);
   }
-  if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
+  check_repeat(a.repeat);
   opt.repeat = a.repeat;
   opt.modes.clear();
   for (const std::string& m : split_list(a.modes)) {
@@ -358,7 +358,9 @@ void add_bench(CLI::App& app) {
                   "only; default primary,full)");
   cmd->add_option("--precision", args->precisions,
                   "exact, fast and/or double, e.g. exact,fast (default exact)");
-  cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
+  cmd->add_option("--repeat", args->repeat,
+                  "Timed runs per configuration, 1 to " + std::to_string(kMaxRepeat) +
+                      "; the median is shown")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--format", args->format,

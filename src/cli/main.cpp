@@ -10,6 +10,7 @@
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
+#include "lancer/output_file.hpp"
 
 namespace {
 
@@ -35,7 +36,8 @@ int flush_stdout(int status) {
 const char* const kFooter =
     "Exit status: 0 done; 1 validate found a width that differs from the reference; 2 bad input\n"
     "(scene, option or output path; one line on stderr, nothing written); 3 out of memory; 4\n"
-    "output lost (stdout could not be written); 5 internal error. Limits: docs/limits.md.\n"
+    "output lost (stdout or an output file could not be written; any old file is kept); 5\n"
+    "internal error. Limits: docs/limits.md.\n"
     "Environment: LANCER_MAX_WIDTH=1|4|8|16 caps the packet widths offered (to run as a CPU\n"
     "without AVX-512 or AVX2 would); any other value is refused (exit 2).";
 
@@ -106,8 +108,13 @@ int main(int argc, char** argv) {
   } catch (const lancer::InputError& e) {
     std::fprintf(stderr, "lancer: %s\n", e.what());
     return kExitBadInput;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "lancer: out of memory (limits: docs/limits.md)\n");
+  } catch (const lancer::OutputError& e) {
+    std::fprintf(stderr, "lancer: %s\n", e.what());
+    return kExitOutputLost;
+  } catch (const std::bad_alloc& e) {
+    const std::string why = e.what();  // a reason of our own where there is one
+    std::fprintf(stderr, "lancer: out of memory%s (limits: docs/limits.md)\n",
+                 why == std::bad_alloc().what() ? "" : (": " + why).c_str());
     return kExitOutOfMemory;
   } catch (const std::length_error& e) {  // a size beyond what a container can hold
     std::fprintf(stderr, "lancer: out of memory: %s (limits: docs/limits.md)\n", e.what());

@@ -1,0 +1,71 @@
+// The bounded reader behind every input file (include/lancer/input_file.hpp).
+#include "lancer/input_file.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <new>
+
+#include "lancer/error.hpp"
+
+namespace lancer {
+
+namespace {
+struct Fd {
+  int fd;
+  ~Fd() {
+    if (fd >= 0) close(fd);
+  }
+};
+}  // namespace
+
+std::string read_input_file(const std::string& path, std::size_t max_bytes, const char* what,
+                            const char* limit) {
+  // O_NONBLOCK: opening a FIFO for reading otherwise waits for a writer, for ever if none comes.
+  // fstat on what was opened, not stat on the name, so that the checks and the read see one file.
+  const Fd f{open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC)};
+  if (f.fd < 0) {
+    const int err = errno;
+    if (err == EISDIR) throw InputError(path + ": is a folder, not a " + what);
+    throw InputError(path + ": cannot open " + what +
+                     (err == ENOENT ? std::string() : std::string(": ") + std::strerror(err)));
+  }
+  struct stat st;
+  if (fstat(f.fd, &st) != 0)
+    throw InputError(path + ": cannot read " + what + ": " + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a folder, not a " + what);
+  // A pipe, a device or a socket could block or never end (/dev/zero): only regular files.
+  if (!S_ISREG(st.st_mode))
+    throw InputError(path +
+                     ": is not a regular file (a pipe, a device or a socket); lancer reads " +
+                     what + "s from regular files only");
+  if (std::size_t(st.st_size) > max_bytes) throw InputError(path + ": file larger than " + limit);
+  std::string text;
+  try {
+    text.resize(std::size_t(st.st_size));
+    std::size_t got = 0;
+    // Up to the size fstat gave, then one more read to see the end: a file that grows meanwhile
+    // is read on, up to the limit.
+    for (;;) {
+      if (got == text.size()) {
+        if (text.size() > max_bytes) throw InputError(path + ": file larger than " + limit);
+        text.resize(got + (std::size_t(1) << 16));
+      }
+      const ssize_t n = read(f.fd, text.data() + got, text.size() - got);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) throw InputError(path + ": cannot read " + what + ": " + std::strerror(errno));
+      if (n == 0) break;
+      got += std::size_t(n);
+    }
+    text.resize(got);
+    if (got > max_bytes) throw InputError(path + ": file larger than " + limit);
+  } catch (const std::bad_alloc&) {
+    throw InputError(path + ": out of memory while reading the " + what);
+  }
+  return text;
+}
+
+}  // namespace lancer
