@@ -65,9 +65,9 @@ void add_plot(CLI::App& app) {
   cmd->add_option("--x-label", args->x_label, "x axis label with its unit (default: the column)");
   cmd->add_option("--y-label", args->y_label, "y axis label with its unit (default: the column)");
   cmd->add_option("--mark", args->mark, "points, line or line_points")->capture_default_str();
-  cmd->add_option("--width", args->width, "Figure width in points (PNG pixels)")
+  cmd->add_option("--width", args->width, "Figure width in points (PNG pixels), 200 to 10000")
       ->capture_default_str();
-  cmd->add_option("--height", args->height, "Figure height")->capture_default_str();
+  cmd->add_option("--height", args->height, "Figure height, 150 to 10000")->capture_default_str();
   cmd->callback([args] { run_plot(*args); });
 }
 
