@@ -44,24 +44,30 @@ std::string read_input_file(const std::string& path, std::size_t max_bytes, cons
                      what + "s from regular files only");
   if (std::size_t(st.st_size) > max_bytes) throw InputError(path + ": file larger than " + limit);
   std::string text;
+  // The size fstat gave in one allocation (no copy of a large scene on the way), then what a
+  // growing file adds, up to the limit.
+  auto read_some = [&](char* into, std::size_t n) {
+    for (;;) {
+      const ssize_t got = read(f.fd, into, n);
+      if (got >= 0) return std::size_t(got);
+      if (errno != EINTR)
+        throw InputError(path + ": cannot read " + what + ": " + std::strerror(errno));
+    }
+  };
   try {
     text.resize(std::size_t(st.st_size));
     std::size_t got = 0;
-    // Up to the size fstat gave, then one more read to see the end: a file that grows meanwhile
-    // is read on, up to the limit.
-    for (;;) {
-      if (got == text.size()) {
-        if (text.size() > max_bytes) throw InputError(path + ": file larger than " + limit);
-        text.resize(got + (std::size_t(1) << 16));
-      }
-      const ssize_t n = read(f.fd, text.data() + got, text.size() - got);
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) throw InputError(path + ": cannot read " + what + ": " + std::strerror(errno));
+    while (got < text.size()) {
+      const std::size_t n = read_some(text.data() + got, text.size() - got);
       if (n == 0) break;
-      got += std::size_t(n);
+      got += n;
     }
     text.resize(got);
-    if (got > max_bytes) throw InputError(path + ": file larger than " + limit);
+    char more[1 << 14];
+    while (const std::size_t n = read_some(more, sizeof more)) {
+      if (text.size() + n > max_bytes) throw InputError(path + ": file larger than " + limit);
+      text.append(more, n);
+    }
   } catch (const std::bad_alloc&) {
     throw InputError(path + ": out of memory while reading the " + what);
   }
