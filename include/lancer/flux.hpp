@@ -66,7 +66,7 @@ struct Profile {
 };
 Profile flux_profile(const Scene& scene);
 
-// "x,flux" and one "%.17g,%.17g" line per ray.
+// "x,flux" and one line per ray, each value the shortest text that reads back the same double.
 std::string profile_csv(const Profile& profile);
 
 // Every ray the reference traces for the scene's row (double precision), and the image it made.

@@ -44,22 +44,29 @@ void check_output_path(const std::string& path, const std::string& scene_path = 
 // creating a file, since root passes access() on read-only places), not a folder, not the scene.
 void check_writable_target(const std::string& path, const std::string& scene_path = "");
 
-// Runs write(tmp) on a temporary file beside `path`, then renames it into place: the file appears
-// whole or not at all, and a SIGINT/SIGTERM/SIGHUP meanwhile removes the temporary file.
+// Runs write(out) on a temporary file beside `path`, then renames it into place: the file appears
+// whole or not at all, and a SIGINT/SIGTERM/SIGHUP meanwhile removes the temporary file. Every
+// write, the fsync, the close and the rename are checked: a failure throws OutputError (exit
+// status 4) naming `path`, with the temporary file removed and any old file intact.
 // Replacing an existing file (docs/limits.md, "Output files"): a symbolic link is followed and
 // its target replaced; the replaced file's mode (and owner and group, where permitted) carry
 // over; the file is fsynced before the rename and the folder after it. check_writable_target
 // refuses a target with other hard links, which a rename would split.
-void write_file_atomically(const std::string& path,
-                           const std::function<void(const std::string& tmp)>& write);
+class OutputFile;
+void write_file_atomically(const std::string& path, const std::function<void(OutputFile&)>& write);
 
 // Writes by extension: .pfm by lancer's own writer, anything else through OpenImageIO. Float
 // formats keep radiance unclamped; integer formats clamp to [0, 1] and round to nearest. The
 // file appears complete or not at all: a temporary file beside it, renamed when written.
 void write_image(const Image& image, const std::string& path);
 
-// Reads any format OpenImageIO reads (PFM included) as float RGB. Throws InputError.
+// Reads any format OpenImageIO reads (PFM included) as float RGB, through the bounded reader
+// (include/lancer/input_file.hpp): regular files only. Throws InputError naming the path, one line.
 Image read_image(const std::string& path);
+
+// What read_image does with the file's bytes: decodes them (`path` names the file in messages and
+// picks the format tried first). Throws InputError naming the path, one line.
+Image decode_image(const std::string& bytes, const std::string& path);
 
 // Removes any temporary file a write in progress left (called from signal handlers).
 void remove_pending_outputs() noexcept;

@@ -337,7 +337,7 @@ void run_bench_cmd(const BenchArgs& a) {
     if (std::find(opt.threads.begin(), opt.threads.end(), ran) == opt.threads.end())
       opt.threads.push_back(ran);
   }
-  if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
+  check_repeat(a.repeat);
   opt.repeat = !a.repeat_given && a.format == "gbench" ? 9 : a.repeat;
   // Limits that keep a typo from running for days (docs/limits.md).
   if (a.warmup < 0 || a.warmup > kMaxWarmup)
@@ -450,8 +450,8 @@ void add_bench(CLI::App& app) {
                   "exact, fast and/or double, e.g. exact,fast (default exact)");
   CLI::Option* repeat =
       cmd->add_option("--repeat", args->repeat,
-                      "Timed runs per configuration; the median is shown (default 5; 9 with "
-                      "--format gbench)");
+                      "Timed runs per configuration, 1 to " + std::to_string(kMaxRepeat) +
+                          "; the median is shown (default 5; 9 with --format gbench)");
   cmd->add_option("--warmup", args->warmup,
                   "Untimed runs of each configuration before the first timed one (0 to " +
                       std::to_string(kMaxWarmup) + ")")

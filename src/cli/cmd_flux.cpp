@@ -107,7 +107,7 @@ void add_flux(CLI::App& app) {
   cmd->add_option("--diagram", args->diagram,
                   "Draw the plane of the rays: spheres, lights, camera and reflected rays (red), "
                   "light rays that reach their light (blue); .svg or .png");
-  cmd->add_option("--size", args->size, "Diagram size in pixels along its longer side")
+  cmd->add_option("--size", args->size, "Diagram size in pixels along its longer side, 100 to 8192")
       ->capture_default_str();
   cmd->add_flag("--hits-only", args->hits_only,
                 "Diagram: leave out rays that hit nothing (as the text's figure does)");

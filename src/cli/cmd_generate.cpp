@@ -103,7 +103,7 @@ void add_generate(CLI::App& app) {
       "generate",
       "Write a reproducible random-sphere scene: N spheres in a box the camera sees, a ground "
       "plane, two lights (the same bytes on any machine for the same options)");
-  cmd->add_option("--spheres", args->o.spheres, "Number of spheres")->required();
+  cmd->add_option("--spheres", args->o.spheres, "Number of spheres, 0 to 2^25 - 1")->required();
   args->seed_opt =
       cmd->add_option("--seed", args->seed, "Seed of the generator (splitmix64; default 1)");
   cmd->add_option("--reflect", args->o.reflect,

@@ -3,18 +3,20 @@
 // count, log-log, one series per engine:
 //   lancer plot scaling.csv --x spheres --y mrays_per_s --group engine --log xy -o scaling.svg
 #include <cstdio>
-#include <fstream>
 #include <memory>
-#include <sstream>
 
 #include "commands.hpp"
 #include "lancer/error.hpp"
+#include "lancer/input_file.hpp"
 #include "lancer/plot.hpp"
 #include "lancer/text.hpp"
 
 namespace lancer::cli {
 
 namespace {
+// The CSV is held in memory with the chart made of it (docs/limits.md).
+constexpr std::size_t kMaxCsvBytes = std::size_t(1) << 30;
+
 struct PlotArgs {
   std::string csv, output, x, y, group, log, title, x_label, y_label, mark = "line_points";
   int width = 800, height = 540;
@@ -55,11 +57,9 @@ void run_plot(const PlotArgs& a) {
                                                           a.mark + "'");
   if (a.width < 200 || a.height < 150 || a.width > 10000 || a.height > 10000)
     throw InputError("--width, --height: from 200x150 to 10000x10000");
-  std::ifstream in(a.csv, std::ios::binary);
-  if (!in) throw InputError(a.csv + ": cannot read");
-  std::stringstream text;
-  text << in.rdbuf();
-  plot::Chart c = plot::chart_from_csv(text.str(), a.csv, a.x, a.y, a.group, mark);
+  // Through the one bounded reader: /dev/zero or a FIFO is refused, not read for ever.
+  const std::string text = read_input_file(a.csv, kMaxCsvBytes, "CSV file", "1 GiB");
+  plot::Chart c = plot::chart_from_csv(text, a.csv, a.x, a.y, a.group, mark);
   c.width = a.width, c.height = a.height;
   c.title = a.title.empty() ? a.y + " against " + a.x : a.title;
   if (!a.x_label.empty()) c.x.label = a.x_label;
@@ -96,9 +96,9 @@ void add_plot(CLI::App& app) {
   cmd->add_option("--x-label", args->x_label, "x axis label with its unit (default: the column)");
   cmd->add_option("--y-label", args->y_label, "y axis label with its unit (default: the column)");
   cmd->add_option("--mark", args->mark, "points, line or line_points")->capture_default_str();
-  cmd->add_option("--width", args->width, "Figure width in points (PNG pixels)")
+  cmd->add_option("--width", args->width, "Figure width in points (PNG pixels), 200 to 10000")
       ->capture_default_str();
-  cmd->add_option("--height", args->height, "Figure height")->capture_default_str();
+  cmd->add_option("--height", args->height, "Figure height, 150 to 10000")->capture_default_str();
   cmd->callback([args] { run_plot(*args); });
 }
 

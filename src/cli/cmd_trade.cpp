@@ -27,7 +27,7 @@ nlohmann::json number_or_null(double v) {
 void run_trade_cmd(const TradeArgs& a) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
-  if (a.repeat < 1) throw InputError("--repeat: must be >= 1");
+  check_repeat(a.repeat);
   if (!a.plot.empty()) plot::check_drawing_path(a.plot, "--plot", a.scene);
   TradeOptions opt;
   opt.repeat = a.repeat;
@@ -79,7 +79,9 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--plot", args->plot,
                   "Draw speed against error: .png, .svg, .pdf (or another image format)");
   cmd->add_option("--accel", args->accel, "auto, none or bvh")->capture_default_str();
-  cmd->add_option("--repeat", args->repeat, "Timed runs per configuration; the median is shown")
+  cmd->add_option("--repeat", args->repeat,
+                  "Timed runs per configuration, 1 to " + std::to_string(kMaxRepeat) +
+                      "; the median is shown")
       ->capture_default_str();
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");

@@ -13,6 +13,7 @@
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
 #include "lancer/text.hpp"
+#include "lancer/output_file.hpp"
 
 namespace {
 
@@ -73,7 +74,8 @@ void refuse_empty_values(CLI::App& app) {
 const char* const kFooter =
     "Exit status: 0 done; 1 validate found a width that differs from the reference; 2 bad input\n"
     "(scene, option or output path; one line on stderr, nothing written); 3 out of memory; 4\n"
-    "output lost (stdout could not be written); 5 internal error. Limits: docs/limits.md.\n"
+    "output lost (stdout or an output file could not be written; any old file is kept); 5\n"
+    "internal error. Limits: docs/limits.md.\n"
     "Environment: LANCER_MAX_WIDTH=1|4|8|16 caps the packet widths offered (to run as a CPU\n"
     "without AVX-512 or AVX2 would); any other value is refused (exit 2).";
 
@@ -142,8 +144,13 @@ int main(int argc, char** argv) {
     return fail(kExitBadInput, std::string(e.what()) + " (see lancer --help)");
   } catch (const lancer::InputError& e) {
     return fail(kExitBadInput, e.what());
-  } catch (const std::bad_alloc&) {
-    return fail(kExitOutOfMemory, "out of memory (limits: docs/limits.md)");
+  } catch (const lancer::OutputError& e) {
+    return fail(kExitOutputLost, e.what());
+  } catch (const std::bad_alloc& e) {
+    const std::string why = e.what();  // a reason of our own where there is one
+    return fail(kExitOutOfMemory, "out of memory" +
+                                      (why == std::bad_alloc().what() ? "" : ": " + why) +
+                                      " (limits: docs/limits.md)");
   } catch (const std::length_error& e) {  // a size beyond what a container can hold
     return fail(kExitOutOfMemory,
                 std::string("out of memory: ") + e.what() + " (limits: docs/limits.md)");

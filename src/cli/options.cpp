@@ -155,4 +155,12 @@ void attach_progress(RenderOptions& options) {
   };
 }
 
+void check_repeat(int repeat) {
+  // Each timed run lasts at least 0.05 s per configuration: 1000 of them are nearly a minute per
+  // configuration, and 2^31 ran for ever.
+  if (repeat < 1 || repeat > kMaxRepeat)
+    throw InputError("--repeat: must be from 1 to " + std::to_string(kMaxRepeat) + ", not " +
+                     std::to_string(repeat) + " (docs/limits.md)");
+}
+
 }  // namespace lancer::cli

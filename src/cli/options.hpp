@@ -40,4 +40,8 @@ void check_memory(const Scene& scene);
 // A progress bar on stderr when it is a terminal; nothing otherwise.
 void attach_progress(RenderOptions& options);
 
+// --repeat of bench and trade: 1 to kMaxRepeat timed runs per configuration (docs/limits.md).
+inline constexpr int kMaxRepeat = 1000;
+void check_repeat(int repeat);
+
 }  // namespace lancer::cli

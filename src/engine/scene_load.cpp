@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "lancer/error.hpp"
+#include "lancer/input_file.hpp"
 #include "lancer/mesh_io.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/text.hpp"
@@ -869,47 +870,12 @@ Scene parse_scene(const std::string& text, const std::string& name) {
   return parse_scene_at(text, name, name, nullptr);
 }
 
-namespace {
-
-// Reads at most 1 GiB + 1 byte, so that /dev/zero or a runaway pipe fails instead of filling
-// memory; reserves once when the size is known (a regular file).
-std::string read_bounded(const std::string& path, const std::string& what, bool regular_only) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(shown_path(path) + ": is a folder, not a " + what);
-  // A FIFO or a device would block on open or never end: mesh files must be regular files.
-  if (regular_only && std::filesystem::exists(path, ec) &&
-      !std::filesystem::is_regular_file(path, ec))
-    throw InputError(shown_path(path) + ": not a regular file (a " + what + " must be one)");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(shown_path(path) + ": cannot open " + what);
-  std::string text;
-  try {
-    const auto size = std::filesystem::file_size(path, ec);
-    if (!ec && size > kMaxSceneBytes)
-      throw InputError(shown_path(path) + ": file larger than 1 GiB");
-    if (!ec) text.reserve(static_cast<std::size_t>(size));
-    std::vector<char> buf(std::size_t(1) << 16);
-    while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0) {
-      text.append(buf.data(), static_cast<std::size_t>(in.gcount()));
-      if (text.size() > kMaxSceneBytes)
-        throw InputError(shown_path(path) + ": file larger than 1 GiB");
-    }
-  } catch (const std::bad_alloc&) {
-    throw InputError(shown_path(path) + ": out of memory while reading the " + what);
-  }
-  if (in.bad()) throw InputError(shown_path(path) + ": cannot read " + what);
-  return text;
-}
-
-}  // namespace
-
 std::string read_scene_file(const std::string& path) {
-  return read_bounded(path, "scene file", false);
+  return read_input_file(path, kMaxSceneBytes, "scene file", "1 GiB");
 }
 
 std::string read_input_file(const std::string& path, const std::string& what) {
-  return read_bounded(path, what, true);
+  return read_input_file(path, kMaxSceneBytes, what.c_str(), "1 GiB");
 }
 
 // Messages name the file as shown_path() shows it: one line whatever the name holds.

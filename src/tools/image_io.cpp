@@ -25,12 +25,19 @@
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/image_module.hpp"
+#include "lancer/input_file.hpp"
+#include "lancer/output_file.hpp"
+#include "lancer/scene.hpp"
 
 namespace lancer {
 
 namespace fs = std::filesystem;
 
 namespace {
+
+// An image file given to compare is read whole before decoding: a 16384 x 16384 float RGB PFM
+// is 3 GiB. Larger is refused rather than read (docs/limits.md).
+constexpr std::size_t kMaxImageFileBytes = std::size_t(1) << 32;
 
 std::string lower_extension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
@@ -94,7 +101,14 @@ class HoldTerminationSignals {
 // `.<name>.lancer-XXXXXX` (`.<name>.lancer-probe-XXXXXX` for the writability probe), <name> cut
 // short where the whole would exceed NAME_MAX, so that every legal target name has one. It is the
 // pending file from the moment it exists.
-std::string make_pending_beside(const std::string& target, const char* kind = "lancer-") {
+// Failing to create it while checking the path is bad input (status 2, before any work); failing
+// when the work is done (a disk filled meanwhile) is output lost (status 4).
+struct Pending {
+  std::string path;
+  int fd = -1;
+};
+Pending make_pending_beside(const std::string& target, const std::string& given,
+                            const char* kind = "lancer-") {
   fs::path t(target);
   fs::path dir = t.parent_path().empty() ? fs::path(".") : t.parent_path();
   std::string name = t.filename().string();
@@ -104,27 +118,39 @@ std::string make_pending_beside(const std::string& target, const char* kind = "l
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
   const HoldTerminationSignals hold;
-  int fd = mkstemp(buf.data());
-  if (fd < 0)
-    throw InputError(target + ": cannot create a file in " + dir.string() + ": " +
-                     std::strerror(errno));
-  close(fd);
+  int fd = mkostemp(buf.data(), O_CLOEXEC);
+  if (fd < 0) {
+    const std::string why =
+        given + ": cannot create a file in " + dir.string() + ": " + std::strerror(errno);
+    if (std::strcmp(kind, "lancer-") == 0) throw OutputError(why);
+    throw InputError(why);
+  }
   set_pending(buf.data());
-  return buf.data();
+  return {buf.data(), fd};
 }
 
-void write_pfm(const Image& im, const std::string& path) {
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
-  if (!f) throw InputError(path + ": cannot open for writing: " + std::strerror(errno));
+void write_pfm(const Image& im, OutputFile& out) {
   // A negative scale means little-endian; rows go bottom to top.
-  std::fprintf(f.get(), "PF\n%d %d\n-1.0\n", im.nx, im.ny);
+  const std::string header =
+      "PF\n" + std::to_string(im.nx) + " " + std::to_string(im.ny) + "\n-1.0\n";
+  out.write(header.data(), header.size());
   static_assert(sizeof(float) == 4, "PFM stores 32-bit floats");
-  for (int j = im.ny - 1; j >= 0; --j) {
-    if (std::fwrite(im.pixel(0, j), sizeof(float), std::size_t(im.nx) * 3, f.get()) !=
-        std::size_t(im.nx) * 3)
-      throw InputError(path + ": write failed: " + std::strerror(errno));
-  }
-  if (std::fflush(f.get()) != 0) throw InputError(path + ": write failed: " + std::strerror(errno));
+  for (int j = im.ny - 1; j >= 0; --j) out.write(im.pixel(0, j), sizeof(float) * 3 * im.nx);
+}
+
+// dlopen's failures under a memory limit (`ulimit -v`) read "failed to map segment from shared
+// object" or "cannot allocate memory": out of memory (status 3), not a missing module.
+struct ModuleOutOfMemory : std::bad_alloc {
+  std::string why;
+  explicit ModuleOutOfMemory(std::string w) : why(std::move(w)) {}
+  const char* what() const noexcept override { return why.c_str(); }
+};
+bool is_out_of_memory(const std::string& dl_error) {
+  std::string e = dl_error;
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e.find("failed to map segment") != std::string::npos ||
+         e.find("cannot allocate memory") != std::string::npos ||
+         e.find("out of memory") != std::string::npos;
 }
 
 // The image module, loaded once: where `cmake --install` puts it relative to the executable
@@ -149,6 +175,9 @@ const ImageModule& image_module() {
       void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
       if (!handle) {
         why = dlerror();
+        if (is_out_of_memory(why))
+          throw ModuleOutOfMemory("cannot load lancer's image module (OpenImageIO and the " +
+                                  std::string("libraries it needs): ") + why);
         continue;
       }
       ImageModule m;
@@ -165,15 +194,25 @@ const ImageModule& image_module() {
   return module;
 }
 
+// OpenImageIO's messages can run to several lines (libpng's, then its own): the first says it.
+std::string first_line(const std::string& text, const char* if_empty) {
+  std::size_t b = 0;
+  while (b < text.size()) {
+    const std::size_t e = std::min(text.find('\n', b), text.size());
+    if (e > b) return text.substr(b, std::min<std::size_t>(e - b, 300));
+    b = e + 1;
+  }
+  return if_empty;
+}
+
 void check_status(int status, const std::string& path, const std::string& error) {
   if (status == kImageOutOfMemory) throw std::bad_alloc();
   if (status != kImageOk) throw InputError(path + ": " + error);
 }
 
-void write_oiio(const Image& im, const std::string& format_path, const std::string& path) {
+void write_oiio(const Image& im, const std::string& format_path, OutputFile& out) {
   const ImageFormat* format = find_format(lower_extension(format_path));
-  ImageModuleWrite w{format->oiio_name, format->is_float, im.nx, im.ny,
-                     im.rgb.data(),     path.c_str()};
+  ImageModuleWrite w{format->oiio_name, format->is_float, im.nx, im.ny, im.rgb.data(), &out};
   // Clamp to [0, 1] and round to the nearest of 256 levels ourselves, so every format agrees.
   std::vector<unsigned char> bytes;
   if (!format->is_float) {
@@ -186,7 +225,9 @@ void write_oiio(const Image& im, const std::string& format_path, const std::stri
     w.pixels = bytes.data();
   }
   std::string error;
-  check_status(image_module().write(&w, &error), format_path, error);
+  const int status = image_module().write(&w, &error);
+  if (out.error() != 0) return;  // the write's own failure is what the caller reports
+  check_status(status, format_path, first_line(error, "cannot encode the image"));
 }
 
 }  // namespace
@@ -222,6 +263,13 @@ void check_writable_target(const std::string& given, const std::string& scene_pa
   if (access(dir.c_str(), W_OK) != 0)
     throw InputError(given + ": folder " + dir.string() + " is not writable");
   if (fs::is_directory(p, ec)) throw InputError(given + ": is a folder");
+  // Checked here, before the work: the write would fail at the end, when the file is renamed.
+  const long name_max = pathconf(dir.c_str(), _PC_NAME_MAX);
+  const std::size_t name_bytes = p.filename().string().size();
+  if (name_bytes > std::size_t(name_max > 0 ? name_max : NAME_MAX))
+    throw InputError(given + ": the file name is " + std::to_string(name_bytes) +
+                     " bytes, longer than the folder's file system allows (" +
+                     std::to_string(name_max > 0 ? name_max : NAME_MAX) + ")");
   struct stat st;
   if (stat(path.c_str(), &st) == 0) {
     if (!S_ISREG(st.st_mode))
@@ -235,7 +283,8 @@ void check_writable_target(const std::string& given, const std::string& scene_pa
   }
   // access() is no answer for root, who passes it for /proc, /sys or a read-only mount: create the
   // file the write will create (and remove it), so that the failure comes before the work.
-  make_pending_beside(path, "lancer-probe-");
+  const Pending probe = make_pending_beside(path, given, "lancer-probe-");
+  close(probe.fd);
   remove_pending_outputs();
 }
 
@@ -266,16 +315,26 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
 }
 
 void write_file_atomically(const std::string& given,
-                           const std::function<void(const std::string&)>& write) {
+                           const std::function<void(OutputFile&)>& write) {
   const std::string path = output_target(given);
   struct stat old;
   const bool replacing = stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);
-  const std::string tmp = make_pending_beside(path);
+  const Pending tmp = make_pending_beside(path, given);
+  int fd = tmp.fd;
+  // Each step checked, and a failure names the user's path (the temporary name means nothing to
+  // them): the temporary file is removed and the old file, untouched until the rename, stays.
+  auto lost = [&](const char* what, int err) {
+    throw OutputError(given + ": " + what + ": " + std::strerror(err) +
+                      " (nothing written; any old file is kept)");
+  };
   try {
-    write(tmp);
-    const int fd = open(tmp.c_str(), O_RDWR | O_CLOEXEC);
-    if (fd < 0)
-      throw InputError(given + ": cannot reopen the written file: " + std::strerror(errno));
+    OutputFile out(fd);
+    write(out);
+    if (out.error() != 0) lost("cannot write", out.error());
+    // A last check that every byte went through `out`: the file has the size written.
+    struct stat st;
+    if (fstat(fd, &st) != 0) lost("cannot write", errno);
+    if (std::uint64_t(st.st_size) != out.end()) lost("cannot write", EIO);
     if (replacing) {
       // The replaced file's owner and group where the system lets us (root; a group we are in),
       // then its mode (chown clears set-id bits, so the mode comes second).
@@ -287,42 +346,54 @@ void write_file_atomically(const std::string& given,
       umask(mask);
       fchmod(fd, 0666 & ~mask);
     }
-    // On disk before the rename, so that a crash leaves the old file or the new one, whole.
-    const bool synced = fsync(fd) == 0;
-    const int sync_errno = errno;
-    close(fd);
-    if (!synced) throw InputError(given + ": cannot write to disk: " + std::strerror(sync_errno));
-    if (std::rename(tmp.c_str(), path.c_str()) != 0)
-      throw InputError(given + ": cannot rename into place: " + std::strerror(errno));
+    // On disk before the rename, so that a crash leaves the old file or the new one, whole. Some
+    // file systems (NFS) report a failed write only at fsync or close: both are checked.
+    if (fsync(fd) != 0) lost("cannot write to disk", errno);
+    const int closed = close(fd);
+    fd = -1;
+    if (closed != 0) lost("cannot write to disk", errno);
+    if (std::rename(tmp.path.c_str(), path.c_str()) != 0) lost("cannot rename into place", errno);
     clear_pending();
   } catch (...) {
+    if (fd >= 0) close(fd);
     remove_pending_outputs();
     throw;
   }
-  // And the rename itself on disk.
+  // And the rename itself on disk. The new file is in place whatever happens here; a failure is
+  // still reported (status 4): the new file may not survive a crash.
   const fs::path dir =
       fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
   const int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dfd >= 0) {
-    fsync(dfd);
+    const bool synced = fsync(dfd) == 0 || errno == EINVAL;  // EINVAL: folders not syncable
+    const int err = errno;
     close(dfd);
+    if (!synced)
+      throw OutputError(
+          given + ": written, but its folder cannot be written to disk: " + std::strerror(err));
   }
 }
 
 void write_image(const Image& image, const std::string& path) {
   check_output_path(path);
-  write_file_atomically(path, [&](const std::string& tmp) {
+  write_file_atomically(path, [&](OutputFile& out) {
     if (lower_extension(path) == ".pfm")
-      write_pfm(image, tmp);
+      write_pfm(image, out);
     else
-      write_oiio(image, path, tmp);
+      write_oiio(image, path, out);
   });
 }
 
 Image read_image(const std::string& path) {
+  return decode_image(read_input_file(path, kMaxImageFileBytes, "image", "4 GiB"), path);
+}
+
+Image decode_image(const std::string& bytes, const std::string& path) {
   Image im;
   std::string error;
-  check_status(image_module().read(path.c_str(), &im.nx, &im.ny, &im.rgb, &error), path, error);
+  const int status = image_module().read(path.c_str(), bytes.data(), bytes.size(), kMaxResolution,
+                                         &im.nx, &im.ny, &im.rgb, &error);
+  check_status(status, path, first_line(error, "the image data are missing or cut short"));
   return im;
 }
 

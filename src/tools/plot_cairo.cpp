@@ -15,6 +15,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/output_file.hpp"
 #include "lancer/plot.hpp"
 
 namespace lancer::plot {
@@ -480,6 +481,15 @@ void render_to(cairo_surface_t* surface, const Chart& c, const std::string& path
     throw InputError(path + ": cannot draw: " + cairo_status_to_string(cairo_status(ctx.cr)));
 }
 
+// cairo's stream writer: every byte through lancer's OutputFile, which checks each write. Written
+// to a file name instead, cairo's PDF surface reported success with a truncated file on a full
+// disk. Success is returned even after a failure, so that cairo carries on to the end and the
+// failure is reported once, by write_file_atomically, naming the user's path.
+cairo_status_t to_output(void* closure, const unsigned char* data, unsigned int length) {
+  static_cast<OutputFile*>(closure)->write(data, length);
+  return CAIRO_STATUS_SUCCESS;
+}
+
 }  // namespace
 
 std::vector<LabelBox> label_boxes(const Chart& c) {
@@ -492,12 +502,13 @@ void write_chart(const Chart& c, const std::string& path) {
   LANCER_CHECK(c.width > 0 && c.height > 0);
   const std::string ext = lower_ext(path);
   if (ext == ".svg" || ext == ".pdf") {
-    write_file_atomically(path, [&](const std::string& tmp) {
-      Surface s{ext == ".svg" ? cairo_svg_surface_create(tmp.c_str(), c.width, c.height)
-                              : cairo_pdf_surface_create(tmp.c_str(), c.width, c.height)};
+    write_file_atomically(path, [&](OutputFile& out) {
+      Surface s{ext == ".svg"
+                    ? cairo_svg_surface_create_for_stream(to_output, &out, c.width, c.height)
+                    : cairo_pdf_surface_create_for_stream(to_output, &out, c.width, c.height)};
       render_to(s.s, c, path);
       cairo_surface_finish(s.s);
-      check_status(s.s, path);
+      if (out.error() == 0) check_status(s.s, path);
     });
     return;
   }
@@ -505,9 +516,10 @@ void write_chart(const Chart& c, const std::string& path) {
   render_to(s.s, c, path);
   cairo_surface_flush(s.s);
   if (ext == ".png") {
-    write_file_atomically(path, [&](const std::string& tmp) {
-      if (cairo_surface_write_to_png(s.s, tmp.c_str()) != CAIRO_STATUS_SUCCESS)
-        throw InputError(path + ": cannot write the PNG");
+    write_file_atomically(path, [&](OutputFile& out) {
+      const cairo_status_t status = cairo_surface_write_to_png_stream(s.s, to_output, &out);
+      if (status != CAIRO_STATUS_SUCCESS && out.error() == 0)
+        throw InputError(path + ": cannot write the PNG: " + cairo_status_to_string(status));
     });
     return;
   }

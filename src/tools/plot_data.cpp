@@ -13,6 +13,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/output_file.hpp"
 #include "lancer/plot.hpp"
 #include "lancer/text.hpp"
 
@@ -100,12 +101,7 @@ void check_drawing_path(const std::string& path, const std::string& option,
 }
 
 void write_text_file(const std::string& text, const std::string& path) {
-  write_file_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.flush();
-    if (!out) throw InputError(path + ": write failed: " + std::strerror(errno));
-  });
+  write_file_atomically(path, [&](OutputFile& out) { out.write(text.data(), text.size()); });
 }
 
 Ticks nice_ticks(double lo, double hi, int target) {

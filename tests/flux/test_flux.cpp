@@ -609,5 +609,25 @@ TEST(Figures, CliWritesPlotAndDiagram) {
   EXPECT_NE(bad.err.find("--plot"), std::string::npos) << bad.err;
 }
 
+// Each value in the shortest text that reads back the same double: 0.05, not %.17g's
+// 0.050000000000000003.
+TEST(FluxCsv, ShortestTextThatReadsBack) {
+  flux::Profile p;
+  p.x = {0.05, 0.1 + 0.2, -9.95, 1e-300};
+  p.flux = {1.0 / 3, 0, 0.8759077191352844, 2.5};
+  const std::string csv = flux::profile_csv(p);
+  EXPECT_EQ(csv,
+            "x,flux\n0.05,0.3333333333333333\n0.30000000000000004,0\n-9.95,0.8759077191352844\n"
+            "1e-300,2.5\n");
+  std::istringstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  for (std::size_t k = 0; std::getline(in, line); ++k) {
+    const std::size_t comma = line.find(',');
+    EXPECT_EQ(std::strtod(line.substr(0, comma).c_str(), nullptr), p.x[k]) << line;
+    EXPECT_EQ(std::strtod(line.substr(comma + 1).c_str(), nullptr), p.flux[k]) << line;
+  }
+}
+
 }  // namespace
 }  // namespace lancer
