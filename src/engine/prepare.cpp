@@ -137,15 +137,13 @@ void add_bvh(PreparedScene<T>& p) {
   h.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-}  // namespace
-
+// The camera in the scene's frame, and its screen tables (the same formula as per ray, once).
 template <class T>
-PreparedScene<T> prepare(const Scene& scene, Accel accel) {
-  PreparedScene<T> p;
+void prepare_camera(const Scene& scene, PreparedScene<T>& p) {
   auto& pc = p.camera;
   const CameraSpec& c = scene.camera;
+  const Frame& frame = p.frame;
   pc.orthographic = c.type == CameraType::orthographic;
-  const Frame& frame = p.frame = camera_frame<T>(scene);
   // In its own frame the camera sits on the w axis (at the origin unless depth) with the axes
   // as its basis; in the world's axes, at the origin with its basis rounded once.
   pc.position = Vec3<T>{T(0), T(0), T(frame.depth)};
@@ -179,53 +177,37 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   for (int b = 0; b < pc.samples; ++b)
     for (int j = 0; j < pc.ny; ++j)
       pc.screen_y.push_back(lancer::screen_y(pc, T(j), pc.sub_offset[b]));
+}
 
-  const Rgb& bg = scene.background;
-  const Rgb& env = scene.environment;
-  p.background[0] = T(bg.r), p.background[1] = T(bg.g), p.background[2] = T(bg.b);
-  p.environment[0] = T(env.r), p.environment[1] = T(env.g), p.environment[2] = T(env.b);
-  p.max_depth = scene.max_depth;
-  p.epsilon = T(scene.epsilon);
+// One object's material, by object id, and what it asks of the features.
+template <class T>
+void add_material(const Scene& scene, const Material& m, PreparedScene<T>& p) {
+  p.materials.r.push_back(T(m.color.r));
+  p.materials.g.push_back(T(m.color.g));
+  p.materials.b.push_back(T(m.color.b));
+  p.materials.ka.push_back(T(m.ka));
+  p.materials.kd.push_back(T(m.kd));
+  p.materials.ks.push_back(T(m.ks));
+  p.materials.shininess.push_back(T(m.shininess));
+  p.materials.reflect.push_back(T(m.reflect));
+  p.materials.transmit.push_back(T(m.transmit));
+  p.materials.ior.push_back(T(m.ior));
+  p.materials.inv_ior.push_back(T(1.0 / m.ior));
+  if (m.transmit > 0) p.features.transparency = true;
+  const bool whole = m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
+  p.materials.shininess_int.push_back(T(whole ? 1 : 0));
+  if (m.ks > 0) {
+    p.features.specular = true;
+    if (!whole) p.features.fractional_shininess = true;
+  }
+  if (m.reflect > 0 && scene.max_depth > 0) p.features.reflection = true;
+}
 
-  // Arrays of one entry per object (materials) or per sphere, each allocated once with its pages
-  // huge and present (lancer/huge_pages.hpp): at one million spheres these 22 arrays grew by
-  // doubling, each growth a copy into fresh pages, a fault per page.
-  const std::size_t objects = scene.num_objects();
-  const std::size_t spheres = scene.spheres.size();
-  for (auto* v :
-       {&p.materials.r, &p.materials.g, &p.materials.b, &p.materials.ka, &p.materials.kd,
-        &p.materials.ks, &p.materials.shininess, &p.materials.reflect, &p.materials.transmit,
-        &p.materials.ior, &p.materials.inv_ior, &p.materials.shininess_int})
-    reserve_prepared(*v, objects);
-  for (auto* v :
-       {&p.spheres.cx, &p.spheres.cy, &p.spheres.cz, &p.spheres.r, &p.spheres.r2, &p.spheres.inv_r})
-    reserve_prepared(*v, spheres);
-  if (!pc.orthographic)
-    for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) reserve_prepared(*v, spheres);
-
-  auto add_material = [&](const Material& m) {
-    p.materials.r.push_back(T(m.color.r));
-    p.materials.g.push_back(T(m.color.g));
-    p.materials.b.push_back(T(m.color.b));
-    p.materials.ka.push_back(T(m.ka));
-    p.materials.kd.push_back(T(m.kd));
-    p.materials.ks.push_back(T(m.ks));
-    p.materials.shininess.push_back(T(m.shininess));
-    p.materials.reflect.push_back(T(m.reflect));
-    p.materials.transmit.push_back(T(m.transmit));
-    p.materials.ior.push_back(T(m.ior));
-    p.materials.inv_ior.push_back(T(1.0 / m.ior));
-    if (m.transmit > 0) p.features.transparency = true;
-    const bool whole =
-        m.shininess == std::floor(m.shininess) && m.shininess <= kMaxIntegerShininess;
-    p.materials.shininess_int.push_back(T(whole ? 1 : 0));
-    if (m.ks > 0) {
-      p.features.specular = true;
-      if (!whole) p.features.fractional_shininess = true;
-    }
-    if (m.reflect > 0 && scene.max_depth > 0) p.features.reflection = true;
-  };
-
+// The spheres (object ids 0 ..), with the eye's tables for pinhole cameras.
+template <class T>
+void prepare_spheres(const Scene& scene, PreparedScene<T>& p) {
+  const Frame& frame = p.frame;
+  const auto& pc = p.camera;
   p.num_spheres = static_cast<int>(scene.spheres.size());
   p.naive_spheres_hold = true;
   for (const Sphere& s : scene.spheres) {
@@ -247,8 +229,14 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
       p.eye.fz.push_back(f.z);
       p.eye.c.push_back(sphere_c(f, p.spheres.r2.back()));
     }
-    add_material(scene.materials[s.material]);
+    add_material(scene, scene.materials[s.material], p);
   }
+}
+
+// The planes (ids after the spheres), then the shapes (after the planes).
+template <class T>
+void prepare_planes_and_shapes(const Scene& scene, PreparedScene<T>& p) {
+  const Frame& frame = p.frame;
   p.num_planes = static_cast<int>(scene.planes.size());
   for (const Plane& pl : scene.planes) {
     // Rotated after its normalisation: a rotation keeps it unit to double's rounding.
@@ -260,18 +248,23 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     p.planes.nx.push_back(T(n.x));
     p.planes.ny.push_back(T(n.y));
     p.planes.nz.push_back(T(n.z));
-    add_material(scene.materials[pl.material]);
+    add_material(scene, scene.materials[pl.material], p);
   }
   p.num_shapes = static_cast<int>(scene.shapes.size());
   for (const Shape& sh : scene.shapes)
     add_material(
-        scene.materials[sh.kind == Shape::Kind::mesh ? sh.mesh.material : sh.cylinder.material]);
+        scene,
+        scene.materials[sh.kind == Shape::Kind::mesh ? sh.mesh.material : sh.cylinder.material], p);
   if (p.num_shapes > 0)
     p.shapes = std::make_shared<const PreparedShapes<T>>(
         prepare_shapes<T>(scene, frame, p.num_spheres + p.num_planes));
+}
+
+template <class T>
+void prepare_lights(const Scene& scene, PreparedScene<T>& p) {
   p.num_lights = static_cast<int>(scene.lights.size());
   for (const Light& l : scene.lights) {
-    const Vec3<double> position = frame.point(l.position);
+    const Vec3<double> position = p.frame.point(l.position);
     p.lights.x.push_back(T(position.x));
     p.lights.y.push_back(T(position.y));
     p.lights.z.push_back(T(position.z));
@@ -286,6 +279,41 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     if (in[1] != in[0] || in[2] != in[0] || am[1] != am[0] || am[2] != am[0])
       p.features.coloured_lights = true;
   }
+}
+
+}  // namespace
+
+template <class T>
+PreparedScene<T> prepare(const Scene& scene, Accel accel) {
+  PreparedScene<T> p;
+  p.frame = camera_frame<T>(scene);
+  prepare_camera(scene, p);
+  const Rgb& bg = scene.background;
+  const Rgb& env = scene.environment;
+  p.background[0] = T(bg.r), p.background[1] = T(bg.g), p.background[2] = T(bg.b);
+  p.environment[0] = T(env.r), p.environment[1] = T(env.g), p.environment[2] = T(env.b);
+  p.max_depth = scene.max_depth;
+  p.epsilon = T(scene.epsilon);
+
+  // Arrays of one entry per object (materials) or per sphere, each allocated once with its pages
+  // huge and present (lancer/huge_pages.hpp): at one million spheres these 22 arrays grew by
+  // doubling, each growth a copy into fresh pages, a fault per page.
+  const std::size_t objects = scene.num_objects();
+  const std::size_t spheres = scene.spheres.size();
+  for (auto* v :
+       {&p.materials.r, &p.materials.g, &p.materials.b, &p.materials.ka, &p.materials.kd,
+        &p.materials.ks, &p.materials.shininess, &p.materials.reflect, &p.materials.transmit,
+        &p.materials.ior, &p.materials.inv_ior, &p.materials.shininess_int})
+    reserve_prepared(*v, objects);
+  for (auto* v :
+       {&p.spheres.cx, &p.spheres.cy, &p.spheres.cz, &p.spheres.r, &p.spheres.r2, &p.spheres.inv_r})
+    reserve_prepared(*v, spheres);
+  if (!p.camera.orthographic)
+    for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) reserve_prepared(*v, spheres);
+
+  prepare_spheres(scene, p);
+  prepare_planes_and_shapes(scene, p);
+  prepare_lights(scene, p);
   // Packets look per-object fields up a whole register at a time: pad with zeros.
   for (auto* field : {&p.spheres.cx,          &p.spheres.cy,        &p.spheres.cz,
                       &p.spheres.r,           &p.spheres.r2,        &p.spheres.inv_r,
