@@ -1,5 +1,6 @@
-// Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); every other
-// format through OpenImageIO, in lancer's image module (src/image_oiio.cpp), loaded on first use.
+// Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); PNG, JPEG,
+// TIFF, OpenEXR and PPM by their own libraries (src/image_formats.cpp); the other formats through
+// OpenImageIO, in lancer's image module (src/image_oiio.cpp), loaded on first use.
 // Files appear whole or not at all.
 #include <dlfcn.h>
 #include <fcntl.h>
@@ -24,6 +25,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/image_formats.hpp"
 #include "lancer/image_module.hpp"
 
 namespace lancer {
@@ -261,7 +263,7 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
   if (!find_format(ext))
     throw InputError(path + ": lancer does not write '" + ext + "' images (it writes " +
                      known_extensions() + ")");
-  if (ext != ".pfm") image_module();  // a missing module says so before any work
+  if (ext != ".pfm" && !has_direct_encoder(ext)) image_module();  // a missing module says so now
   check_writable_target(path, scene_path);
 }
 
@@ -311,6 +313,14 @@ void write_file_atomically(const std::string& given,
 
 void write_image(const Image& image, const std::string& path) {
   check_output_path(path);
+  // Direct encoders (src/image_formats.cpp): the whole file in memory first, then the bytes.
+  const std::string ext = lower_extension(path);
+  if (has_direct_encoder(ext)) {
+    const std::vector<unsigned char> bytes = encode_image(image, ext, path);
+    return write_file_atomically(path,
+                                 [&](const std::string& tmp) { write_bytes(tmp, bytes, path); });
+  }
+  // The rest: PFM by write_pfm, other formats through the image module.
   write_file_atomically(path, [&](const std::string& tmp) {
     if (lower_extension(path) == ".pfm")
       write_pfm(image, tmp);
@@ -321,6 +331,7 @@ void write_image(const Image& image, const std::string& path) {
 
 Image read_image(const std::string& path) {
   Image im;
+  if (decode_image_file(path, &im)) return im;  // direct decoders (src/image_formats.cpp)
   std::string error;
   check_status(image_module().read(path.c_str(), &im.nx, &im.ny, &im.rgb, &error), path, error);
   return im;
