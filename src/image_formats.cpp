@@ -1,12 +1,13 @@
 // The common formats without OpenImageIO (include/lancer/image_formats.hpp): dispatch, PPM and
 // PFM, PNG through libpng, JPEG through libjpeg-turbo. TIFF and OpenEXR are in
-// image_formats_float.cpp.
+// image_formats_float.cpp, a module loaded on first use.
 //
 // libpng and libjpeg report errors by calling a function that must not return: it longjmps back
 // to a setjmp in the function that called the library. A longjmp skips C++ destructors, so the
 // functions holding a setjmp own no C++ object; their callers own the buffers.
 #include "lancer/image_formats.hpp"
 
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <jpeglib.h>
 // After jpeglib.h, which it needs: the message codes (JWRN_JPEG_EOF).
@@ -22,6 +23,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <new>
 #include <stdexcept>
@@ -291,6 +293,68 @@ bool decode_jpeg_rows(JpegError* err, jpeg_decompress_struct* d, const unsigned 
   return true;
 }
 
+// --- The float formats' module ----------------------------------------------------------------
+
+struct FloatModule {
+  FloatEncodeFn encode = nullptr;
+  FloatDecodeFn decode = nullptr;
+};
+
+// Loaded once: where `cmake --install` puts it relative to the executable
+// (<bindir>/../<libdir>/lancer/), else where this build made it.
+const FloatModule& float_module() {
+  static const FloatModule module = [] {
+    std::vector<std::string> tried;
+    std::error_code ec;
+    const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (!ec)
+      tried.push_back(
+          (exe.parent_path() / LANCER_FLOAT_MODULE_INSTALLED).lexically_normal().string());
+    tried.push_back(LANCER_FLOAT_MODULE_BUILT);
+    std::string why;
+    for (const std::string& path : tried) {
+      if (!std::filesystem::exists(path, ec)) continue;
+      void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) {
+        why = dlerror();
+        continue;
+      }
+      FloatModule m;
+      m.encode = reinterpret_cast<FloatEncodeFn>(dlsym(handle, "lancer_float_encode"));
+      m.decode = reinterpret_cast<FloatDecodeFn>(dlsym(handle, "lancer_float_decode"));
+      if (m.encode && m.decode) return m;
+      why = path + " lacks lancer_float_encode or lancer_float_decode";
+    }
+    std::string where;
+    for (const std::string& path : tried) where += (where.empty() ? "" : ", ") + path;
+    throw std::runtime_error("lancer's TIFF and OpenEXR module is not installed: looked for " +
+                             where + (why.empty() ? "" : " (" + why + ")"));
+  }();
+  return module;
+}
+
+void check_float_status(int status, const std::string& error) {
+  if (status == kFloatOutOfMemory) throw std::bad_alloc();
+  if (status != kFloatOk) throw InputError(error);
+}
+
+std::vector<unsigned char> encode_float(const Image& im, const std::string& ext,
+                                        const std::string& name) {
+  std::vector<unsigned char> out;
+  std::string error;
+  check_float_status(float_module().encode(ext.c_str(), &im, name.c_str(), &out, &error), error);
+  return out;
+}
+
+bool decode_float(const char* ext, const std::vector<unsigned char>& bytes, const std::string& name,
+                  Image* out) {
+  bool decoded = false;
+  std::string error;
+  check_float_status(float_module().decode(ext, &bytes, name.c_str(), out, &decoded, &error),
+                     error);
+  return decoded;
+}
+
 }  // namespace
 
 std::vector<unsigned char> to_bytes(const Image& im) {
@@ -309,13 +373,16 @@ bool has_direct_encoder(const std::string& ext) {
   return false;
 }
 
+void load_direct_encoder(const std::string& ext) {
+  if (ext == ".tif" || ext == ".tiff" || ext == ".exr") float_module();
+}
+
 std::vector<unsigned char> encode_image(const Image& im, const std::string& ext,
                                         const std::string& name) {
   if (ext == ".png") return encode_png(im, name);
   if (ext == ".jpg" || ext == ".jpeg") return encode_jpeg(im, name);
   if (ext == ".ppm") return encode_ppm(im);
-  if (ext == ".tif" || ext == ".tiff") return encode_tiff(im, name);
-  if (ext == ".exr") return encode_exr(im, name);
+  if (ext == ".tif" || ext == ".tiff" || ext == ".exr") return encode_float(im, ext, name);
   throw std::logic_error("encode_image: no encoder for " + ext);
 }
 
@@ -402,7 +469,9 @@ bool decode_jpeg(const std::vector<unsigned char>& bytes, const std::string& nam
 
 void write_bytes(const std::string& path, const std::vector<unsigned char>& bytes,
                  const std::string& name) {
-  const int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  // No O_CREAT: the file is the temporary one the atomic write made. A signal handled on another
+  // thread removes it, and re-creating it here before the process ends would leave it behind.
+  const int fd = open(path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
   if (fd < 0) throw InputError(name + ": cannot open for writing: " + std::strerror(errno));
   std::size_t done = 0;
   while (done < bytes.size()) {
@@ -431,8 +500,8 @@ bool decode_image_file(const std::string& path, Image* out) {
   };
   if (starts("\x89PNG\r\n\x1a\n", 8)) return decode_png(b, path, out);
   if (starts("\xff\xd8\xff", 3)) return decode_jpeg(b, path, out);
-  if (starts("II*\0", 4) || starts("MM\0*", 4)) return decode_tiff(b, path, out);
-  if (starts("\x76\x2f\x31\x01", 4)) return decode_exr(b, path, out);
+  if (starts("II*\0", 4) || starts("MM\0*", 4)) return decode_float(".tif", b, path, out);
+  if (starts("\x76\x2f\x31\x01", 4)) return decode_float(".exr", b, path, out);
   if (starts("P6", 2)) return decode_ppm(b, path, out);
   if (starts("PF", 2) || starts("Pf", 2)) return decode_pfm(b, path, out);
   return false;

@@ -1,5 +1,8 @@
 // The float formats without OpenImageIO (include/lancer/image_formats.hpp): TIFF through libtiff
-// and OpenEXR through its own library, both encoded into memory and decoded from it. Both store
+// and OpenEXR through its own library, both encoded into memory and decoded from it. Built as a
+// module of its own (lancer-float.so), loaded with dlopen by image_formats.cpp on the first TIFF or
+// OpenEXR: libtiff, OpenEXR and their 10 libraries (zstd, lzma, Lerc, jbig, webp, deflate, Iex,
+// IlmThread, Imath...) cost every process that loaded them 2 ms of CPU at start. Both store
 // 32-bit float RGB with zip compression (TIFF with the floating-point predictor), as the image
 // module wrote them.
 #include <OpenEXR/ImfChannelList.h>
@@ -143,8 +146,6 @@ class ExrMemoryIn : public Imf::IStream {
   const unsigned char* data_;
   std::size_t size_, pos_ = 0;
 };
-
-}  // namespace
 
 std::vector<unsigned char> encode_tiff(const Image& im, const std::string& name) {
   std::vector<unsigned char> out;
@@ -302,4 +303,40 @@ bool decode_exr(const std::vector<unsigned char>& bytes, const std::string& name
   }
 }
 
+}  // namespace
 }  // namespace lancer
+
+// The module's entry points: errors come back as status and text, never as exceptions across
+// the boundary.
+extern "C" {
+
+int lancer_float_encode(const char* ext, const lancer::Image* image, const char* name,
+                        std::vector<unsigned char>* out, std::string* error) noexcept {
+  try {
+    const std::string e = ext;
+    *out = e == ".exr" ? lancer::encode_exr(*image, name) : lancer::encode_tiff(*image, name);
+    return lancer::kFloatOk;
+  } catch (const std::bad_alloc&) {
+    return lancer::kFloatOutOfMemory;
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return lancer::kFloatError;
+  }
+}
+
+int lancer_float_decode(const char* ext, const std::vector<unsigned char>* bytes, const char* name,
+                        lancer::Image* out, bool* decoded, std::string* error) noexcept {
+  try {
+    const std::string e = ext;
+    *decoded = e == ".exr" ? lancer::decode_exr(*bytes, name, out)
+                           : lancer::decode_tiff(*bytes, name, out);
+    return lancer::kFloatOk;
+  } catch (const std::bad_alloc&) {
+    return lancer::kFloatOutOfMemory;
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return lancer::kFloatError;
+  }
+}
+
+}  // extern "C"

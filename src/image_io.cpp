@@ -263,7 +263,11 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
   if (!find_format(ext))
     throw InputError(path + ": lancer does not write '" + ext + "' images (it writes " +
                      known_extensions() + ")");
-  if (ext != ".pfm" && !has_direct_encoder(ext)) image_module();  // a missing module says so now
+  // A missing module says so before any work.
+  if (has_direct_encoder(ext))
+    load_direct_encoder(ext);  // TIFF and OpenEXR: their module
+  else if (ext != ".pfm")
+    image_module();
   check_writable_target(path, scene_path);
 }
 

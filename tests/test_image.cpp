@@ -62,6 +62,31 @@ TEST(ImageFiles, OpenImageIOLoadsOnlyForItsFormats) {
   }
 }
 
+// libtiff and OpenEXR (and the 10 libraries they need) load with the float module only, on the
+// first TIFF or OpenEXR: other processes start without them.
+TEST(ImageFiles, TiffAndOpenExrLoadOnlyForTheirFormats) {
+  testing::TempDir dir;
+  const std::string scene = std::string(LANCER_SOURCE_DIR) + "/scenes/lorenzi-diffuse.json";
+  auto maps_float_libraries = [&](const std::string& args) {
+    const auto r = testing::run_command("LD_DEBUG=files " + testing::cli() + " " + args);
+    EXPECT_EQ(r.status, 0) << args << ": " << r.out;
+    const bool tiff = r.out.find("libtiff") != std::string::npos;
+    const bool exr = r.out.find("libOpenEXR") != std::string::npos;
+    EXPECT_EQ(tiff, exr) << args << ": both come with the module";
+    return tiff && exr;
+  };
+  EXPECT_FALSE(maps_float_libraries("--version"));
+  for (const char* ext : {".pfm", ".png", ".jpg", ".ppm"}) {
+    const std::string out = dir.file(std::string("a") + ext);
+    EXPECT_FALSE(maps_float_libraries("render " + scene + " --resolution 16x8 -o " + out)) << ext;
+  }
+  for (const char* ext : {".tif", ".exr"}) {
+    const std::string out = dir.file(std::string("a") + ext);
+    EXPECT_TRUE(maps_float_libraries("render " + scene + " --resolution 16x8 -o " + out)) << ext;
+    EXPECT_TRUE(maps_float_libraries("compare " + out + " " + out)) << ext;
+  }
+}
+
 TEST(ImageFiles, PfmHeaderAndBottomUpRows) {
   testing::TempDir dir;
   Image im(2, 2);
