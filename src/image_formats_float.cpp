@@ -29,6 +29,10 @@ namespace lancer {
 
 namespace {
 
+// Sides beyond this (a header's claim, not memory we have) are left to the module, whose checks
+// they meet; Image's int sides must not wrap.
+constexpr uint32_t kMaxSide = 1u << 24;
+
 // --- TIFF ---------------------------------------------------------------------------------------
 
 // A TIFF in memory, for libtiff's client I/O: written into `out`, or read from data/size. The
@@ -206,7 +210,8 @@ bool decode_tiff(const std::vector<unsigned char>& bytes, const std::string& nam
   const bool layout = ((spp == 3 && photometric == PHOTOMETRIC_RGB) ||
                        (spp == 1 && photometric == PHOTOMETRIC_MINISBLACK)) &&
                       extra == 0 && planar == PLANARCONFIG_CONTIG && !TIFFIsTiled(t) &&
-                      orientation == ORIENTATION_TOPLEFT && nx > 0 && ny > 0;
+                      orientation == ORIENTATION_TOPLEFT && nx > 0 && ny > 0 && nx <= kMaxSide &&
+                      ny <= kMaxSide;
   const bool type = (format == SAMPLEFORMAT_UINT && (bits == 8 || bits == 16)) ||
                     (format == SAMPLEFORMAT_IEEEFP && bits == 32);
   if (!layout || !type) return false;
@@ -281,8 +286,9 @@ bool decode_exr(const std::vector<unsigned char>& bytes, const std::string& name
     const bool grey = count == 1 && usable("Y");
     if (!rgb && !grey) return false;
     const Imath::Box2i dw = h.dataWindow();
-    const int nx = dw.max.x - dw.min.x + 1, ny = dw.max.y - dw.min.y + 1;
-    if (nx < 1 || ny < 1) return false;
+    const int64_t wide = int64_t(dw.max.x) - dw.min.x + 1, high = int64_t(dw.max.y) - dw.min.y + 1;
+    if (wide < 1 || high < 1 || wide > kMaxSide || high > kMaxSide) return false;
+    const int nx = int(wide), ny = int(high);
     *out = Image(nx, ny);
     Imf::FrameBuffer frame;
     const std::size_t xs = 3 * sizeof(float), ys = xs * std::size_t(nx);

@@ -206,6 +206,32 @@ TEST(ImageFormats, DamagedFilesAreBadInput) {
   EXPECT_THROW(decode_image_file(dir.file("missing.png"), &out), InputError);
 }
 
+// Bytes changed anywhere: each decoder reads the file, leaves it to the module, or says it is
+// damaged; nothing else (no crash, no other exception).
+TEST(ImageFormats, CorruptedFilesAreDecodedOrBadInput) {
+  testing::TempDir dir;
+  const Image im = test_image(24, 16, false);
+  std::mt19937 rng(11);
+  for (const char* ext : {".png", ".jpg", ".ppm", ".tif", ".exr", ".pfm"}) {
+    SCOPED_TRACE(ext);
+    const std::string path = dir.file(std::string("c") + ext);
+    write_image(im, path);
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (int trial = 0; trial < 80; ++trial) {
+      std::string bad = bytes;
+      for (int k = 0; k < 1 + trial % 4; ++k)
+        bad[std::uniform_int_distribution<std::size_t>(0, bad.size() - 1)(rng)] = char(rng());
+      std::ofstream(path, std::ios::binary | std::ios::trunc) << bad;
+      Image out;
+      try {
+        decode_image_file(path, &out);
+      } catch (const InputError&) {
+      }
+    }
+  }
+}
+
 // The names in `dir`, sorted.
 std::vector<std::string> names_in(const std::string& dir) {
   std::vector<std::string> names;
