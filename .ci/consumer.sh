@@ -4,7 +4,7 @@
 # OpenImageIO, Embree, Google Benchmark, xsimd), configures examples/trace_packets against the
 # prefix with find_package(lancer), builds it and runs it on a scene: its packets of world-space
 # rays must hit what lancer's primary mode hits and its rows must equal `lancer render`'s PFM.
-# The installed CLI must write a PNG with the installed image module.
+# The installed CLI must write BMP and OpenEXR with the installed modules.
 #   .ci/consumer.sh [BUILD_DIR] [SCENE]
 set -euo pipefail
 cd "$(dirname "$0")/.."
