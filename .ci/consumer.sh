@@ -4,7 +4,7 @@
 # OpenImageIO, Embree, Google Benchmark, xsimd), configures examples/trace_packets against the
 # prefix with find_package(lancer), builds it and runs it on a scene: its packets of world-space
 # rays must hit what lancer's primary mode hits and its rows must equal `lancer render`'s PFM.
-# The installed CLI must write a PNG with the installed image module. Given a shared build
+# The installed CLI must write BMP and OpenEXR with the installed modules. Given a shared build
 # (-DBUILD_SHARED_LIBS=ON), also checks that liblancer.so exports the API and nothing else.
 #   .ci/consumer.sh [BUILD_DIR] [SCENE]
 set -euo pipefail
@@ -45,10 +45,13 @@ cmake -S examples/trace_packets -B "$tmp/example" -DCMAKE_BUILD_TYPE=Release \
 cmake --build "$tmp/example" -j"$(nproc)" >/dev/null
 "$build/lancer" render "$scene" -o "$tmp/render.pfm" >/dev/null
 "$tmp/example/trace_packets" "$scene" "$tmp/render.pfm"
-# The installed CLI writes PNG through the installed image module (found from the executable),
-# not the build tree's.
-LD_DEBUG=files "$tmp/prefix/bin/lancer" render "$scene" -o "$tmp/render.png" >/dev/null 2>"$tmp/ld"
-grep -q "file=$tmp/prefix/lib[^ ]*/lancer/lancer-oiio.so" "$tmp/ld" ||
-  { echo "consumer: the installed lancer did not load the installed image module"; exit 1; }
-[ -s "$tmp/render.png" ] || { echo "consumer: the installed lancer wrote no PNG"; exit 1; }
+# The installed CLI writes BMP through the installed image module and OpenEXR through the
+# installed float module (each found from the executable), not the build tree's.
+for out in render.bmp:lancer-oiio.so render.exr:lancer-float.so; do
+  file=${out%%:*} module=${out#*:}
+  LD_DEBUG=files "$tmp/prefix/bin/lancer" render "$scene" -o "$tmp/$file" >/dev/null 2>"$tmp/ld"
+  grep -q "file=$tmp/prefix/lib[^ ]*/lancer/$module" "$tmp/ld" ||
+    { echo "consumer: the installed lancer did not load the installed $module"; exit 1; }
+  [ -s "$tmp/$file" ] || { echo "consumer: the installed lancer wrote no $file"; exit 1; }
+done
 echo "consumer: find_package(lancer) from an install prefix, built and identical"

@@ -22,6 +22,14 @@ if(_lancer_log_level)
 else()
   unset(CMAKE_MESSAGE_LOG_LEVEL)
 endif()
+# The common image formats by their own libraries (src/image_formats.cpp), linked by lancer_tools:
+# libpng-dev, libjpeg-dev (libjpeg-turbo), libtiff-dev, libopenexr-dev. OpenImageIO uses the same
+# ones underneath, but brings 260 libraries with them.
+find_package(PNG REQUIRED)
+find_package(JPEG REQUIRED)
+find_package(TIFF 4.5 REQUIRED)  # 4.5: per-handle error handlers (TIFFOpenOptions)
+find_package(OpenEXR 3 CONFIG REQUIRED)
+
 # OpenImageIO 2.4 (Debian) lists /usr/include/opencv4, which does not exist without OpenCV.
 find_package(OpenImageIO REQUIRED)
 foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)

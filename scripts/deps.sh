@@ -5,7 +5,8 @@ set -euo pipefail
 packages=(
   cmake g++ make pkg-config
   libxsimd-dev            # SIMD batches (xsimd 8)
-  libopenimageio-dev      # image files
+  libpng-dev libjpeg-dev libtiff-dev libopenexr-dev  # PNG, JPEG, TIFF, OpenEXR images
+  libopenimageio-dev      # the other image formats (BMP, Targa, HDR), in the image module
   openimageio-tools       # OpenImageIO's CMake package names /usr/bin/iconvert, which only this ships
   nlohmann-json3-dev      # scene files
   libcli11-dev            # command line

@@ -35,9 +35,10 @@ TEST(ImageFiles, PfmRoundTripsThroughOpenImageIO) {
   EXPECT_EQ(back.rgb, im.rgb) << "PFM must store floats exactly, top row first once read";
 }
 
-// OpenImageIO and the 260 libraries it needs load with the image module only, when a format
-// needs it (docs/tools.md, "Start-up"): a process that writes PFM never maps it, one that writes
-// PNG does. Fails if lancer's executable links OpenImageIO again.
+// OpenImageIO and the 260 libraries it needs load with the image module only, for the formats
+// nothing lighter writes (docs/tools.md, "Start-up"): a process that writes or reads PNG, JPEG,
+// TIFF, OpenEXR, PPM or PFM never maps it; one that writes BMP, Targa or HDR does. Fails if
+// lancer's executable links OpenImageIO again, or a common format goes back to the module.
 TEST(ImageFiles, OpenImageIOLoadsOnlyForItsFormats) {
   testing::TempDir dir;
   const std::string scene = std::string(LANCER_SOURCE_DIR) + "/scenes/lorenzi-diffuse.json";
@@ -47,9 +48,43 @@ TEST(ImageFiles, OpenImageIOLoadsOnlyForItsFormats) {
     return r.out.find("libOpenImageIO") != std::string::npos;
   };
   EXPECT_FALSE(maps_oiio("--help"));
-  EXPECT_FALSE(maps_oiio("render " + scene + " --resolution 16x8 -o " + dir.file("a.pfm")));
-  EXPECT_TRUE(maps_oiio("render " + scene + " --resolution 16x8 -o " + dir.file("a.png")));
-  EXPECT_TRUE(maps_oiio("compare " + dir.file("a.png") + " " + dir.file("a.png")));
+  for (const char* ext : {".pfm", ".png", ".jpg", ".tif", ".exr", ".ppm"}) {
+    SCOPED_TRACE(ext);
+    const std::string out = dir.file(std::string("a") + ext);
+    EXPECT_FALSE(maps_oiio("render " + scene + " --resolution 16x8 -o " + out));
+    EXPECT_FALSE(maps_oiio("compare " + out + " " + out));
+  }
+  for (const char* ext : {".bmp", ".tga", ".hdr"}) {
+    SCOPED_TRACE(ext);
+    const std::string out = dir.file(std::string("a") + ext);
+    EXPECT_TRUE(maps_oiio("render " + scene + " --resolution 16x8 -o " + out));
+    EXPECT_TRUE(maps_oiio("compare " + out + " " + out));
+  }
+}
+
+// libtiff and OpenEXR (and the 10 libraries they need) load with the float module only, on the
+// first TIFF or OpenEXR: other processes start without them.
+TEST(ImageFiles, TiffAndOpenExrLoadOnlyForTheirFormats) {
+  testing::TempDir dir;
+  const std::string scene = std::string(LANCER_SOURCE_DIR) + "/scenes/lorenzi-diffuse.json";
+  auto maps_float_libraries = [&](const std::string& args) {
+    const auto r = testing::run_command("LD_DEBUG=files " + testing::cli() + " " + args);
+    EXPECT_EQ(r.status, 0) << args << ": " << r.out;
+    const bool tiff = r.out.find("libtiff") != std::string::npos;
+    const bool exr = r.out.find("libOpenEXR") != std::string::npos;
+    EXPECT_EQ(tiff, exr) << args << ": both come with the module";
+    return tiff && exr;
+  };
+  EXPECT_FALSE(maps_float_libraries("--version"));
+  for (const char* ext : {".pfm", ".png", ".jpg", ".ppm"}) {
+    const std::string out = dir.file(std::string("a") + ext);
+    EXPECT_FALSE(maps_float_libraries("render " + scene + " --resolution 16x8 -o " + out)) << ext;
+  }
+  for (const char* ext : {".tif", ".exr"}) {
+    const std::string out = dir.file(std::string("a") + ext);
+    EXPECT_TRUE(maps_float_libraries("render " + scene + " --resolution 16x8 -o " + out)) << ext;
+    EXPECT_TRUE(maps_float_libraries("compare " + out + " " + out)) << ext;
+  }
 }
 
 TEST(ImageFiles, PfmHeaderAndBottomUpRows) {

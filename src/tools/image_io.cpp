@@ -1,5 +1,6 @@
-// Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); every other
-// format through OpenImageIO, in lancer's image module (src/tools/image_oiio.cpp), loaded on first use.
+// Image files. PFM by our own writer (OpenImageIO 2.4 reads PFM but cannot write it); PNG, JPEG,
+// TIFF, OpenEXR and PPM by their own libraries (src/tools/image_formats.cpp); the other formats
+// through OpenImageIO, in lancer's image module (src/tools/image_oiio.cpp), loaded on first use.
 // Files appear whole or not at all.
 #include <dlfcn.h>
 #include <fcntl.h>
@@ -24,6 +25,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
+#include "lancer/image_formats.hpp"
 #include "lancer/image_module.hpp"
 #include "lancer/input_file.hpp"
 #include "lancer/output_file.hpp"
@@ -310,7 +312,11 @@ void check_output_path(const std::string& path, const std::string& scene_path) {
   if (!find_format(ext))
     throw InputError(path + ": lancer does not write '" + ext + "' images (it writes " +
                      known_extensions() + ")");
-  if (ext != ".pfm") image_module();  // a missing module says so before any work
+  // A missing module says so before any work.
+  if (has_direct_encoder(ext))
+    load_direct_encoder(ext);  // TIFF and OpenEXR: their module
+  else if (ext != ".pfm")
+    image_module();
   check_writable_target(path, scene_path);
 }
 
@@ -376,6 +382,15 @@ void write_file_atomically(const std::string& given,
 
 void write_image(const Image& image, const std::string& path) {
   check_output_path(path);
+  // Direct encoders (src/tools/image_formats.cpp): the whole file in memory first, then the
+  // bytes through the checked output file.
+  const std::string ext = lower_extension(path);
+  if (has_direct_encoder(ext)) {
+    const std::vector<unsigned char> bytes = encode_image(image, ext, path);
+    return write_file_atomically(path,
+                                 [&](OutputFile& out) { out.write(bytes.data(), bytes.size()); });
+  }
+  // The rest: PFM by write_pfm, other formats through the image module.
   write_file_atomically(path, [&](OutputFile& out) {
     if (lower_extension(path) == ".pfm")
       write_pfm(image, out);
@@ -390,6 +405,9 @@ Image read_image(const std::string& path) {
 
 Image decode_image(const std::string& bytes, const std::string& path) {
   Image im;
+  // Direct decoders (src/tools/image_formats.cpp), by the file's first bytes.
+  if (decode_image_bytes(std::vector<unsigned char>(bytes.begin(), bytes.end()), path, &im))
+    return im;
   std::string error;
   const int status = image_module().read(path.c_str(), bytes.data(), bytes.size(), kMaxResolution,
                                          &im.nx, &im.ny, &im.rgb, &error);
