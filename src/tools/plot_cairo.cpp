@@ -295,11 +295,9 @@ void marker(cairo_t* cr, double x, double y, double r, const Color& c) {
   cairo_stroke(cr);
 }
 
-void draw(const Chart& c, const Layout& L, cairo_t* cr) {
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_paint(cr);
-  const Color ink{0.1, 0.1, 0.1}, grid{0.88, 0.88, 0.88}, faint{0.94, 0.94, 0.94};
-
+// The grid, then the data clipped to the plot area.
+void draw_data(const Chart& c, const Layout& L, cairo_t* cr) {
+  const Color grid{0.88, 0.88, 0.88}, faint{0.94, 0.94, 0.94};
   // Grid.
   cairo_set_line_width(cr, 0.8);
   auto vline = [&](double tx, const Color& col) {
@@ -371,7 +369,11 @@ void draw(const Chart& c, const Layout& L, cairo_t* cr) {
           marker(cr, L.X(s.x[i]), L.Y(s.y[i]), s.marker_radius, s.color);
   }
   cairo_restore(cr);
+}
 
+// Point labels, the frame and its ticks.
+void draw_frame(const Chart& c, const Layout& L, cairo_t* cr) {
+  const Color ink{0.1, 0.1, 0.1};
   // Point labels, with a leader line when they sit away from their point.
   std::size_t k = 0;
   for (const Series& s : c.series)
@@ -411,7 +413,12 @@ void draw(const Chart& c, const Layout& L, cairo_t* cr) {
     text_at(cr, L.ay.tick_text[i], L.px0 - 7 - sz.w,
             std::clamp(y - sz.h / 2, 2.0, c.height - 2 - sz.h), kTickSize, ink);
   }
+}
 
+// Axis labels, title, note, and the legend outside the plot area on the right.
+void draw_labels(const Chart& c, const Layout& L, cairo_t* cr) {
+  const Color ink{0.1, 0.1, 0.1};
+  const double tick_h = measure(cr, "0", kTickSize).h;
   // Axis labels, title, note.
   if (!c.x.label.empty()) {
     const Size sz = measure(cr, c.x.label, kLabelSize);
@@ -459,6 +466,14 @@ void draw(const Chart& c, const Layout& L, cairo_t* cr) {
     text_at(cr, e.name, L.legend_x + 28, y, kLegendSize, ink);
     y += L.legend_row;
   }
+}
+
+void draw(const Chart& c, const Layout& L, cairo_t* cr) {
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_paint(cr);
+  draw_data(c, L, cr);
+  draw_frame(c, L, cr);
+  draw_labels(c, L, cr);
 }
 
 std::string lower_ext(const std::string& path) {
