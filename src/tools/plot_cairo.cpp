@@ -395,7 +395,6 @@ void draw_frame(const Chart& c, const Layout& L, cairo_t* cr) {
   cairo_set_line_width(cr, 1);
   cairo_rectangle(cr, L.px0, L.py0, L.px1 - L.px0, L.py1 - L.py0);
   cairo_stroke(cr);
-  const double tick_h = measure(cr, "0", kTickSize).h;
   for (std::size_t i = 0; i < L.ax.ticks.size(); ++i) {
     const double x = L.px0 + (L.ax.ticks[i] - L.ax.lo) / (L.ax.hi - L.ax.lo) * (L.px1 - L.px0);
     set_color(cr, ink);
