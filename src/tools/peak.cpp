@@ -9,7 +9,7 @@
 #include <cmath>
 #include <xsimd/config/xsimd_arch.hpp>
 
-#include "isa/peak_kernels.hpp"
+#include "../isa/peak_kernels.hpp"
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
