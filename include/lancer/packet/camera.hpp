@@ -27,13 +27,13 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
   using typename L::B;
   using typename L::M;
   using typename L::Mth;
-  using typename L::Scene;
+  using typename L::Prepared;
   using typename L::T;
   using typename L::V;
 
   // Camera rays of columns i0 .. i0+W-1 of row j at sub-sample (a, b); screen coordinates come
   // from the camera's tables, computed once by the same formula.
-  static void camera_packet(const Scene& s, int i0, int j, int a, int b, V& o, V& d) noexcept {
+  static void camera_packet(const Prepared& s, int i0, int j, int a, int b, V& o, V& d) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B x = B::load_unaligned(&cam.screen_x[std::size_t(a) * cam.nx + i0]);
     const B y(cam.screen_y[std::size_t(b) * cam.ny + j]);
@@ -127,12 +127,12 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
   // Its camera rays are made once, beforehand, in the layout primary mode traces them in
   // (primary_rows): through a hierarchy, blocks of kGroup tiles walked together (pinhole
   // camera, float) or single tiles (gx = gy = 1); else rows of packets.
-  static bool kernel_blocks(const Scene& s) noexcept {
+  static bool kernel_blocks(const Prepared& s) noexcept {
     return kGroup > 1 && s.bvh.active() && !s.camera.orthographic && s.features.spheres;
   }
   // Packets camera_packets makes for rows [row_begin, row_end), row_begin a multiple of
   // kBlockRows (run_tiles' rows).
-  static std::size_t camera_packet_count(const Scene& s, int row_begin, int row_end) noexcept {
+  static std::size_t camera_packet_count(const Prepared& s, int row_begin, int row_end) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const std::size_t samples = std::size_t(cam.samples) * std::size_t(cam.samples);
     auto blocks = [&](int w, int h, int packets) {
@@ -146,7 +146,7 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
   // Per packet the origin then the direction, component by component, W lanes each (6 W
   // values), its live lanes as bits in lanes[p], and per lane the index of its camera ray in
   // the image's order, (row * samples^2 + sub-sample) * nx + column, or kNoCameraRay.
-  static void camera_packets(const Scene& s, int row_begin, int row_end, T* rays, int* lanes,
+  static void camera_packets(const Prepared& s, int row_begin, int row_end, T* rays, int* lanes,
                              std::uint32_t* where) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     std::size_t p = 0;

@@ -14,9 +14,9 @@ namespace lancer::packet {
 
 template <class Arch>
 inline constexpr bool kAvx512 = std::is_same_v<Arch, xsimd::avx512f>;
-// The AVX2 path runs only where the CPU has FMA too (src/engine/dispatch.cpp) and is built with -mfma;
-// its exact mode keeps multiplications and additions apart in every pixel formula, and only the
-// traversal's slab test (a conservative cull, not a pixel value) uses fmsub on it.
+// The AVX2 path runs only where the CPU has FMA too (src/engine/dispatch.cpp) and is built with
+// -mfma; its exact mode keeps multiplications and additions apart in every pixel formula, and only
+// the traversal's slab test (a conservative cull, not a pixel value) uses fmsub on it.
 template <class Arch>
 inline constexpr bool kAvx2 = std::is_same_v<Arch, xsimd::avx2>;
 

@@ -27,7 +27,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   using typename Sph::I;
   using typename Sph::Id;
   using typename Sph::M;
-  using typename Sph::Scene;
+  using typename Sph::Prepared;
   using typename Sph::Spheres;
   using typename Sph::T;
   using typename Sph::Tr;
@@ -38,8 +38,8 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   // it (course scenes, no hierarchy: 2.5% more instructions at width 8, callgrind).
   // camera: camera rays (orthographic ones come here), which stay packets: they are coherent.
   template <bool kFromEye>
-  [[gnu::noinline]] static void closest_in_hierarchy(const Scene& s, int reach, M valid, const V& o,
-                                                     const V& d, B& best_t, I& best_id,
+  [[gnu::noinline]] static void closest_in_hierarchy(const Prepared& s, int reach, M valid,
+                                                     const V& o, const V& d, B& best_t, I& best_id,
                                                      RayCounts& counts, const I& leaving,
                                                      bool camera) noexcept {
     const Spheres sp = leaf_spheres(s);
@@ -74,7 +74,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   // the spread of their origins plus that of their directions over the structure's diagonal.
   // Coherent packets (a flat mirror's, camera rays through the library API) walk 2x faster
   // whole than lane by lane at 65536 spheres; diverging ones 1.3x-1.5x slower.
-  [[gnu::noinline]] static bool together(const Scene& s, const M& valid, const V& o,
+  [[gnu::noinline]] static bool together(const Prepared& s, const M& valid, const V& o,
                                          const V& d) noexcept {
     auto span = [&](const B& x) { return Tr::live_span(valid, x); };
     const T ox = span(o.x), oy = span(o.y), oz = span(o.z);
@@ -126,7 +126,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   template <bool kPadded>
   struct OneRay {
     static constexpr int kMaxLanes = W;
-    const Scene& s;
+    const Prepared& s;
     const V& o;
     const V& d;
     B& best_t;
@@ -164,7 +164,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   template <bool kPadded, class Step>
   struct OneShadow {
     static constexpr int kMaxLanes = W;
-    const Scene& s;
+    const Prepared& s;
     const V& p;
     const V& l;
     const B& dist;
@@ -200,7 +200,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   };
   // The hierarchy's any-hit walk with lanes going on alone (OneShadow) where the scene says.
   template <bool kPadded, class Leaf, class Step>
-  static M any_one_ray(const Scene& s, const M& valid, const V& p, const V& l, const B& dist,
+  static M any_one_ray(const Prepared& s, const M& valid, const V& p, const V& l, const B& dist,
                        RayCounts& counts, Leaf& leaf, Step& step) noexcept {
     OneShadow<kPadded, Step> one{s, p, l, dist, step, counts, s.walk.shadow_one_ray_lanes, {}, {}};
     return Tr::template any<kPadded>(s.bvh, valid, p, l, dist, leaf, one);

@@ -33,11 +33,11 @@ struct Kernel : Rows<Arch, Real, Mode> {
   using typename Ro::B;
   using typename Ro::I;
   using typename Ro::M;
-  using typename Ro::Scene;
+  using typename Ro::Prepared;
   using typename Ro::T;
   using typename Ro::V;
 
-  static void closest_hit_packet(const Scene& s, const bool* valid, const T* rays, T* t,
+  static void closest_hit_packet(const Prepared& s, const bool* valid, const T* rays, T* t,
                                  std::int32_t* id, bool* hit_out) noexcept {
     const M v = M::load_unaligned(valid);
     const V o{B::load_unaligned(rays), B::load_unaligned(rays + W),
@@ -54,7 +54,7 @@ struct Kernel : Rows<Arch, Real, Mode> {
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
 
-  static void occluded_packet(const Scene& s, const bool* valid, const T* rays, const T* tfar,
+  static void occluded_packet(const Prepared& s, const bool* valid, const T* rays, const T* tfar,
                               bool* blocked_out) noexcept {
     const M v = M::load_unaligned(valid);
     const V o{B::load_unaligned(rays), B::load_unaligned(rays + W),

@@ -37,7 +37,7 @@ struct Lanes {
   static constexpr bool kProfile = std::is_same_v<Mode, ProfiledMode>;
   using Mth = std::conditional_t<kFast, FastMath<Arch>, ExactMath>;
   static constexpr int W = static_cast<int>(B::size);
-  using Scene = PreparedScene<T>;
+  using Prepared = PreparedScene<T>;
   static_assert(W <= kMaxLanes, "camera tables are padded for kMaxLanes lanes");
   static_assert(std::is_same_v<Mode, ExactMode> || std::is_same_v<T, float>,
                 "fast and profiled modes are for float");
@@ -176,7 +176,7 @@ struct Lanes {
     return out;
   }
   // A field of every object (materials).
-  [[gnu::always_inline]] static B gather(const Scene& s, const std::vector<T>& field,
+  [[gnu::always_inline]] static B gather(const Prepared& s, const std::vector<T>& field,
                                          const I& id) noexcept {
     return gather(field, id, s.num_objects());
   }

@@ -52,7 +52,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   using typename Hy::M;
   using typename Hy::MI;
   using typename Hy::Mth;
-  using typename Hy::Scene;
+  using typename Hy::Prepared;
   using typename Hy::Spheres;
   using typename Hy::T;
   using typename Hy::Tr;
@@ -67,7 +67,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   // Always inlined: with the ray tree's second copy of shade(), GCC stopped inlining it into
   // render_rows, and opaque scenes lost 5% to 15% at width 16.
   template <bool kFromEye = false>
-  [[gnu::always_inline]] static M closest_hit(const Scene& s, M valid, const V& o, const V& d,
+  [[gnu::always_inline]] static M closest_hit(const Prepared& s, M valid, const V& o, const V& d,
                                               B& best_t, I& best_id, RayCounts& counts,
                                               const I& leaving = I(Id(-1)),
                                               bool camera = false) noexcept {
@@ -87,9 +87,9 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   }
 
   // The unbounded kinds' part of closest_hit, after the hierarchy (their ids are higher).
-  [[gnu::always_inline]] static void unbounded_closest(const Scene& s, const M& valid, const V& o,
-                                                       const V& d, B& best_t, I& best_id,
-                                                       RayCounts& counts) noexcept {
+  [[gnu::always_inline]] static void unbounded_closest(const Prepared& s, const M& valid,
+                                                       const V& o, const V& d, B& best_t,
+                                                       I& best_id, RayCounts& counts) noexcept {
     Prims::Unbounded::each([&](auto kind) __attribute__((always_inline)) {
       using K = KindOf<decltype(kind)>;
       if (K::present(s)) K::closest(s, valid, o, d, best_t, best_id, counts);
@@ -99,7 +99,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   // The spheres of kN pinhole camera packets through the hierarchy at once
   // (Traversal::closest_coherent): one walk for tiles side by side.
   template <int kN>
-  [[gnu::noinline]] static void closest_group_in_hierarchy(const Scene& s, const M* valid,
+  [[gnu::noinline]] static void closest_group_in_hierarchy(const Prepared& s, const M* valid,
                                                            const V* o, const V* d, B* best_t,
                                                            I* best_id, RayCounts& counts) noexcept {
     const Spheres sp = leaf_spheres(s);
@@ -151,7 +151,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit. The order is
   // the reference's (a float product of three or more transmits depends on it).
   template <bool kOneRay = false, class Step>
-  [[gnu::always_inline]] static M any_hit(const Scene& s, const M& valid, const V& p, const V& l,
+  [[gnu::always_inline]] static M any_hit(const Prepared& s, const M& valid, const V& p, const V& l,
                                           const B& dist, RayCounts& counts, const I& leaving,
                                           Step&& step) noexcept {
     using Bounded = typename Prims::Bounded;
@@ -202,7 +202,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   // is done once that is 0. Without transparency every object is opaque: done at once, no
   // product. kGlass false: the scene has no transparency (compiled out of the grey opaque path).
   template <bool kGlass>
-  static void shadow_hit(const Scene& s, Shadow& sh, const M& met, Id id) noexcept {
+  static void shadow_hit(const Prepared& s, Shadow& sh, const M& met, Id id) noexcept {
     if (!kGlass || !s.features.transparency) {
       sh.pending = sh.pending & ~met;
       return;
@@ -219,7 +219,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   // Always inlined: with the 4-wide traversal in any_hit, GCC stopped inlining it into
   // render_rows, and course scenes ran 6% to 9% more instructions (callgrind, widths 4 and 8).
   template <bool kGlass, bool kOneRay = true>
-  [[gnu::always_inline]] static Shadow occluded(const Scene& s, M valid, const V& p, const V& l,
+  [[gnu::always_inline]] static Shadow occluded(const Prepared& s, M valid, const V& p, const V& l,
                                                 const B& dist, RayCounts& counts, const I& leaving,
                                                 bool secondary = false) noexcept {
     if constexpr (kOneRay && !kFast && std::is_same_v<T, float>)
@@ -228,7 +228,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
     return occluded_as<kGlass, false>(s, valid, p, l, dist, counts, leaving);
   }
   template <bool kGlass, bool kOneRay>
-  [[gnu::always_inline]] static Shadow occluded_as(const Scene& s, const M& valid, const V& p,
+  [[gnu::always_inline]] static Shadow occluded_as(const Prepared& s, const M& valid, const V& p,
                                                    const V& l, const B& dist, RayCounts& counts,
                                                    const I& leaving) noexcept {
     Shadow sh{valid, B(T(1))};
@@ -245,7 +245,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   // vectors in registers (a reference passed out would give them a home in memory; the course
   // scenes ran 2-3% more instructions in render_rows, callgrind).
   template <bool kGlass>
-  [[gnu::noinline]] static Shadow occluded_one_ray(const Scene& s, M valid, V p, V l, B dist,
+  [[gnu::noinline]] static Shadow occluded_one_ray(const Prepared& s, M valid, V p, V l, B dist,
                                                    RayCounts& counts) noexcept {
     return occluded_as<kGlass, true>(s, valid, p, l, dist, counts, I(Id(-1)));
   }

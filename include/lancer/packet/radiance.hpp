@@ -18,7 +18,7 @@ struct Radiance : Shading<Arch, Real, Mode> {
   using typename Sh::Id;
   using typename Sh::Level;
   using typename Sh::M;
-  using typename Sh::Scene;
+  using typename Sh::Prepared;
   using typename Sh::V;
 
   // The ray tree of the lanes of `active` from `depth` on, for scenes with refraction:
@@ -26,8 +26,9 @@ struct Radiance : Shading<Arch, Real, Mode> {
   // the reflected packet, then the refracted one, each on the lanes that spawned it, and adds
   // local + reflect * child, then + transmit * child: the reference's order, bottom-up.
   // Recursion is at most max_depth + 1 deep; splitting materials bound it (kMaxSplitDepth).
-  [[gnu::noinline]] static void radiance_tree(const Scene& s, M active, int depth, int stage, V o,
-                                              V d, I leaving, B& r, B& g, B& b, RayCounts& counts,
+  [[gnu::noinline]] static void radiance_tree(const Prepared& s, M active, int depth, int stage,
+                                              V o, V d, I leaving, B& r, B& g, B& b,
+                                              RayCounts& counts,
                                               const GivenHit* given = nullptr) noexcept {
     Level lv;
     const M reflected =
@@ -55,7 +56,7 @@ struct Radiance : Shading<Arch, Real, Mode> {
   // local + reflect * child, which is the order the reference's recursion adds in (a running
   // weight would not be). With refraction the rays form a tree: radiance_tree.
   template <bool kOneRay>
-  [[gnu::always_inline]] static void radiance(const Scene& s, M active, V o, V d,
+  [[gnu::always_inline]] static void radiance(const Prepared& s, M active, V o, V d,
                                               std::vector<Level>& levels, B& r, B& g, B& b,
                                               RayCounts& counts,
                                               const GivenHit* given = nullptr) noexcept {

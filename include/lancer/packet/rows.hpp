@@ -55,7 +55,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   using typename Ra::M;
   using typename Ra::MI;
   using typename Ra::Mth;
-  using typename Ra::Scene;
+  using typename Ra::Prepared;
   using typename Ra::T;
   using typename Ra::Tr;
   using typename Ra::V;
@@ -95,7 +95,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   // then shade them: the same (t, id) per pixel as the row packets' own walks (a lexicographic
   // minimum over the same rays), found in about half the time (docs/accel.md). Two
   // instantiations: the plain loop's scenes keep the rows' code as it was.
-  static void render_rows(const Scene& s, Image& image, int row_begin, int row_end,
+  static void render_rows(const Prepared& s, Image& image, int row_begin, int row_end,
                           RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const bool blocks =
@@ -118,7 +118,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
       render_rows_as<false, false>(s, image, row_begin, row_end, counts);
   }
   template <bool kBlocks, bool kOneRay>
-  static void render_rows_as(const Scene& s, Image& image, int row_begin, int row_end,
+  static void render_rows_as(const Prepared& s, Image& image, int row_begin, int row_end,
                              RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
@@ -188,7 +188,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     lap(counts, kOutput);
   }
 
-  static void primary_rows(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
+  static void primary_rows(const Prepared& s, float* t_out, std::int32_t* id_out, int row_begin,
                            int row_end, RayCounts& counts) noexcept {
     // Through a hierarchy, square packets: their rays diverge less than a row's, so they share
     // more of the nodes and leaves they visit. The plain loop (the course scenes) keeps rows.
@@ -198,8 +198,8 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
       primary_packet_rows(s, t_out, id_out, row_begin, row_end, counts);
   }
 
-  static void primary_packet_rows(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
-                                  int row_end, RayCounts& counts) noexcept {
+  static void primary_packet_rows(const Prepared& s, float* t_out, std::int32_t* id_out,
+                                  int row_begin, int row_end, RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
     const B lane = iota();
     for (int j = row_begin; j < row_end; ++j) {
@@ -232,7 +232,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   }
 
   // The closest hit of one camera packet: its t added to `sum`, its ids kept if `first`.
-  [[gnu::always_inline]] static void primary_hit(const Scene& s, const M& valid, const V& o,
+  [[gnu::always_inline]] static void primary_hit(const Prepared& s, const M& valid, const V& o,
                                                  const V& d, B& sum, I& first_id, bool first,
                                                  RayCounts& counts) noexcept {
     B t(std::numeric_limits<T>::infinity());
@@ -245,7 +245,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     if (first) first_id = id;
   }
 
-  static void primary_tiles(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
+  static void primary_tiles(const Prepared& s, float* t_out, std::int32_t* id_out, int row_begin,
                             int row_end, RayCounts& counts) noexcept {
     if (kGroup > 1 && !s.camera.orthographic && s.features.spheres)
       primary_blocks<kGroupX, kGroupY>(s, t_out, id_out, row_begin, row_end, 0, counts);
@@ -255,7 +255,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   // Blocks of gx x gy tiles (the block's shape fixed at compile time: its loops unroll). Pixel
   // (i, j) goes to t_out[(j - row_base) * nx + i].
   template <int gx, int gy>
-  static void primary_blocks(const Scene& s, float* t_out, std::int32_t* id_out, int row_begin,
+  static void primary_blocks(const Prepared& s, float* t_out, std::int32_t* id_out, int row_begin,
                              int row_end, int row_base, RayCounts& counts) noexcept {
     const int nx = s.camera.nx;
     for (int j0 = row_begin; j0 < row_end; j0 += kTileH * gy)
@@ -269,7 +269,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   }
 
   template <int gx, int gy, bool kWhole>
-  [[gnu::always_inline]] static void primary_block(const Scene& s, int i0, int j0, int row_end,
+  [[gnu::always_inline]] static void primary_block(const Prepared& s, int i0, int j0, int row_end,
                                                    int row_base, float* t_out, std::int32_t* id_out,
                                                    RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
@@ -331,7 +331,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     for (int k = 0; k < W; ++k) v[k] = T((unsigned(live) >> k) & 1u);
     return B::load_aligned(v) != B(0);
   }
-  [[gnu::flatten]] static void intersect_camera_packets(const Scene& s, const T* rays,
+  [[gnu::flatten]] static void intersect_camera_packets(const Prepared& s, const T* rays,
                                                         const int* lanes, std::size_t count,
                                                         T* t_out, RayCounts& counts) noexcept {
     auto load = [&](std::size_t p, V& o, V& d) {

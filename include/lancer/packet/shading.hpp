@@ -30,14 +30,14 @@ struct Shading : Queries<Arch, Real, Mode> {
   using typename Q::Id;
   using typename Q::M;
   using typename Q::Mth;
-  using typename Q::Scene;
+  using typename Q::Prepared;
   using typename Q::Shadow;
   using typename Q::T;
   using typename Q::V;
 
   // max(0, c)^shininess per lane: binary powering for whole exponents; std::pow lane by lane
   // for the rare fractional ones, exactly as the reference does for that material.
-  [[gnu::always_inline]] static B power(const Scene& s, const B& cos_nh, const B& shininess,
+  [[gnu::always_inline]] static B power(const Prepared& s, const B& cos_nh, const B& shininess,
                                         const B& shininess_int) noexcept {
     // One whole exponent for every lane (one material's area, the common case): drive binary
     // powering from the exponent's bits as an integer, a chain of multiplications only.
@@ -114,7 +114,7 @@ struct Shading : Queries<Arch, Real, Mode> {
     B r, g, b;
   };
   template <int C, bool kGlass, bool kOneRay = true>
-  [[gnu::always_inline]] static Shade light_sums(const Scene& s, const M& hit, const I& id,
+  [[gnu::always_inline]] static Shade light_sums(const Prepared& s, const M& hit, const I& id,
                                                  const B& delta, const V& p, const V& n,
                                                  const V& view, const I& here, RayCounts& counts,
                                                  bool secondary) noexcept {
@@ -187,8 +187,8 @@ struct Shading : Queries<Arch, Real, Mode> {
   // GCC stop inlining the intersection loops into render_rows, which cost grey opaque scenes
   // their speed (issue 13: a scene pays only for what it uses). Arguments by value: references
   // would give the hot path's vectors a home in memory.
-  [[gnu::noinline]] static Shade general_light_sums(const Scene& s, M hit, I id, B delta, V p, V n,
-                                                    V view, I here, RayCounts& counts,
+  [[gnu::noinline]] static Shade general_light_sums(const Prepared& s, M hit, I id, B delta, V p,
+                                                    V n, V view, I here, RayCounts& counts,
                                                     bool secondary) noexcept {
     if (s.features.coloured_lights)
       return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts, secondary);
@@ -202,8 +202,8 @@ struct Shading : Queries<Arch, Real, Mode> {
   // the reflected rays (out.t_leaving for the refracted ones).
   // kTree: the ray tree's levels (scenes with refraction); the chain's have no refraction code.
   template <bool kTree, bool kOneRay = true>
-  [[gnu::always_inline]] static M shade(const Scene& s, M active, int depth, int stage, V& o, V& d,
-                                        I& leaving, Level& out, RayCounts& counts,
+  [[gnu::always_inline]] static M shade(const Prepared& s, M active, int depth, int stage, V& o,
+                                        V& d, I& leaving, Level& out, RayCounts& counts,
                                         const GivenHit* given = nullptr) noexcept {
     const B inf(std::numeric_limits<T>::infinity());
     B best_t = inf;
@@ -300,7 +300,7 @@ struct Shading : Queries<Arch, Real, Mode> {
   // refracted ray leaves on the far side of the surface (t.n = -sqrt(k) <= 0), so its origin
   // moves there. Fast mode: a refracted ray may meet the sphere it crosses again, so it skips
   // nothing; a totally reflected one leaves on the near side like a reflection.
-  [[gnu::always_inline]] static void refract_rays(const Scene& s, const M& hit, const I& id,
+  [[gnu::always_inline]] static void refract_rays(const Prepared& s, const M& hit, const I& id,
                                                   const V& d, const B& delta, const V& p,
                                                   const V& n, const B& cos_in, const I& here,
                                                   Level& out, RayCounts& counts) noexcept {

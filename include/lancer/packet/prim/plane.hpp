@@ -20,11 +20,11 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   using typename L::Id;
   using typename L::M;
   using typename L::Mth;
-  using typename L::Scene;
+  using typename L::Prepared;
   using typename L::V;
 
   // Where the ray (o, d) meets plane k; denom: d . n (0: parallel, no hit).
-  [[gnu::always_inline]] static B plane_t(const Scene& s, int k, const V& o, const V& d,
+  [[gnu::always_inline]] static B plane_t(const Prepared& s, int k, const V& o, const V& d,
                                           B& denom) noexcept {
     const V n{B(s.planes.nx[k]), B(s.planes.ny[k]), B(s.planes.nz[k])};
     denom = Mth::dot(d, n);
@@ -33,13 +33,14 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   }
 
   // Whether the scene has planes.
-  static bool present(const Scene& s) noexcept { return s.features.planes; }
+  static bool present(const Prepared& s) noexcept { return s.features.planes; }
   // The first plane's object id: planes come after the bounded kinds, in file order.
-  static int first_id(const Scene& s) noexcept { return s.num_spheres; }
+  static int first_id(const Prepared& s) noexcept { return s.num_spheres; }
 
   // Closest hit over the planes for the lanes of `valid`, in id order: a nearer t wins.
-  [[gnu::always_inline]] static void closest(const Scene& s, const M& valid, const V& o, const V& d,
-                                             B& best_t, I& best_id, RayCounts& counts) noexcept {
+  [[gnu::always_inline]] static void closest(const Prepared& s, const M& valid, const V& o,
+                                             const V& d, B& best_t, I& best_id,
+                                             RayCounts& counts) noexcept {
     const B eps(s.epsilon);
     for (int k = 0; k < s.num_planes; ++k) {
       tests(counts, valid, false);
@@ -54,7 +55,7 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   // Any hit over the planes for the lanes still pending, from p along unit l before `dist`:
   // step(id, lanes, pending) for each plane the lanes meet, in id order, until none is pending.
   template <class Step>
-  [[gnu::always_inline]] static M any(const Scene& s, M pending, const V& p, const V& l,
+  [[gnu::always_inline]] static M any(const Prepared& s, M pending, const V& p, const V& l,
                                       const B& dist, RayCounts& counts, Step& step) noexcept {
     const B eps(s.epsilon);
     for (int k = 0; k < s.num_planes; ++k) {
@@ -70,7 +71,7 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   }
 
   // The surface at the hits: plane id - first_id's normal, for the lanes whose hit is a plane.
-  [[gnu::always_inline]] static void surface(const Scene& s, const M& hit, const I& best_id,
+  [[gnu::always_inline]] static void surface(const Prepared& s, const M& hit, const I& best_id,
                                              const I& id, const V& o, const V& d, const B& best_t,
                                              const B& magnitude, V& p, V& n, B& delta) noexcept {
     const int first = first_id(s);

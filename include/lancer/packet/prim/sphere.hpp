@@ -26,7 +26,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   using typename L::Id;
   using typename L::M;
   using typename L::Mth;
-  using typename L::Scene;
+  using typename L::Prepared;
   using typename L::T;
   using typename L::V;
 
@@ -35,9 +35,9 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // eye's table for camera rays: a third of the operations, at the price of b^2 - c's
   // cancellation when a sphere is small against its distance, so only in scenes where no sphere
   // is (PreparedScene::naive_spheres_hold; docs/precision.md).
-  static bool textbook(const Scene& s) noexcept { return kFast && s.naive_spheres_hold; }
+  static bool textbook(const Prepared& s) noexcept { return kFast && s.naive_spheres_hold; }
   // eye_c: the eye's c of the sphere (read only for camera rays).
-  [[gnu::always_inline]] static SphereDisc<B> disc_of(const Scene& s, const V& f, const V& d,
+  [[gnu::always_inline]] static SphereDisc<B> disc_of(const Prepared& s, const V& f, const V& d,
                                                       const B& r2, bool from_eye,
                                                       T eye_c) noexcept {
     if (textbook(s)) {
@@ -52,7 +52,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // The nearest root beyond epsilon. Exact: c/q and q (RTG ch. 7), as the reference. Fast, with
   // the textbook discriminant: -b -+ sqrt(disc), no division; its near root loses ulps of |b|
   // where the ray starts near the sphere, which the offset origins and epsilon absorb.
-  static B first_root(const Scene& s, const SphereDisc<B>& sd, const V& f, const B& r2,
+  static B first_root(const Prepared& s, const SphereDisc<B>& sd, const V& f, const B& r2,
                       bool from_eye, T eye_c, const B& eps) noexcept {
     if (textbook(s)) {
       const B root = xsimd::sqrt(sd.disc);
@@ -80,12 +80,12 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
     const std::int32_t* id;  // null: the position is the id
     Id object(int j) const noexcept { return id ? Id(id[j]) : Id(j); }
   };
-  static Spheres all_spheres(const Scene& s) noexcept {
+  static Spheres all_spheres(const Prepared& s) noexcept {
     return {s.spheres.cx.data(), s.spheres.cy.data(), s.spheres.cz.data(),
             s.spheres.r2.data(), s.eye.fx.data(),     s.eye.fy.data(),
             s.eye.fz.data(),     s.eye.c.data(),      nullptr};
   }
-  static Spheres leaf_spheres(const Scene& s) noexcept {
+  static Spheres leaf_spheres(const Prepared& s) noexcept {
     const Bvh<T>& h = s.bvh;
     const EyeSphere<T>& e = s.leaf_eye;
     return {h.cx.data(), h.cy.data(), h.cz.data(), h.r2.data(), e.fx.data(),
@@ -98,10 +98,10 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // kFromEye: every ray leaves the pinhole eye, so f and c per sphere come precomputed.
   // kSome: only the spheres begin + j of which's bits j (a camera tile's cone, cones.hpp).
   template <bool kFromEye, bool kIdOrder, bool kSome = false>
-  [[gnu::always_inline]] static void spheres_closest(const Scene& s, const Spheres& sp, int begin,
-                                                     int end, M valid, const V& o, const V& d,
-                                                     B& best_t, I& best_id, RayCounts& counts,
-                                                     const I& leaving,
+  [[gnu::always_inline]] static void spheres_closest(const Prepared& s, const Spheres& sp,
+                                                     int begin, int end, M valid, const V& o,
+                                                     const V& d, B& best_t, I& best_id,
+                                                     RayCounts& counts, const I& leaving,
                                                      std::uint32_t which = 0) noexcept {
     const B eps(s.epsilon);
     const T no_c(0);
@@ -167,7 +167,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // operation by operation, so its t is the reference's. hit(q, t) for each sphere met beyond
   // epsilon, in leaf order, -> true to stop; returns whether one did.
   template <class Hit>
-  static bool spheres_one(const Scene& s, int first, int n, const T* o, const T* d,
+  static bool spheres_one(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit&& hit) noexcept {
     using B4 = xsimd::batch<float, xsimd::sse4_2>;
     const Bvh<T>& h = s.bvh;
@@ -206,7 +206,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
     return false;
   }
   // The lexicographic minimum of (t, id) over those spheres and the ray's best.
-  static void spheres_closest_one(const Scene& s, int first, int n, const T* o, const T* d,
+  static void spheres_closest_one(const Prepared& s, int first, int n, const T* o, const T* d,
                                   T& best_t, Id& best_id) noexcept {
     spheres_one(s, first, n, o, d, [&](int j, T t) {
       const Id id = Id(s.bvh.id[std::size_t(j)]);
@@ -216,16 +216,16 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   }
 
   // Whether the scene has spheres (a scene pays only for the kinds it has).
-  static bool present(const Scene& s) noexcept { return s.features.spheres; }
+  static bool present(const Prepared& s) noexcept { return s.features.spheres; }
 
   // Any hit over spheres [begin, end) of `sp` for the lanes of `mask` still pending, from p along
   // unit l before `dist`: step(id, lanes, pending) for each sphere the lanes meet, in the run's
   // order, until none is pending. `leaving` as for skip().
   template <class Step>
-  [[gnu::always_inline]] static M spheres_any(const Scene& s, const Spheres& sp, int begin, int end,
-                                              const M& mask, M pending, const V& p, const V& l,
-                                              const B& dist, const I& leaving, RayCounts& counts,
-                                              Step& step) noexcept {
+  [[gnu::always_inline]] static M spheres_any(const Prepared& s, const Spheres& sp, int begin,
+                                              int end, const M& mask, M pending, const V& p,
+                                              const V& l, const B& dist, const I& leaving,
+                                              RayCounts& counts, Step& step) noexcept {
     const B eps(s.epsilon);
     for (int j = begin; j < end; ++j) {
       const M live = mask & pending;
@@ -248,7 +248,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // the reference computes it: p relative to the sphere where it is small against the hit's
   // magnitude, t recomputed where it is huge (formulas.hpp). The first kind in id order: it
   // writes every lane (its normal from sphere min(id, last)); later kinds overwrite theirs.
-  [[gnu::always_inline]] static void surface(const Scene& s, const M& hit, const I& best_id,
+  [[gnu::always_inline]] static void surface(const Prepared& s, const M& hit, const I& best_id,
                                              const I& id, const V& o, const V& d, const B& best_t,
                                              const B& magnitude, V& p, V& n, B& delta) noexcept {
     const I sid = xsimd::min(id, I(Id(s.num_spheres - 1)));
@@ -278,7 +278,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
 
   // Fast mode: the sphere each lane of `outside` hit from outside (-1: none or not a sphere),
   // which that level's shadow rays and reflections leave and so skip (skip()).
-  static I left_from_outside(const Scene& s, const M& outside, const I& best_id) noexcept {
+  static I left_from_outside(const Prepared& s, const M& outside, const I& best_id) noexcept {
     return xsimd::select(to_mi(outside) & (best_id < I(Id(s.num_spheres))), best_id, I(Id(-1)));
   }
 };
