@@ -3,11 +3,13 @@
 // files as bad input, and a write that fails (a full disk, a file size limit) ends in an error
 // with no file left.
 #include <dlfcn.h>
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <png.h>
 #include <signal.h>
 #include <sys/mount.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -22,6 +24,7 @@
 #include "lancer/image.hpp"
 #include "lancer/image_formats.hpp"
 #include "lancer/image_module.hpp"
+#include "lancer/output_file.hpp"
 #include "support/test_util.hpp"
 
 namespace lancer {
@@ -64,16 +67,26 @@ struct Module {
                        : ext == ".exr"                   ? "openexr"
                        : ext == ".tif" || ext == ".tiff" ? "tiff"
                                                          : "jpeg";
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    ASSERT_GE(fd, 0) << path;
+    OutputFile out(fd);
     ImageModuleWrite w{
-        name,        is_float, im.nx, im.ny, is_float ? (const void*)im.rgb.data() : levels.data(),
-        path.c_str()};
+        name, is_float, im.nx, im.ny, is_float ? (const void*)im.rgb.data() : levels.data(), &out};
     std::string error;
-    ASSERT_EQ(write(&w, &error), kImageOk) << error;
+    const int status = write(&w, &error);
+    ::close(fd);
+    ASSERT_EQ(status, kImageOk) << error;
+    ASSERT_EQ(out.error(), 0) << path;
   }
   Image read_file(const std::string& path) const {
     Image im;
     std::string error;
-    EXPECT_EQ(read(path.c_str(), &im.nx, &im.ny, &im.rgb, &error), kImageOk) << error;
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(
+        read(path.c_str(), bytes.data(), bytes.size(), 65536, &im.nx, &im.ny, &im.rgb, &error),
+        kImageOk)
+        << error;
     return im;
   }
 };
@@ -255,7 +268,7 @@ TEST(ImageFormats, AFullDiskEndsInAnErrorAndNoFile) {
   const Image im = test_image(300, 200, false);  // every format's file exceeds 64 KiB
   for (const char* ext : kDirect) {
     SCOPED_TRACE(ext);
-    EXPECT_THROW(write_image(im, mnt + "/full" + ext), InputError);
+    EXPECT_THROW(write_image(im, mnt + "/full" + ext), OutputError);
     EXPECT_TRUE(names_in(mnt).empty()) << "a failed write leaves no file, temporary or not";
   }
 }
@@ -273,7 +286,7 @@ TEST(ImageFormats, AFileSizeLimitEndsInAnErrorAndNoFile) {
   ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &low), 0);
   for (const char* ext : kDirect) {
     SCOPED_TRACE(ext);
-    EXPECT_THROW(write_image(im, dir.file(std::string("big") + ext)), InputError);
+    EXPECT_THROW(write_image(im, dir.file(std::string("big") + ext)), OutputError);
     EXPECT_TRUE(names_in(dir.path()).empty());
   }
   setrlimit(RLIMIT_FSIZE, &old);
