@@ -88,7 +88,7 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
     std::printf(
         "  wrote    %s in %.4f s (checking the path, the format's library, encoding, "
         "writing to disk)\n",
-        a.output.c_str(), write_seconds);
+        shown_path(a.output).c_str(), write_seconds);
   std::printf("  memory   peak %.1f MB resident (the whole process so far)\n",
               peak_resident_bytes() / 1e6);
 }

@@ -236,18 +236,24 @@ TEST(Limits, LongOutputNameRefusedBeforeTheWork) {
 
 #ifndef LANCER_TEST_UNDER_ASAN
 // Under a memory limit the image module (OpenImageIO and its 260 libraries) cannot be mapped:
-// that is out of memory, status 3, not an internal error about a missing module.
+// that is out of memory, status 3, not an internal error about a missing module. The formats
+// only the module reads and writes (BMP here): PNG no longer needs it.
 TEST(Limits, ImageModuleOutOfMemoryIsStatusThree) {
   TempDir dir;
-  make_inputs(dir.path(), 3);
+  for (const char* name : {"a.bmp", "b.bmp"}) {
+    const auto made =
+        run_command(std::string(LANCER_CLI) + " render " + src("scenes/lorenzi-diffuse.json") +
+                    " --resolution 8x8 -o " + dir.file(name));
+    ASSERT_EQ(made.status, 0) << made.out;
+  }
   const std::string limit = "ulimit -v 300000; ";
   for (const std::string& args :
        {"render " + src("scenes/lorenzi-diffuse.json") + " --resolution 8x8 -o " +
-            dir.file("m.png"),
-        "compare " + dir.file("a.png") + " " + dir.file("b.png"),
+            dir.file("m.bmp"),
+        "compare " + dir.file("a.bmp") + " " + dir.file("b.bmp"),
         "trade " + src("scenes/lorenzi-diffuse.json") + " --resolution 8x8 --plot " +
-            dir.file("t.png"),
-        "flux " + src("scenes/flux2d.json") + " --plot " + dir.file("f.png")}) {
+            dir.file("t.bmp"),
+        "flux " + src("scenes/flux2d.json") + " --plot " + dir.file("f.bmp")}) {
     const auto r = run_command(limit + LANCER_CLI + " " + args);
     EXPECT_EQ(r.status, 3) << args << ": " << r.out;
     EXPECT_NE(r.out.find("lancer: out of memory"), std::string::npos) << args << ": " << r.out;
