@@ -14,15 +14,9 @@ namespace {
 
 using testing::cli;
 using testing::run_command;
+using testing::slurp;
 using testing::source_path;
 using testing::TempDir;
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // A bench of a tiny image: renders of microseconds.
 std::string tiny_bench(const std::string& extra) {

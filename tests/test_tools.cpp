@@ -17,15 +17,9 @@ namespace {
 
 using testing::cli;
 using testing::run_command;
+using testing::slurp;
 using testing::source_path;
 using testing::TempDir;
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 Image gradient(int nx, int ny) {
   Image im(nx, ny);

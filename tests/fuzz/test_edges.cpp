@@ -23,16 +23,11 @@
 namespace lancer {
 namespace {
 
+using testing::slurp;
+
 namespace fs = std::filesystem;
 using testing::CommandResult;
 using testing::TempDir;
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 std::string scene(const char* name) { return testing::source_path(std::string("scenes/") + name); }
 

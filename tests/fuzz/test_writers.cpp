@@ -24,16 +24,12 @@
 
 namespace {
 
+using lancer::testing::slurp;
+
 namespace fs = std::filesystem;
 using lancer::testing::run_command;
 using lancer::testing::TempDir;
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 void put(const std::string& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
