@@ -562,11 +562,6 @@ TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
   EXPECT_EQ(one.bvh.depth, two.bvh.depth);
 }
 
-TEST(Bvh, AccelOptionIsValidated) {
-  EXPECT_EQ(parse_accel("bvh", "--accel"), Accel::bvh);
-  EXPECT_THROW(parse_accel("kd", "--accel"), InputError);
-}
-
 // The hierarchy's large arrays: 2 MiB aligned, advised as huge pages (THPeligible in smaps,
 // where the kernel has transparent huge pages), usable, and freed; small ones are plain.
 TEST(HugePages, LargeArraysAreAlignedAndAdvised) {

@@ -166,7 +166,8 @@ TEST(Garbage, EmptyOrSpacedValuesAreNotTheDefaults) {
                                                         {"--resolution ' 5x5'", "--resolution"},
                                                         {"--resolution '+5x5'", "--resolution"},
                                                         {"--supersample ''", "--supersample"},
-                                                        {"--precision ''", "--precision"}}) {
+                                                        {"--precision ''", "--precision"},
+                                                        {"--accel kd", "--accel"}}) {
     SCOPED_TRACE(args);
     expect_one_line(run_command(render + args), 2, option + ":");
     EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));

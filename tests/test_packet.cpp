@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "lancer/bench.hpp"
 #include "lancer/compare.hpp"
 #include "lancer/error.hpp"
 #include "lancer/generate.hpp"

@@ -160,4 +160,24 @@ std::string gbench_json(const BenchResult& result, const std::string& scene,
 // a JSON object's text.
 std::string bench_context_json(const std::string& executable, const std::string& scene);
 
+// The primary intersection kernel alone (lancer bench --mode kernel): the camera rays of every
+// pixel and sub-sample are made once, at construction, untimed, laid out as primary mode
+// traces them (camera blocks or tiles through a hierarchy, else rows of packets); each run()
+// times only the closest-hit kernel of primary mode over them (on options.threads threads) and
+// returns the nearest t of every camera ray, infinity where missed, at (row * samples^2 +
+// sub-sample b * samples + a) * nx + column. Float packets only (exact or fast): InputError
+// otherwise, naming --width or --precision.
+class PrimaryKernelRun {
+ public:
+  PrimaryKernelRun(const Scene& scene, const RenderOptions& options);
+  ~PrimaryKernelRun();
+  PrimaryKernelRun(const PrimaryKernelRun&) = delete;
+  PrimaryKernelRun& operator=(const PrimaryKernelRun&) = delete;
+  PrimaryResult run();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 }  // namespace lancer

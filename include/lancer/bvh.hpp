@@ -17,7 +17,6 @@ namespace lancer {
 
 // Which structure a scene gets: automatic picks the plain loop below kBvhMinSpheres spheres.
 enum class Accel { automatic, none, bvh };
-Accel parse_accel(const std::string& text, const std::string& option);
 const char* to_string(Accel a);
 
 // Spheres from which the hierarchy beats the plain loop (measured, docs/accel.md).

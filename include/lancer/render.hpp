@@ -118,25 +118,10 @@ class PreparedRun {
   void frame(Result& res, int width, int threads, Body body) const;  // render.cpp only
 };
 
-// The primary intersection kernel alone (lancer bench --mode kernel): the camera rays of every
-// pixel and sub-sample are made once, at construction, untimed, laid out as primary mode
-// traces them (camera blocks or tiles through a hierarchy, else rows of packets); each run()
-// times only the closest-hit kernel of primary mode over them (on options.threads threads) and
-// returns the nearest t of every camera ray, infinity where missed, at (row * samples^2 +
-// sub-sample b * samples + a) * nx + column. Float packets only (exact or fast): InputError
-// otherwise, naming --width or --precision.
-class PrimaryKernelRun {
- public:
-  PrimaryKernelRun(const Scene& scene, const RenderOptions& options);
-  ~PrimaryKernelRun();
-  PrimaryKernelRun(const PrimaryKernelRun&) = delete;
-  PrimaryKernelRun& operator=(const PrimaryKernelRun&) = delete;
-  PrimaryResult run();
-
- private:
-  struct State;
-  std::unique_ptr<State> state_;
-};
+// The scene prepared as a render with these options computes in (options.accel; with
+// model_everything, every shading term forced on).
+template <class T>
+PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& options);
 
 // The width `requested` resolves to (0 = auto) for a precision (not automatic), or InputError
 // naming `option`.

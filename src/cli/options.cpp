@@ -163,4 +163,11 @@ void check_repeat(int repeat) {
                      std::to_string(repeat) + " (docs/limits.md)");
 }
 
+Accel parse_accel(const std::string& text, const std::string& option) {
+  if (text == "auto") return Accel::automatic;
+  if (text == "none") return Accel::none;
+  if (text == "bvh") return Accel::bvh;
+  throw InputError(option + ": must be auto, none or bvh, not '" + text + "'");
+}
+
 }  // namespace lancer::cli

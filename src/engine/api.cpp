@@ -17,6 +17,33 @@
 #include "lancer/tiles.hpp"
 #include "scene_rules.hpp"
 
+namespace lancer {
+
+// The precisions' names: the library's text for them (bindings, the CLI's --precision).
+const char* to_string(Precision p) {
+  switch (p) {
+    case Precision::exact:
+      return "exact";
+    case Precision::dbl:
+      return "double";
+    case Precision::fast:
+      return "fast";
+    case Precision::automatic:
+      return "auto";
+  }
+  return "?";
+}
+
+Precision parse_precision(const std::string& text, const std::string& option) {
+  if (text == "exact") return Precision::exact;
+  if (text == "double") return Precision::dbl;
+  if (text == "fast") return Precision::fast;
+  if (text == "auto") return Precision::automatic;
+  throw InputError(option + ": must be exact, double, fast or auto, not '" + text + "'");
+}
+
+}  // namespace lancer
+
 namespace lancer::api {
 
 namespace {
@@ -290,8 +317,9 @@ Scene Scene::make(SceneDescription description, const Options& options) {
     // Triangles, meshes and cylinders: the reference only until the packets model them, as
     // lancer render runs them (render.cpp).
     if (info.precision == Precision::fast || (options.width != 0 && options.width != 1))
-      throw InputError("width: scenes with triangles, meshes or cylinders run on the reference "
-                       "only (width 1, exact or double precision) until the packets model them");
+      throw InputError(
+          "width: scenes with triangles, meshes or cylinders run on the reference "
+          "only (width 1, exact or double precision) until the packets model them");
     info.width = 1;
   } else {
     info.width = resolve_width(options.width, info.precision, "width");

@@ -15,13 +15,6 @@
 
 namespace lancer {
 
-Accel parse_accel(const std::string& text, const std::string& option) {
-  if (text == "auto") return Accel::automatic;
-  if (text == "none") return Accel::none;
-  if (text == "bvh") return Accel::bvh;
-  throw InputError(option + ": must be auto, none or bvh, not '" + text + "'");
-}
-
 const char* to_string(Accel a) {
   switch (a) {
     case Accel::automatic:

@@ -22,28 +22,6 @@
 
 namespace lancer {
 
-const char* to_string(Precision p) {
-  switch (p) {
-    case Precision::exact:
-      return "exact";
-    case Precision::dbl:
-      return "double";
-    case Precision::fast:
-      return "fast";
-    case Precision::automatic:
-      return "auto";
-  }
-  return "?";
-}
-
-Precision parse_precision(const std::string& text, const std::string& option) {
-  if (text == "exact") return Precision::exact;
-  if (text == "double") return Precision::dbl;
-  if (text == "fast") return Precision::fast;
-  if (text == "auto") return Precision::automatic;
-  throw InputError(option + ": must be exact, double, fast or auto, not '" + text + "'");
-}
-
 // TBB's count: the CPUs this process may run on (affinity mask, cgroup quota), which is also the
 // most threads a TBB arena ever runs at once.
 int hardware_threads() { return std::max(1, tbb::info::default_concurrency()); }
@@ -262,19 +240,6 @@ std::string grazing_plane(const Scene& scene, const Frame& frame) {
 }
 
 using Clock = std::chrono::steady_clock;
-
-template <class T>
-PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
-  PreparedScene<T> p = prepare<T>(scene, opt.accel);
-  if (opt.model_everything) {
-    // The sphere and plane flags stay: a type the scene lacks has no data to gather normals
-    // from, and its intersection loop is empty either way.
-    Features& f = p.features;
-    f.lights = f.specular = f.reflection = true;
-    f.coloured_lights = f.transparency = f.refraction = true;
-  }
-  return p;
-}
 
 // Tiles over threads with the progress callback fed as rows complete.
 template <class Body>
@@ -607,63 +572,19 @@ PrimaryResult render_primary_with_ids(const Scene& scene, const RenderOptions& o
   return PreparedRun(scene, opt).primary(opt.width, opt.threads, true);
 }
 
-struct PrimaryKernelRun::State {
-  PreparedScene<float> scene;
-  const packet::KernelTable<float>* kernels = nullptr;
-  int threads = 1;
-  std::vector<float> rays, t;  // the packets' rays and, per run, their lanes' t
-  std::vector<int> lanes;
-  std::vector<std::uint32_t> where;  // each lane's camera ray in the image's order
-  std::size_t camera_rays = 0;
-};
-
-PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
-    : state_(std::make_unique<State>()) {
-  if (opt.precision != Precision::exact && opt.precision != Precision::fast)
-    throw InputError("--precision: the kernel alone runs float packets: exact or fast");
-  if (!scene.shapes.empty())
-    throw InputError("--mode kernel: the packets do not model triangles, meshes or cylinders yet");
-  const int width = resolve_width(opt.width, opt.precision);
-  if (width == 1) throw InputError("--width: the kernel alone runs packets: 4, 8 or 16, not 1");
-  State& st = *state_;
-  st.scene = prepare_for<float>(scene, opt);
-  st.kernels = packet::float_kernels(width, opt.precision);
-  st.threads = resolve_threads(opt.threads);
-  const int ny = scene.camera.ny;
-  const std::size_t packets = st.kernels->camera_packet_count(st.scene, 0, ny);
-  st.rays.resize(packets * 6 * std::size_t(width));
-  st.t.resize(packets * std::size_t(width));
-  st.lanes.resize(packets);
-  st.where.resize(packets * std::size_t(width));
-  st.kernels->camera_packets(st.scene, 0, ny, st.rays.data(), st.lanes.data(), st.where.data());
-  const int samples = st.scene.camera.samples;
-  st.camera_rays =
-      std::size_t(ny) * std::size_t(scene.camera.nx) * std::size_t(samples) * std::size_t(samples);
+template <class T>
+PreparedScene<T> prepare_for(const Scene& scene, const RenderOptions& opt) {
+  PreparedScene<T> p = prepare<T>(scene, opt.accel);
+  if (opt.model_everything) {
+    // The sphere and plane flags stay: a type the scene lacks has no data to gather normals
+    // from, and its intersection loop is empty either way.
+    Features& f = p.features;
+    f.lights = f.specular = f.reflection = true;
+    f.coloured_lights = f.transparency = f.refraction = true;
+  }
+  return p;
 }
-
-PrimaryKernelRun::~PrimaryKernelRun() = default;
-
-PrimaryResult PrimaryKernelRun::run() {
-  State& st = *state_;
-  const int w = st.kernels->width;
-  PrimaryResult res;
-  res.width = w;
-  res.threads = st.threads;
-  res.structure = structure_of(st.scene);
-  res.seconds = timed([&] {
-    res.rays = lancer::run_tiles(st.scene.camera.ny, st.threads, [&](int r0, int r1, RayCounts& c) {
-      const std::size_t first = st.kernels->camera_packet_count(st.scene, 0, r0);
-      const std::size_t count = st.kernels->camera_packet_count(st.scene, r0, r1);
-      st.kernels->intersect_camera_packets(st.scene, st.rays.data() + first * 6 * w,
-                                           st.lanes.data() + first, count, st.t.data() + first * w,
-                                           c);
-    });
-  });
-  // Untimed: each camera ray's t to its place in the image's order.
-  res.t.assign(st.camera_rays, 0.0f);
-  for (std::size_t k = 0; k < st.where.size(); ++k)
-    if (st.where[k] != packet::kNoCameraRay) res.t[st.where[k]] = st.t[k];
-  return res;
-}
+template PreparedScene<float> prepare_for<float>(const Scene&, const RenderOptions&);
+template PreparedScene<double> prepare_for<double>(const Scene&, const RenderOptions&);
 
 }  // namespace lancer
