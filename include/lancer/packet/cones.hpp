@@ -76,11 +76,14 @@ struct TileCones {
   B ax[kRegs], ay[kRegs], az[kRegs], cos2[kRegs], sin_bound[kRegs];
 
   // The eye's tables in the hierarchy's leaf order (PreparedScene::leaf_eye), which keep() tests.
-  const float *fx, *fy, *fz, *reach;
+  const float *eye_fx, *eye_fy, *eye_fz, *eye_reach;
 
   // d[i], valid[i]: tile i's rays and live lanes (i < kTiles); eye: the tables above.
   TileCones(const V* d, const M* valid, const EyeSphere<float>& eye) noexcept
-      : fx(eye.fx.data()), fy(eye.fy.data()), fz(eye.fz.data()), reach(eye.reach.data()) {
+      : eye_fx(eye.fx.data()),
+        eye_fy(eye.fy.data()),
+        eye_fz(eye.fz.data()),
+        eye_reach(eye.reach.data()) {
     auto at = [](const B& v, int l) {
       float f;
       std::memcpy(&f, reinterpret_cast<const char*>(&v) + sizeof(float) * std::size_t(l), sizeof f);
@@ -115,7 +118,7 @@ struct TileCones {
 
   // keep() below against the leaf-order tables the cones were made with.
   unsigned keep(int first, int n, std::uint32_t* which, unsigned regs = ~0u) const noexcept {
-    return keep(fx, fy, fz, reach, first, n, which, regs);
+    return keep(eye_fx, eye_fy, eye_fz, eye_reach, first, n, which, regs);
   }
   // The tiles (bit i) whose cone may meet some sphere of leaf-order [first, first + n), and per
   // tile the spheres it may meet (which[i], bit j: sphere first + j; n <= 32). fx, fy, fz:
