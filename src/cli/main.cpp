@@ -12,8 +12,8 @@
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/mpi.hpp"
-#include "lancer/text.hpp"
 #include "lancer/output_file.hpp"
+#include "lancer/text.hpp"
 
 namespace {
 

@@ -1,6 +1,5 @@
 // The bounded reader behind every input file (include/lancer/input_file.hpp).
 #include "lancer/input_file.hpp"
-#include "lancer/text.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -11,6 +10,7 @@
 #include <new>
 
 #include "lancer/error.hpp"
+#include "lancer/text.hpp"
 
 namespace lancer {
 
@@ -43,7 +43,8 @@ std::string read_input_file(const std::string& path, std::size_t max_bytes, cons
     throw InputError(shown_path(path) +
                      ": is not a regular file (a pipe, a device or a socket); lancer reads " +
                      what + "s from regular files only");
-  if (std::size_t(st.st_size) > max_bytes) throw InputError(shown_path(path) + ": file larger than " + limit);
+  if (std::size_t(st.st_size) > max_bytes)
+    throw InputError(shown_path(path) + ": file larger than " + limit);
   std::string text;
   // The size fstat gave in one allocation (no copy of a large scene on the way), then what a
   // growing file adds, up to the limit.
@@ -66,7 +67,8 @@ std::string read_input_file(const std::string& path, std::size_t max_bytes, cons
     text.resize(got);
     char more[1 << 14];
     while (const std::size_t n = read_some(more, sizeof more)) {
-      if (text.size() + n > max_bytes) throw InputError(shown_path(path) + ": file larger than " + limit);
+      if (text.size() + n > max_bytes)
+        throw InputError(shown_path(path) + ": file larger than " + limit);
       text.append(more, n);
     }
   } catch (const std::bad_alloc&) {

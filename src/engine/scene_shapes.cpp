@@ -31,8 +31,7 @@ Vec3<double> positive_scale(ObjectReader& o) {
   }
   for (double k : {sc.x, sc.y, sc.z})
     if (!(k > 0) || k < kMinLength || k > kMaxCoordinate)
-      fail(at, "must be from " + show(kMinLength) + " to " +
-                   show(kMaxCoordinate));
+      fail(at, "must be from " + show(kMinLength) + " to " + show(kMaxCoordinate));
   return sc;
 }
 
@@ -47,8 +46,7 @@ void check_mesh_coordinates(const Mesh& m, const std::string& where) {
   for (const Vec3<double>& v : m.vertices)
     for (double c : {v.x, v.y, v.z})
       if (!(std::fabs(c) <= kMaxCoordinate))
-        fail(where,
-             "a vertex lies beyond " + show(kMaxCoordinate) + " after the transform");
+        fail(where, "a vertex lies beyond " + show(kMaxCoordinate) + " after the transform");
 }
 
 }  // namespace
@@ -65,8 +63,7 @@ void read_shape(ObjectReader& o, const std::string& type, int material, Scene& s
       const Vec3<double> v = ObjectReader::as_vec3(vs[k], at);
       for (double c : {v.x, v.y, v.z})
         if (std::fabs(c) > kMaxCoordinate)
-          fail(at, "must be from " + show(-kMaxCoordinate) + " to " +
-                       show(kMaxCoordinate));
+          fail(at, "must be from " + show(-kMaxCoordinate) + " to " + show(kMaxCoordinate));
       m.vertices.push_back(v);
     }
     const Vec3<double> e = cross(m.vertices[1] - m.vertices[0], m.vertices[2] - m.vertices[0]);
