@@ -1,4 +1,4 @@
-// Seeded random scenes in the JSON format of /work/shared/SCENE-MODEL.md, for comparing the
+// Seeded random scenes in the JSON format of docs/scene-format.md, for comparing the
 // engine with tests/oracle (or the engine with itself) on many scenes.
 #pragma once
 
