@@ -1,4 +1,5 @@
-// lancer_oracle: a plain, double-precision reference renderer for the scene model (docs/scene-format.md).
+// lancer_oracle: a plain, double-precision reference renderer for the scene model
+// (docs/scene-format.md).
 //
 // It is written from the contract alone, independently of the engine in src/, so that comparing
 // the two catches bugs in either. It favours the obvious formula over the fast one: recursion,
