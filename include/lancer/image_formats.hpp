@@ -29,12 +29,6 @@ void load_direct_encoder(const std::string& ext);
 std::vector<unsigned char> encode_image(const Image& image, const std::string& ext,
                                         const std::string& name);
 
-// Writes `bytes` to the existing file `path` (the atomic write's temporary file, never re-created
-// here), every write and the close checked: a full disk or a failed close throws InputError
-// naming `name`.
-void write_bytes(const std::string& path, const std::vector<unsigned char>& bytes,
-                 const std::string& name);
-
 // Reads `path` and decodes it when its first bytes say PNG, JPEG, TIFF, OpenEXR, binary PPM or
 // PFM in a layout decoded here (RGB or grey, no alpha; see image_formats.cpp), with the values
 // the image module gives for the same file. False: the image module must read it. Throws

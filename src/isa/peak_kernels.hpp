@@ -1,7 +1,8 @@
-// The peak-arithmetic kernels of src/isa/peak_*.cpp (and the scalar one of src/tools/peak.cpp), declared
-// without SIMD types so that baseline code can call them once the CPU is known to run them.
-// Each runs `iterations` rounds of independent chains x = x * a + b and returns the flops done
-// (2 per lane per chain per round: one FMA, or one mul and one add). See include/lancer/peak.hpp.
+// The peak-arithmetic kernels of src/isa/peak_*.cpp (and the scalar one of src/tools/peak.cpp),
+// declared without SIMD types so that baseline code can call them once the CPU is known to run
+// them. Each runs `iterations` rounds of independent chains x = x * a + b and returns the flops
+// done (2 per lane per chain per round: one FMA, or one mul and one add). See
+// include/lancer/peak.hpp.
 #pragma once
 
 namespace lancer::peak_kernels {

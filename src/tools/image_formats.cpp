@@ -467,26 +467,6 @@ bool decode_jpeg(const std::vector<unsigned char>& bytes, const std::string& nam
   return true;
 }
 
-void write_bytes(const std::string& path, const std::vector<unsigned char>& bytes,
-                 const std::string& name) {
-  // No O_CREAT: the file is the temporary one the atomic write made. A signal handled on another
-  // thread removes it, and re-creating it here before the process ends would leave it behind.
-  const int fd = open(path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
-  if (fd < 0) throw InputError(name + ": cannot open for writing: " + std::strerror(errno));
-  std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int why = n < 0 ? errno : ENOSPC;
-      close(fd);
-      throw InputError(name + ": write failed: " + std::strerror(why));
-    }
-    done += std::size_t(n);
-  }
-  if (close(fd) != 0) throw InputError(name + ": write failed: " + std::strerror(errno));
-}
-
 bool decode_image_file(const std::string& path, Image* out) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!f) throw InputError(path + ": cannot read image: " + std::strerror(errno));
