@@ -155,9 +155,10 @@ struct Queries : Hybrid<Arch, Real, Mode> {
                                           const B& dist, RayCounts& counts, const I& leaving,
                                           Step&& step) noexcept {
     using Bounded = typename Prims::Bounded;
+    const B eps(s.epsilon);
     auto spheres = [&](const Spheres& sp, int begin, int end, const M& mask, M pending) {
-      return Bounded::spheres_any(s, sp, begin, end, mask, pending, p, l, dist, leaving, counts,
-                                  step);
+      return Bounded::spheres_any(s, sp, begin, end, mask, pending, p, l, dist, eps, leaving,
+                                  counts, step);
     };
     M pending = valid;
     if (Bounded::present(s)) {
@@ -184,7 +185,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
     Prims::Unbounded::each([&](auto kind) __attribute__((always_inline)) {
       using K = KindOf<decltype(kind)>;
       if (done || !K::present(s)) return;
-      pending = K::any(s, pending, p, l, dist, counts, step);
+      pending = K::any(s, pending, p, l, dist, eps, counts, step);
       done = !xsimd::any(pending);
     });
     return pending;

@@ -53,11 +53,12 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   }
 
   // Any hit over the planes for the lanes still pending, from p along unit l before `dist`:
-  // step(id, lanes, pending) for each plane the lanes meet, in id order, until none is pending.
+  // step(id, lanes, pending) for each plane the lanes meet beyond eps, in id order, until none
+  // is pending.
   template <class Step>
   [[gnu::always_inline]] static M any(const Prepared& s, M pending, const V& p, const V& l,
-                                      const B& dist, RayCounts& counts, Step& step) noexcept {
-    const B eps(s.epsilon);
+                                      const B& dist, const B& eps, RayCounts& counts,
+                                      Step& step) noexcept {
     for (int k = 0; k < s.num_planes; ++k) {
       tests(counts, pending, false);
       B denom;

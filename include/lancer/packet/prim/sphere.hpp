@@ -219,14 +219,15 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   static bool present(const Prepared& s) noexcept { return s.features.spheres; }
 
   // Any hit over spheres [begin, end) of `sp` for the lanes of `mask` still pending, from p along
-  // unit l before `dist`: step(id, lanes, pending) for each sphere the lanes meet, in the run's
-  // order, until none is pending. `leaving` as for skip().
+  // unit l before `dist`: step(id, lanes, pending) for each sphere the lanes meet beyond eps (the
+  // scene's epsilon, broadcast once by the caller), in the run's order, until none is pending.
+  // `leaving` as for skip().
   template <class Step>
   [[gnu::always_inline]] static M spheres_any(const Prepared& s, const Spheres& sp, int begin,
                                               int end, const M& mask, M pending, const V& p,
-                                              const V& l, const B& dist, const I& leaving,
-                                              RayCounts& counts, Step& step) noexcept {
-    const B eps(s.epsilon);
+                                              const V& l, const B& dist, const B& eps,
+                                              const I& leaving, RayCounts& counts,
+                                              Step& step) noexcept {
     for (int j = begin; j < end; ++j) {
       const M live = mask & pending;
       tests(counts, live, true);
