@@ -242,7 +242,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     else
       Ra::template closest_hit<true>(s, valid, o, d, t, id, counts);
     sum = sum + t;
-    if (first) first_id = id;
+    if (first) first_id = Ra::object_ids(s, id);
   }
 
   static void primary_tiles(const Prepared& s, float* t_out, std::int32_t* id_out, int row_begin,
@@ -298,7 +298,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
           for (int g = 0; g < n; ++g) {
             unbounded_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
             sum[g] = sum[g] + t[g];
-            if (first) first_id[g] = id[g];
+            if (first) first_id[g] = Ra::object_ids(s, id[g]);
           }
         }
       }
