@@ -22,8 +22,12 @@ cmake --build build -j"$(nproc)"
 # A skipped gtest case passes in ctest's summary: fail on any not listed as expected.
 .ci/skips.py build/ctest-junit.xml
 
-for s in scenes/*.json; do build/lancer validate "$s" >/dev/null || { echo "validate: $s differs"; exit 1; }; done
-echo "validate: every scene in scenes/ bit-identical at every width this CPU runs"
+for s in scenes/*.json scenes/prims/*.json; do
+  for p in exact double; do
+    build/lancer validate --precision "$p" "$s" >/dev/null || { echo "validate: $s differs ($p)"; exit 1; }
+  done
+done
+echo "validate: every scene in scenes/ and scenes/prims/ bit-identical at every width this CPU runs (exact and double)"
 
 # The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
 .ci/qemu.sh build

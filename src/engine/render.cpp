@@ -408,6 +408,18 @@ PrecisionChoice choose_precision(const Scene& scene) {
 template <class T>
 StructureInfo structure_of(const PreparedScene<T>& p) {
   StructureInfo info;
+  auto kind = [&](bool present, const char* name) {
+    if (!present) return;
+    info.kinds += (info.kinds.empty() ? "" : ", ") + std::string(name);
+  };
+  kind(p.features.spheres, "spheres");
+  kind(p.features.planes, "planes");
+  if (p.shapes) {
+    kind(p.shapes->triangles() > 0,
+         p.shapes->tri_normals.empty() ? "triangles" : "triangles (smooth normals)");
+    kind(!p.shapes->cyl_object.empty(), "cylinders");
+  }
+  if (info.kinds.empty()) info.kinds = "none (no object)";
   if (p.shapes) {
     info.shape_primitives = p.shapes->prim.size();
     info.shape_nodes = p.shapes->nodes.size();

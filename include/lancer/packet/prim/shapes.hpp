@@ -62,6 +62,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     V inv;                     // 1 / d, 1 where d is 0
     M zero_x, zero_y, zero_z;  // d's zero components: the box test asks o to lie in the slab
     B o_mag;                   // |o|inf, for the box's margin
+    T heading[3];              // the lanes' directions summed: the walk's order of children
 
     Ray(const V& org, const V& dir) noexcept : o(org), d(dir) {
       const B ax = xsimd::abs(d.x), ay = xsimd::abs(d.y), az = xsimd::abs(d.z);
@@ -83,6 +84,13 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
              B(T(1)) / xsimd::select(zero_y, B(T(1)), d.y),
              B(T(1)) / xsimd::select(zero_z, B(T(1)), d.z)};
       o_mag = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z));
+      const B* comp[3] = {&d.x, &d.y, &d.z};
+      for (int k = 0; k < 3; ++k) {  // (xsimd's hadd needs AVX-512 DQ at width 16)
+        alignas(64) T v[W];
+        comp[k]->store_aligned(v);
+        heading[k] = T(0);
+        for (int l = 0; l < W; ++l) heading[k] += v[l];
+      }
     }
     V permuted(const V& v) const noexcept {
       return {pick(v, x0, x1), pick(v, y0, y1), pick(v, z0, z1)};
@@ -157,8 +165,19 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         if (leaf(node.first, node.count, at)) return;
         continue;
       }
-      stack[top++] = node.first + 1;
-      stack[top++] = node.first;
+      // The child nearer along the packet's direction first (pushed last): on the axis that
+      // parts the children's centres most. Only the order: every box is tested all the same.
+      const auto& a = sh.nodes[node.first];
+      const auto& b = sh.nodes[node.first + 1];
+      int axis = 0;
+      T apart = 0;
+      for (int k = 0; k < 3; ++k) {
+        const T gap = (b.lo[k] + b.hi[k]) - (a.lo[k] + a.hi[k]);
+        if (std::abs(gap) > std::abs(apart)) apart = gap, axis = k;
+      }
+      const bool a_first = apart * r.heading[axis] >= T(0);
+      stack[top++] = a_first ? node.first + 1 : node.first;
+      stack[top++] = a_first ? node.first : node.first + 1;
     }
   }
 
@@ -188,6 +207,14 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         });
   }
 
+  // The object id of one hit id (unchanged below first_id).
+  static std::int32_t object_of(const Prepared& s, std::int32_t hit_id) noexcept {
+    const int first = first_id(s);
+    if (hit_id < first) return hit_id;
+    const std::int32_t ref = s.shapes->prim[std::size_t(hit_id - first)];
+    return ref >= 0 ? s.shapes->tri_object[std::size_t(ref)]
+                    : s.shapes->cyl_object[std::size_t(~ref)];
+  }
   // The object ids of hit ids (unchanged below first_id).
   static I object_of(const Prepared& s, const I& hit_id) noexcept {
     const Shapes& sh = *s.shapes;
