@@ -53,7 +53,8 @@ def main():
             for arr in (org, dirs, tfar):
                 arr.tofile(f)
         ratios, py_s, cpp_s = [], [], []
-        scene.intersect(org, dirs)  # prepared and warm
+        reuse_ratios, reuse_s = [], []
+        hits = scene.intersect(org, dirs)  # prepared and warm; the arrays reused by out=
         for _ in range(a.rounds):
             out = subprocess.run([str(program), a.scene, rays, os.path.join(tmp, "hits.bin"),
                                   "--repeat", str(a.repeat), "--precision", a.precision],
@@ -68,6 +69,13 @@ def main():
             cpp_s.append(cpp)
             py_s.append(py)
             ratios.append(py / cpp)
+            times = []
+            for _ in range(a.repeat):
+                t0 = time.perf_counter()
+                scene.intersect(org, dirs, out=hits)
+                times.append(time.perf_counter() - t0)
+            reuse_s.append(statistics.median(times))
+            reuse_ratios.append(reuse_s[-1] / cpp)
     info = scene.info()
     print("python-overhead: %s, %d rays, %s precision, width %d (%s), %d rounds of %d passes"
           % (a.scene, a.rays, info["precision"], info["width"], info["isa"], a.rounds, a.repeat))
@@ -77,6 +85,10 @@ def main():
           % (statistics.median(py_s), 1e9 * statistics.median(py_s) / a.rays))
     print("  ratio per round: median %.3f (min %.3f, max %.3f)"
           % (statistics.median(ratios), min(ratios), max(ratios)))
+    print("  numpy, out= reused:     median %.4f s  (%.1f ns/ray)"
+          % (statistics.median(reuse_s), 1e9 * statistics.median(reuse_s) / a.rays))
+    print("  ratio per round: median %.3f (min %.3f, max %.3f)"
+          % (statistics.median(reuse_ratios), min(reuse_ratios), max(reuse_ratios)))
 
 
 if __name__ == "__main__":

@@ -79,18 +79,23 @@ cores) are the scene's defaults; render, intersect, occluded and primary_hits ma
       .def(
           "intersect",
           [](const PyScene& s, py::array o, py::array d, py::object tfar, py::object tnear, Opt p,
-             OptInt w) { return s.intersect(o, d, tnear, tfar, call(std::move(p), w, {})); },
+             OptInt w, py::object out) {
+            return s.intersect(o, d, tnear, tfar, call(std::move(p), w, {}), out);
+          },
           py::arg("origins"), py::arg("directions"), py::arg("tfar") = py::none(), py::kw_only(),
           py::arg("tnear") = py::none(), py::arg("precision") = py::none(),
-          py::arg("width") = py::none(),
+          py::arg("width") = py::none(), py::arg("out") = py::none(),
           "Closest hits of (n, 3) rays (unit directions): (t, id, normal), id -1 on a miss")
       .def(
           "occluded",
           [](const PyScene& s, py::array o, py::array d, py::object tfar, py::object tnear, Opt p,
-             OptInt w) { return s.occluded(o, d, tnear, tfar, call(std::move(p), w, {})); },
+             OptInt w, py::object out) {
+            return s.occluded(o, d, tnear, tfar, call(std::move(p), w, {}), out);
+          },
           py::arg("origins"), py::arg("directions"), py::arg("tfar") = py::none(), py::kw_only(),
           py::arg("tnear") = py::none(), py::arg("precision") = py::none(),
-          py::arg("width") = py::none(), "Whether anything lies on each ray before tfar: bool (n,)")
+          py::arg("width") = py::none(), py::arg("out") = py::none(),
+          "Whether anything lies on each ray before tfar: bool (n,)")
       .def("camera_rays", &PyScene::camera_rays, py::arg("a") = 0, py::arg("b") = 0,
            "World-space camera rays of every pixel at sub-sample (a, b): origins, directions, "
            "each float32 (ny, nx, 3)")

@@ -34,16 +34,18 @@ struct Floats {
   const char* data = nullptr;
   py::ssize_t stride0 = 0, stride1 = 0;
   bool f64 = false;
+  template <class T>
+  float get(py::ssize_t i, py::ssize_t c, py::ssize_t s0, py::ssize_t s1) const {
+    T v;
+    std::memcpy(&v, data + i * s0 + c * s1, sizeof v);
+    return float(v);
+  }
+  template <class T>
+  float get(py::ssize_t i, py::ssize_t c) const {
+    return get<T>(i, c, stride0, stride1);
+  }
   float at(py::ssize_t i, py::ssize_t c = 0) const {
-    const char* p = data + i * stride0 + c * stride1;
-    if (f64) {
-      double v;
-      std::memcpy(&v, p, sizeof v);
-      return float(v);
-    }
-    float v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
+    return f64 ? get<double>(i, c) : get<float>(i, c);
   }
 };
 
@@ -112,18 +114,61 @@ Rays rays_of(const py::array& origins, const py::array& directions, const py::ob
   return r;
 }
 
-// Rays [first, first + count) into a packet; lanes past count inactive.
+// Rays [first, first + count) into a packet; lanes past count inactive (a copy of the first).
+// TO, TD: the element types of origins and directions, and Packed: both are rows of 3
+// contiguous elements (C order), fixed per call so that the lanes are read without a branch
+// or a run-time stride per element.
+template <class TO, class TD, bool Packed>
 int fill(const Rays& r, py::ssize_t first, api::Ray16& p, int valid[kLanes]) {
   const int count = int(std::min<py::ssize_t>(kLanes, r.n - first));
+  const auto org = [&](py::ssize_t i, int c) {
+    return Packed ? r.org.get<TO>(i, c, 3 * sizeof(TO), sizeof(TO)) : r.org.get<TO>(i, c);
+  };
+  const auto dir = [&](py::ssize_t i, int c) {
+    return Packed ? r.dir.get<TD>(i, c, 3 * sizeof(TD), sizeof(TD)) : r.dir.get<TD>(i, c);
+  };
   for (int k = 0; k < kLanes; ++k) {
     const py::ssize_t i = first + (k < count ? k : 0);
-    p.org_x[k] = r.org.at(i, 0), p.org_y[k] = r.org.at(i, 1), p.org_z[k] = r.org.at(i, 2);
-    p.dir_x[k] = r.dir.at(i, 0), p.dir_y[k] = r.dir.at(i, 1), p.dir_z[k] = r.dir.at(i, 2);
-    p.tnear[k] = r.tnear.at(i), p.tfar[k] = r.tfar.at(i);
+    p.org_x[k] = org(i, 0), p.org_y[k] = org(i, 1), p.org_z[k] = org(i, 2);
+    p.dir_x[k] = dir(i, 0), p.dir_y[k] = dir(i, 1), p.dir_z[k] = dir(i, 2);
     p.mask[k] = api::kAllObjects;
     valid[k] = k < count ? -1 : 0;
   }
+  for (int k = 0; k < kLanes; ++k) p.tnear[k] = r.tnear.value, p.tfar[k] = r.tfar.value;
+  if (r.tnear.per_ray)
+    for (int k = 0; k < count; ++k) p.tnear[k] = r.tnear.array.at(first + k);
+  if (r.tfar.per_ray)
+    for (int k = 0; k < count; ++k) p.tfar[k] = r.tfar.array.at(first + k);
   return count;
+}
+
+// f(first, count, packet, valid) for each packet of 16 rays, in order.
+template <class TO, class TD, class F>
+void packets_of(const Rays& r, F&& f) {
+  api::Ray16 p;
+  int valid[kLanes];
+  const bool packed = r.org.stride1 == sizeof(TO) && r.org.stride0 == 3 * sizeof(TO) &&
+                      r.dir.stride1 == sizeof(TD) && r.dir.stride0 == 3 * sizeof(TD);
+  for (py::ssize_t first = 0; first < r.n; first += kLanes) {
+    // The rays two packets ahead, on their way while this packet is traced.
+    if (first + 3 * kLanes <= r.n) {
+      for (int c = 0; c < 3; ++c) {
+        __builtin_prefetch(r.org.data + (first + 2 * kLanes) * r.org.stride0 + c * 64);
+        __builtin_prefetch(r.dir.data + (first + 2 * kLanes) * r.dir.stride0 + c * 64);
+      }
+    }
+    const int count =
+        packed ? fill<TO, TD, true>(r, first, p, valid) : fill<TO, TD, false>(r, first, p, valid);
+    f(first, count, p, valid);
+  }
+}
+
+template <class F>
+void each_packet(const Rays& r, F&& f) {
+  if (r.org.f64)
+    r.dir.f64 ? packets_of<double, double>(r, f) : packets_of<double, float>(r, f);
+  else
+    r.dir.f64 ? packets_of<float, double>(r, f) : packets_of<float, float>(r, f);
 }
 
 // The API names a packet's lane ("intersect: lane 3: dir must be unit length..."): the caller
@@ -139,6 +184,27 @@ int fill(const Rays& r, py::ssize_t first, api::Ray16& p, int valid[kLanes]) {
     throw InputError(m.substr(0, at) + ": ray " + std::to_string(first + k) + m.substr(end));
   }
   throw e;
+}
+
+// An array to write n results into: a new one, or the caller's `out` when it is exactly what
+// would be made (C-contiguous, writable, that dtype and shape), so that nothing is written
+// outside it.
+template <class T>
+py::array_t<T> output(const py::object& out, std::vector<py::ssize_t> shape, const char* what) {
+  if (out.is_none()) return py::array_t<T>(shape);
+  const std::string want = std::string(what) + ": must be a writable C-contiguous " +
+                           py::str(py::dtype::of<T>()).cast<std::string>() + " array of shape ";
+  std::string dims = "(";
+  for (std::size_t k = 0; k < shape.size(); ++k) dims += (k ? ", " : "") + std::to_string(shape[k]);
+  dims += shape.size() == 1 ? ",)" : ")";
+  if (!py::isinstance<py::array>(out)) throw InputError(want + dims);
+  py::array a = out.cast<py::array>();
+  const bool same_shape = a.ndim() == py::ssize_t(shape.size()) &&
+                          std::equal(shape.begin(), shape.end(), a.shape(), a.shape() + a.ndim());
+  if (!a.dtype().is(py::dtype::of<T>()) || !same_shape || !a.writeable() ||
+      !(a.flags() & py::array::c_style))
+    throw InputError(want + dims + ", not " + dtype_text(a) + " " + shape_text(a));
+  return py::reinterpret_borrow<py::array_t<T>>(a);
 }
 
 }  // namespace
@@ -229,23 +295,26 @@ py::array_t<float> PyScene::render(const CallOptions& call,
 }
 
 py::tuple PyScene::intersect(py::array origins, py::array directions, py::object tnear,
-                             py::object tfar, const CallOptions& call) const {
+                             py::object tfar, const CallOptions& call, py::object out) const {
   const Rays r = rays_of(origins, directions, tnear, tfar);
-  auto s = prepared_nogil(call);
   const py::ssize_t n = r.n;
-  py::array_t<float> t({n});
-  py::array_t<std::int32_t> id({n});
-  py::array_t<float> normal({n, py::ssize_t(3)});
+  py::object o0 = py::none(), o1 = py::none(), o2 = py::none();
+  if (!out.is_none()) {
+    if (!py::isinstance<py::tuple>(out) || py::len(out) != 3)
+      throw InputError("out: must be None or a tuple (t, id, normal)");
+    o0 = out[py::int_(0)], o1 = out[py::int_(1)], o2 = out[py::int_(2)];
+  }
+  py::array_t<float> t = output<float>(o0, {n}, "out[0] (t)");
+  py::array_t<std::int32_t> id = output<std::int32_t>(o1, {n}, "out[1] (id)");
+  py::array_t<float> normal = output<float>(o2, {n, 3}, "out[2] (normal)");
+  auto s = prepared_nogil(call);
   float* tp = t.mutable_data();
   std::int32_t* ip = id.mutable_data();
   float* np_ = normal.mutable_data();
   {
     py::gil_scoped_release nogil;
-    api::Ray16 p;
     api::Hit16 h;
-    int valid[kLanes];
-    for (py::ssize_t first = 0; first < n; first += kLanes) {
-      const int count = fill(r, first, p, valid);
+    each_packet(r, [&](py::ssize_t first, int count, const api::Ray16& p, const int* valid) {
       try {
         s->intersect<kLanes>(count == kLanes ? nullptr : valid, p, h);
       } catch (const InputError& e) {
@@ -257,33 +326,31 @@ py::tuple PyScene::intersect(py::array origins, py::array directions, py::object
         float* nk = np_ + 3 * (first + k);
         nk[0] = h.ng_x[k], nk[1] = h.ng_y[k], nk[2] = h.ng_z[k];
       }
-    }
+    });
   }
   return py::make_tuple(t, id, normal);
 }
 
-py::array_t<bool> PyScene::occluded(py::array origins, py::array directions, py::object tnear,
-                                    py::object tfar, const CallOptions& call) const {
+py::array PyScene::occluded(py::array origins, py::array directions, py::object tnear,
+                            py::object tfar, const CallOptions& call, py::object out) const {
   const Rays r = rays_of(origins, directions, tnear, tfar);
-  auto s = prepared_nogil(call);
   const py::ssize_t n = r.n;
-  py::array_t<bool> out({n});
-  bool* op = out.mutable_data();
+  py::array_t<bool> result = output<bool>(out, {n}, "out");
+  auto s = prepared_nogil(call);
+  bool* op = result.mutable_data();
   {
     py::gil_scoped_release nogil;
-    api::Ray16 p;
-    int valid[kLanes], blocked[kLanes];
-    for (py::ssize_t first = 0; first < n; first += kLanes) {
-      const int count = fill(r, first, p, valid);
+    int blocked[kLanes];
+    each_packet(r, [&](py::ssize_t first, int count, const api::Ray16& p, const int* valid) {
       try {
         s->occluded<kLanes>(count == kLanes ? nullptr : valid, p, blocked);
       } catch (const InputError& e) {
         rethrow_with_index(e, first);
       }
       for (int k = 0; k < count; ++k) op[first + k] = blocked[k] != 0;
-    }
+    });
   }
-  return out;
+  return std::move(result);
 }
 
 py::tuple PyScene::camera_rays(int a, int b) const {

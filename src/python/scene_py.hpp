@@ -48,10 +48,12 @@ class PyScene {
 
   py::dict info(const CallOptions& call) const;
   py::array_t<float> render(const CallOptions& call, std::optional<std::pair<int, int>> rows) const;
+  // out: None (new arrays) or the arrays to write (C-contiguous, writable, exactly the shape
+  // and dtype returned), returned themselves: a caller tracing batch after batch reuses them.
   py::tuple intersect(py::array origins, py::array directions, py::object tnear, py::object tfar,
-                      const CallOptions& call) const;
-  py::array_t<bool> occluded(py::array origins, py::array directions, py::object tnear,
-                             py::object tfar, const CallOptions& call) const;
+                      const CallOptions& call, py::object out) const;
+  py::array occluded(py::array origins, py::array directions, py::object tnear, py::object tfar,
+                     const CallOptions& call, py::object out) const;
   py::tuple camera_rays(int a, int b) const;
   py::tuple primary_hits(const CallOptions& call) const;
   py::bytes png(const CallOptions& call) const;

@@ -118,3 +118,46 @@ def test_tfar_scalar_and_tnear():
     # From beyond the near side: the far side of the same sphere.
     t2, ids2, _ = s.intersect(org, dirs, tnear=np.array([9.0]))
     assert ids2[0] == 2 and t2[0] == pytest.approx(12.0)
+
+
+def test_out_arrays_are_written_and_returned():
+    s = lancer.Scene.load(str(SCENES / "lorenzi-reflections.json"))
+    org, dirs, tfar = random_rays(100, seed=3)
+    expected = s.intersect(org, dirs, tfar)
+    out = (np.empty(100, np.float32), np.empty(100, np.int32), np.empty((100, 3), np.float32))
+    got = s.intersect(org, dirs, tfar, out=out)
+    for a, b, c in zip(got, out, expected):
+        assert a is b and a.tobytes() == c.tobytes()
+    blocked = np.empty(100, bool)
+    assert s.occluded(org, dirs, tfar, out=blocked) is blocked
+    assert np.array_equal(blocked, s.occluded(org, dirs, tfar))
+
+
+@pytest.mark.parametrize("out,message", [
+    ((np.empty(9, np.float32), np.empty(10, np.int32), np.empty((10, 3), np.float32)),
+     r"^out\[0\] \(t\): must be a writable C-contiguous float32 array of shape \(10,\), "
+     r"not float32 \(9,\)$"),
+    ((np.empty(10, np.float32), np.empty(10, np.int64), np.empty((10, 3), np.float32)),
+     r"^out\[1\] \(id\): .* not int64 \(10,\)$"),
+    ((np.empty(10, np.float32), np.empty(10, np.int32), np.empty((10, 3), np.float32).T.copy().T),
+     r"^out\[2\] \(normal\): .* shape \(10, 3\), not float32 \(10, 3\)$"),
+    ((np.empty(10, np.float32), np.empty(10, np.int32)),
+     r"^out: must be None or a tuple \(t, id, normal\)$"),
+])
+def test_wrong_out_arrays_refused(out, message):
+    s = lancer.Scene.load(str(SCENES / "lorenzi-reflections.json"))
+    org, dirs, _ = random_rays(10)
+    before = [a.copy() for a in out]
+    with pytest.raises(ValueError, match=message):
+        s.intersect(org, dirs, out=out)
+    for a, b in zip(out, before):
+        assert a.tobytes() == b.tobytes()  # nothing written
+
+
+def test_read_only_out_refused():
+    s = lancer.Scene.load(str(SCENES / "lorenzi-reflections.json"))
+    org, dirs, _ = random_rays(10)
+    blocked = np.zeros(10, bool)
+    blocked.flags.writeable = False
+    with pytest.raises(ValueError, match=r"^out: must be a writable C-contiguous bool array"):
+        s.occluded(org, dirs, out=blocked)
