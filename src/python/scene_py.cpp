@@ -7,12 +7,14 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "lancer/error.hpp"
 #include "lancer/image.hpp"
 #include "lancer/image_formats.hpp"
+#include "transpose.hpp"
 
 namespace lancer::python {
 
@@ -127,12 +129,25 @@ int fill(const Rays& r, py::ssize_t first, api::Ray16& p, int valid[kLanes]) {
   const auto dir = [&](py::ssize_t i, int c) {
     return Packed ? r.dir.get<TD>(i, c, 3 * sizeof(TD), sizeof(TD)) : r.dir.get<TD>(i, c);
   };
-  for (int k = 0; k < kLanes; ++k) {
-    const py::ssize_t i = first + (k < count ? k : 0);
-    p.org_x[k] = org(i, 0), p.org_y[k] = org(i, 1), p.org_z[k] = org(i, 2);
-    p.dir_x[k] = dir(i, 0), p.dir_y[k] = dir(i, 1), p.dir_z[k] = dir(i, 2);
-    p.mask[k] = api::kAllObjects;
-    valid[k] = k < count ? -1 : 0;
+  if constexpr (Packed && std::is_same_v<TO, float> && std::is_same_v<TD, float>) {
+    if (count == kLanes) {
+      const float* o = reinterpret_cast<const float*>(r.org.data) + 3 * first;
+      const float* d = reinterpret_cast<const float*>(r.dir.data) + 3 * first;
+      for (int k = 0; k < kLanes; k += 4) {
+        rows_to_lanes4(o + 3 * k, p.org_x + k, p.org_y + k, p.org_z + k);
+        rows_to_lanes4(d + 3 * k, p.dir_x + k, p.dir_y + k, p.dir_z + k);
+      }
+      for (int k = 0; k < kLanes; ++k) p.mask[k] = api::kAllObjects, valid[k] = -1;
+    }
+  }
+  if (!(Packed && std::is_same_v<TO, float> && std::is_same_v<TD, float>) || count < kLanes) {
+    for (int k = 0; k < kLanes; ++k) {
+      const py::ssize_t i = first + (k < count ? k : 0);
+      p.org_x[k] = org(i, 0), p.org_y[k] = org(i, 1), p.org_z[k] = org(i, 2);
+      p.dir_x[k] = dir(i, 0), p.dir_y[k] = dir(i, 1), p.dir_z[k] = dir(i, 2);
+      p.mask[k] = api::kAllObjects;
+      valid[k] = k < count ? -1 : 0;
+    }
   }
   for (int k = 0; k < kLanes; ++k) p.tnear[k] = r.tnear.value, p.tfar[k] = r.tfar.value;
   if (r.tnear.per_ray)
@@ -320,12 +335,20 @@ py::tuple PyScene::intersect(py::array origins, py::array directions, py::object
       } catch (const InputError& e) {
         rethrow_with_index(e, first);
       }
-      for (int k = 0; k < count; ++k) {
-        tp[first + k] = h.t[k];
-        ip[first + k] = h.id[k];
-        float* nk = np_ + 3 * (first + k);
-        nk[0] = h.ng_x[k], nk[1] = h.ng_y[k], nk[2] = h.ng_z[k];
+      // A full packet's copies of constant size, inlined rather than calls to memcpy.
+      if (count == kLanes) {
+        std::memcpy(tp + first, h.t, kLanes * sizeof(float));
+        std::memcpy(ip + first, h.id, kLanes * sizeof(std::int32_t));
+      } else {
+        std::memcpy(tp + first, h.t, count * sizeof(float));
+        std::memcpy(ip + first, h.id, count * sizeof(std::int32_t));
       }
+      float* normals = np_ + 3 * first;
+      int k = 0;
+      for (; k + 4 <= count; k += 4)
+        lanes_to_rows4(h.ng_x + k, h.ng_y + k, h.ng_z + k, normals + 3 * k);
+      for (; k < count; ++k)
+        normals[3 * k] = h.ng_x[k], normals[3 * k + 1] = h.ng_y[k], normals[3 * k + 2] = h.ng_z[k];
     });
   }
   return py::make_tuple(t, id, normal);
