@@ -2,13 +2,18 @@
 // tests (tests/python: its intersect and occluded against intersect<16> and occluded<16>) and of
 // its overhead benchmark (scripts/python-overhead.py).
 //
-//   lancer_api_rays SCENE RAYS OUT [--repeat R] [--precision P] [--width W]
+//   lancer_api_rays SCENE RAYS OUT [--repeat R] [--precision P] [--width W] [--serve]
 //
 // RAYS: n rays as float32, origins (n x 3) then directions (n x 3), then tfar (n): what numpy's
 // tofile() writes for three C-ordered arrays. The rays are laid into Ray16 packets (untimed),
 // then intersect<16> over every packet is timed R times (1 by default), and occluded<16> once.
 // OUT: t (n float32), id (n int32), normal (n x 3 float32), occluded (n int32).
 // Prints {"rays": n, "seconds": [...]} (seconds of each timed intersect pass) on stdout.
+// --serve: after the R passes, one more timed pass per line read on stdin, its wall and thread
+// CPU seconds printed on a line of their own, until end of input; so that a caller alternates
+// single passes of this program and of its own, side by side, however busy the machine.
+#include <time.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,6 +41,7 @@ std::vector<float> read_floats(const std::string& path) {
 struct Args {
   std::string scene, rays, out;
   int repeat = 1;
+  bool serve = false;
   lancer::api::Options options;
 };
 
@@ -46,8 +52,15 @@ Args parse(int argc, char** argv) {
   Args a;
   a.scene = argv[1], a.rays = argv[2], a.out = argv[3];
   a.options.threads = 1;
-  for (int k = 4; k + 1 < argc; k += 2) {
-    const std::string opt = argv[k], val = argv[k + 1];
+  for (int k = 4; k < argc; k += 2) {
+    const std::string opt = argv[k];
+    if (opt == "--serve") {
+      a.serve = true;
+      --k;
+      continue;
+    }
+    if (k + 1 >= argc) throw lancer::InputError(opt + ": needs a value");
+    const std::string val = argv[k + 1];
     if (opt == "--repeat")
       a.repeat = std::max(1, std::atoi(val.c_str()));
     else if (opt == "--precision")
@@ -86,12 +99,32 @@ int run(const Args& a) {
     p.tnear[k] = 0, p.tfar[k] = p.tfar[0], p.mask[k] = lancer::api::kAllObjects;
   }
   std::vector<lancer::api::Hit16> hits(packets);
-  std::vector<double> seconds;
-  for (int r = 0; r < a.repeat; ++r) {
+  // Wall and this thread's CPU seconds of one pass over every packet (the CPU time leaves out
+  // what a busy machine's other processes take while this one waits to run).
+  double cpu = 0;
+  const auto pass = [&] {
+    timespec c0, c1;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
     const auto t0 = std::chrono::steady_clock::now();
     for (std::size_t p = 0; p < packets; ++p)
       scene.intersect(p + 1 == packets && n % 16 ? valid[p].data() : nullptr, rays[p], hits[p]);
-    seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+    cpu = double(c1.tv_sec - c0.tv_sec) + 1e-9 * double(c1.tv_nsec - c0.tv_nsec);
+    return wall;
+  };
+  std::vector<double> seconds;
+  for (int r = 0; r < a.repeat; ++r) seconds.push_back(pass());
+  if (a.serve) {
+    std::printf("ready\n");
+    std::fflush(stdout);
+    for (int c; (c = std::getchar()) != EOF;)
+      if (c == '\n') {
+        const double wall = pass();
+        std::printf("%.9g %.9g\n", wall, cpu);
+        std::fflush(stdout);
+      }
   }
   std::vector<int> blocked(packets * 16);
   for (std::size_t p = 0; p < packets; ++p)
