@@ -89,6 +89,8 @@ def scene():
      r"^origins: must be float32 or float64, not int32$"),
     (np.zeros((4, 3), np.float32), np.zeros((4, 3), np.float16),
      r"^directions: must be float32 or float64, not float16$"),
+    (np.zeros((4, 3), ">f4"), np.zeros((4, 3), np.float32),
+     r"^origins: must be float32 or float64, not >f4$"),
     (np.zeros((4, 3), np.float32), np.zeros((5, 3), np.float32),
      r"^directions: 5 rays, origins 4$"),
 ])

@@ -104,6 +104,10 @@ def test_any_layout_reads_the_same_rays():
         got = s.intersect(o, d, f)
         for a, b in zip(got, expected):
             assert a.tobytes() == b.tobytes()
+    # Negative strides: the same rays backwards.
+    got = s.intersect(org[::-1], dirs[::-1], tfar[::-1])
+    for a, b in zip(got, expected):
+        assert a[::-1].tobytes() == b.tobytes()
 
 
 def test_tfar_scalar_and_tnear():
