@@ -51,8 +51,10 @@ cores) are the scene's defaults; render, intersect, occluded and primary_hits ma
            py::arg("threads") = py::none())
       .def_static(
           "load",
-          [](const std::string& path, Opt p, OptInt w, OptInt t) {
-            return PyScene::load(path, call(std::move(p), w, t));
+          [](const py::object& path, Opt p, OptInt w, OptInt t) {
+            // A str or any path-like object (pathlib.Path), as open() takes.
+            const auto text = py::module_::import("os").attr("fspath")(path).cast<std::string>();
+            return PyScene::load(text, call(std::move(p), w, t));
           },
           py::arg("path"), py::kw_only(), py::arg("precision") = py::none(),
           py::arg("width") = py::none(), py::arg("threads") = py::none(),

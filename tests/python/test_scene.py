@@ -26,6 +26,7 @@ def read_pfm(path):
 def test_load_render_shape():
     rgb = lancer.Scene.load(str(SCENES / "lorenzi-reflections.json")).render()
     assert rgb.shape == (400, 600, 3)
+    assert lancer.Scene.load(SCENES / "lorenzi-reflections.json").render().shape == rgb.shape
     assert rgb.dtype == np.float32
     assert rgb.flags["C_CONTIGUOUS"]
 
