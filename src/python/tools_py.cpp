@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <variant>
 
 #include "lancer/bench.hpp"
 #include "lancer/compare.hpp"
@@ -19,6 +20,16 @@ namespace lancer::python {
 
 namespace {
 
+// One value or a list of them, as the CLI's comma lists: widths=8 or widths=[4, 8].
+template <class T>
+using OneOrMany = std::variant<T, std::vector<T>>;
+
+template <class T>
+std::vector<T> many(const OneOrMany<T>& v) {
+  if (const T* one = std::get_if<T>(&v)) return {*one};
+  return std::get<std::vector<T>>(v);
+}
+
 constexpr int kMaxRepeat = 1000;  // as the CLI's --repeat (docs/limits.md)
 
 void check_repeat(int repeat) {
@@ -28,11 +39,12 @@ void check_repeat(int repeat) {
 }
 
 // None: every width this machine runs in `precision`; else each resolved as --width is.
-std::vector<int> widths_of(const std::optional<std::vector<int>>& asked, Precision precision) {
+std::vector<int> widths_of(const std::optional<OneOrMany<int>>& asked, Precision precision) {
   if (!asked) return packet::supported_widths(precision);
-  if (asked->empty()) throw InputError("widths: no width given");
+  const std::vector<int> list = many(*asked);
+  if (list.empty()) throw InputError("widths: no width given");
   std::vector<int> out;
-  for (int w : *asked) out.push_back(resolve_width(w, precision, "widths"));
+  for (int w : list) out.push_back(resolve_width(w, precision, "widths"));
   return out;
 }
 
@@ -40,7 +52,7 @@ py::object finite_or_none(double v) {
   return std::isfinite(v) ? py::object(py::float_(v)) : py::none();
 }
 
-py::dict validate(const PyScene& s, std::optional<std::vector<int>> asked,
+py::dict validate(const PyScene& s, std::optional<OneOrMany<int>> asked,
                   const std::string& precision_text, int threads) {
   const Scene& scene = s.description();
   if (!scene.shapes.empty())
@@ -120,9 +132,11 @@ py::dict bench_row(const BenchRow& r) {
   return d;
 }
 
-py::dict bench(const PyScene& s, std::optional<std::vector<int>> widths,
-               const std::string& precision_text, std::vector<int> threads,
-               std::vector<std::string> modes, int repeat) {
+py::dict bench(const PyScene& s, std::optional<OneOrMany<int>> widths,
+               const std::string& precision_text, const OneOrMany<int>& thread_counts,
+               const OneOrMany<std::string>& mode_names, int repeat) {
+  const std::vector<int> threads = many(thread_counts);
+  const std::vector<std::string> modes = many(mode_names);
   BenchOptions opt;
   const Precision precision = parse_precision(precision_text, "precision");
   if (precision == Precision::automatic)

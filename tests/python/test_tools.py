@@ -44,6 +44,8 @@ def test_bench_rows():
     for row in r["results"]:
         assert row["rays"] == 300 * 200 and row["mrays_per_s"] > 0  # camera rays
         assert row["samples"].shape == (2,)
+    one = lancer.bench(scene, widths=4, threads=1, modes="primary", repeat=1)
+    assert [(row["width"], row["threads"]) for row in one["results"]] == [(4, 1)]
     with pytest.raises(ValueError, match="^mode: must be primary, full or kernel, not 'x'$"):
         lancer.bench(scene, modes=["x"])
     with pytest.raises(ValueError, match="^repeat: must be from 1 to 1000, not 0"):
