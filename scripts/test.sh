@@ -2,8 +2,8 @@
 # The second command: every test. Installs what is missing and builds first, so it works on a
 # fresh clone. Stages: the Release suite (ctest; a skip not listed in .ci/expected-skips.txt
 # fails), validate on every scene, the binary under emulated SSE4.2-only and AVX2-only CPUs,
-# renders across MPI ranks, the README's commands, then, unless --quick, the same suite under
-# ASan+UBSan and a bounded fuzzing run of the scene loader.
+# the Python module's tests and notebook, renders across MPI ranks, the README's commands, then,
+# unless --quick, the same suite under ASan+UBSan and a bounded fuzzing run of the scene loader.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
@@ -31,6 +31,9 @@ echo "validate: every scene in scenes/ and scenes/prims/ bit-identical at every 
 
 # The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
 .ci/qemu.sh build
+
+# The Python module's tests (pytest) and the example notebook, executed headless.
+.ci/python.sh build
 
 # The installed package, used from outside the tree (find_package(lancer); about 10 s).
 .ci/consumer.sh build
