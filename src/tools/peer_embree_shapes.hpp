@@ -26,6 +26,45 @@ struct GeomIds {
   int of(unsigned prim) const { return table ? table[prim] : first + step * int(prim); }
 };
 
+// User geometries' callbacks test lanes in chunks of at most this many (Embree's widest packet).
+inline constexpr unsigned kLaneChunk = 16;
+
+// dst[i] = v[i] where h[i] is set, for i < n: both loaded first, then selected, one field per
+// loop (GCC if-converts, so vectorises, no more than that).
+template <class T>
+inline void select_lanes(T* __restrict dst, const int* __restrict h, const T* __restrict v, int n) {
+  for (int i = 0; i < n; ++i) {
+    const T old = dst[i], value = v[i];
+    dst[i] = h[i] ? value : old;
+  }
+}
+template <class T>
+inline void select_lanes(T* __restrict dst, const int* __restrict h, T value, int n) {
+  for (int i = 0; i < n; ++i) {
+    const T old = dst[i];
+    dst[i] = h[i] ? value : old;
+  }
+}
+
+// Stores the hits of lanes [i0, i0 + n) of a packet of N (Embree's SoA layout) where h[i] is
+// set: tfar, the normal, u = v = 0, primitive, geometry and instance ids. A lane without a hit
+// keeps its bits. No branch.
+inline void store_hits(float* ray, float* hit, unsigned N, unsigned i0, unsigned n, const int* h,
+                       const float* t, const float* nx, const float* ny, const float* nz,
+                       unsigned prim, unsigned geom, unsigned inst) {
+  auto* ids = reinterpret_cast<unsigned*>(hit);
+  const int m = int(n);
+  select_lanes(ray + 8 * N + i0, h, t, m);
+  select_lanes(hit + 0 * N + i0, h, nx, m);
+  select_lanes(hit + 1 * N + i0, h, ny, m);
+  select_lanes(hit + 2 * N + i0, h, nz, m);
+  select_lanes(hit + 3 * N + i0, h, 0.0f, m);
+  select_lanes(hit + 4 * N + i0, h, 0.0f, m);
+  select_lanes(ids + 5 * N + i0, h, prim, m);
+  select_lanes(ids + 6 * N + i0, h, geom, m);
+  select_lanes(ids + 7 * N + i0, h, inst, m);
+}
+
 class EmbreeShapes {
  public:
   // The shapes of a prepared scene (nullptr or empty: none); kept by reference.
@@ -143,79 +182,91 @@ class EmbreeShapes {
     o->upper_x = hi[0], o->upper_y = hi[1], o->upper_z = hi[2];
   }
 
-  // Lane i of a packet of N against cylinder k: the nearest of the side's two roots within the
-  // height and, when capped, the two end discs, within (tnear, tfar); hit and t, and the
-  // (unnormalised) outward normal. Branch-free selects, so the callers' lane loops can be
-  // vectorised.
-  static bool cylinder_t(const PreparedShapes<float>& c, unsigned k, const RTCRayN* ray, unsigned N,
-                         unsigned i, float& t, Vec3<float>& n) {
-    auto* r = const_cast<RTCRayN*>(ray);
-    const Vec3<float> a = c.cyl_axis[k];
+  // Lanes [i0, i0 + n) of a packet of N rays (Embree's SoA layout: each field an array of N)
+  // against cylinder k: the nearest of the side's two roots within the height and, when
+  // capped, of the two end discs, within (tnear, tfar). Out: t (tfar where none), hit (-1 or
+  // 0, and valid), the (unnormalised) outward normal. One loop of selects and no branch, over
+  // plain arrays: the compiler vectorises it.
+  static void cylinder_lanes(const PreparedShapes<float>& c, unsigned k, const float* ray,
+                             unsigned N, unsigned i0, unsigned n, const int* valid,
+                             float* __restrict t, int* __restrict hit, float* __restrict nx,
+                             float* __restrict ny, float* __restrict nz) {
+    const float* __restrict ox = ray + 0 * N + i0;
+    const float* __restrict oy = ray + 1 * N + i0;
+    const float* __restrict oz = ray + 2 * N + i0;
+    const float* __restrict tn = ray + 3 * N + i0;
+    const float* __restrict dx = ray + 4 * N + i0;
+    const float* __restrict dy = ray + 5 * N + i0;
+    const float* __restrict dz = ray + 6 * N + i0;
+    const float* __restrict tf = ray + 8 * N + i0;
+    const float ax = c.cyl_axis[k].x, ay = c.cyl_axis[k].y, az = c.cyl_axis[k].z;
+    const float bx = c.cyl_base[k].x, by = c.cyl_base[k].y, bz = c.cyl_base[k].z;
     const float h = c.cyl_h[k], r2 = c.cyl_r2[k];
-    const Vec3<float> oc{RTCRayN_org_x(r, N, i) - c.cyl_base[k].x,
-                         RTCRayN_org_y(r, N, i) - c.cyl_base[k].y,
-                         RTCRayN_org_z(r, N, i) - c.cyl_base[k].z};
-    const Vec3<float> d{RTCRayN_dir_x(r, N, i), RTCRayN_dir_y(r, N, i), RTCRayN_dir_z(r, N, i)};
-    const float tnear = RTCRayN_tnear(r, N, i), tfar = RTCRayN_tfar(r, N, i);
-    const float oa = dot(oc, a), da = dot(d, a);
-    const Vec3<float> op = oc - a * oa, dp = d - a * da;  // across the axis
-    const float qa = dot(dp, dp), qb = dot(op, dp), qc = dot(op, op) - r2;
-    const float disc = qb * qb - qa * qc;
-    const float q = std::sqrt(std::max(disc, 0.0f));
-    const bool side_ok = disc >= 0.0f && qa > 0.0f;
-    const float t0 = (-qb - q) / qa, t1 = (-qb + q) / qa;
-    const float z0 = oa + t0 * da, z1 = oa + t1 * da;
-    const bool h0 = side_ok && t0 > tnear && t0 < tfar && z0 >= 0.0f && z0 <= h;
-    const bool h1 = side_ok && t1 > tnear && t1 < tfar && z1 >= 0.0f && z1 <= h;
-    float best = h0 ? t0 : h1 ? t1 : tfar;
-    bool hit = h0 || h1;
-    n = op + dp * best;
-    // End discs: the base (z = 0, normal -a) and the top (z = h, normal a).
-    const bool caps = c.cyl_caps[k] != 0 && da != 0.0f;
-    for (int e = 0; e < 2; ++e) {
-      const float te = ((e ? h : 0.0f) - oa) / da;
-      const Vec3<float> p = op + dp * te;
-      const bool he = caps && te > tnear && te < best && dot(p, p) <= r2;
-      best = he ? te : best;
-      hit = hit || he;
-      n = he ? (e ? a : -a) : n;
+    const bool capped = c.cyl_caps[k] != 0;
+    for (unsigned i = 0; i < n; ++i) {
+      const float cx = ox[i] - bx, cy = oy[i] - by, cz = oz[i] - bz;
+      const float oa = cx * ax + cy * ay + cz * az;
+      const float da = dx[i] * ax + dy[i] * ay + dz[i] * az;
+      // Across the axis.
+      const float px = cx - ax * oa, py = cy - ay * oa, pz = cz - az * oa;
+      const float qx = dx[i] - ax * da, qy = dy[i] - ay * da, qz = dz[i] - az * da;
+      const float qa = qx * qx + qy * qy + qz * qz;
+      const float qb = px * qx + py * qy + pz * qz;
+      const float qc = px * px + py * py + pz * pz - r2;
+      const float disc = qb * qb - qa * qc;
+      const float q = std::sqrt(disc > 0.0f ? disc : 0.0f);
+      const bool side = (disc >= 0.0f) & (qa > 0.0f);
+      const float inv = 1.0f / (qa > 0.0f ? qa : 1.0f);
+      const float t0 = (-qb - q) * inv, t1 = (-qb + q) * inv;
+      const float z0 = oa + t0 * da, z1 = oa + t1 * da;
+      const float lo = tn[i], hi = tf[i];
+      const bool h0 = side & (t0 > lo) & (t0 < hi) & (z0 >= 0.0f) & (z0 <= h);
+      const bool h1 = side & (t1 > lo) & (t1 < hi) & (z1 >= 0.0f) & (z1 <= h);
+      float best = h0 ? t0 : (h1 ? t1 : hi);
+      float mx = px + qx * best, my = py + qy * best, mz = pz + qz * best;
+      // End discs: the base (z = 0, normal -a) and the top (z = h, normal a).
+      const bool caps = capped & (da != 0.0f);
+      const float ida = 1.0f / (da != 0.0f ? da : 1.0f);
+      const float tb = -oa * ida, tt = (h - oa) * ida;
+      const float bx2 = px + qx * tb, by2 = py + qy * tb, bz2 = pz + qz * tb;
+      const bool hb = caps & (tb > lo) & (tb < best) & (bx2 * bx2 + by2 * by2 + bz2 * bz2 <= r2);
+      best = hb ? tb : best;
+      mx = hb ? -ax : mx, my = hb ? -ay : my, mz = hb ? -az : mz;
+      const float tx2 = px + qx * tt, ty2 = py + qy * tt, tz2 = pz + qz * tt;
+      const bool ht = caps & (tt > lo) & (tt < best) & (tx2 * tx2 + ty2 * ty2 + tz2 * tz2 <= r2);
+      best = ht ? tt : best;
+      mx = ht ? ax : mx, my = ht ? ay : my, mz = ht ? az : mz;
+      t[i] = best;
+      hit[i] = (h0 | h1 | hb | ht) & (valid[i0 + i] == -1) ? -1 : 0;
+      nx[i] = mx, ny[i] = my, nz[i] = mz;
     }
-    t = best;
-    return hit;
   }
 
   static void cylinder_intersect(const RTCIntersectFunctionNArguments* args) {
     const auto& c = *static_cast<const PreparedShapes<float>*>(args->geometryUserPtr);
     const unsigned N = args->N, k = args->primID;
-    RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, N);
-    RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, N);
+    auto* ray = reinterpret_cast<float*>(RTCRayHitN_RayN(args->rayhit, N));
+    auto* hit = reinterpret_cast<float*>(RTCRayHitN_HitN(args->rayhit, N));
     const unsigned geom = args->geomID, inst = args->context->instID[0];
-    for (unsigned i = 0; i < N; ++i) {
-      float t;
-      Vec3<float> n;
-      const bool h = cylinder_t(c, k, ray, N, i, t, n) && args->valid[i] == -1;
-      // Every field written, selected per lane: no branch in the loop.
-      RTCRayN_tfar(ray, N, i) = h ? t : RTCRayN_tfar(ray, N, i);
-      RTCHitN_Ng_x(hit, N, i) = h ? n.x : RTCHitN_Ng_x(hit, N, i);
-      RTCHitN_Ng_y(hit, N, i) = h ? n.y : RTCHitN_Ng_y(hit, N, i);
-      RTCHitN_Ng_z(hit, N, i) = h ? n.z : RTCHitN_Ng_z(hit, N, i);
-      RTCHitN_u(hit, N, i) = h ? 0.0f : RTCHitN_u(hit, N, i);
-      RTCHitN_v(hit, N, i) = h ? 0.0f : RTCHitN_v(hit, N, i);
-      RTCHitN_primID(hit, N, i) = h ? k : RTCHitN_primID(hit, N, i);
-      RTCHitN_geomID(hit, N, i) = h ? geom : RTCHitN_geomID(hit, N, i);
-      RTCHitN_instID(hit, N, i, 0) = h ? inst : RTCHitN_instID(hit, N, i, 0);
+    alignas(64) float t[kLaneChunk], nx[kLaneChunk], ny[kLaneChunk], nz[kLaneChunk];
+    alignas(64) int h[kLaneChunk];
+    for (unsigned i0 = 0; i0 < N; i0 += kLaneChunk) {
+      const unsigned n = std::min(kLaneChunk, N - i0);
+      cylinder_lanes(c, k, ray, N, i0, n, args->valid, t, h, nx, ny, nz);
+      store_hits(ray, hit, N, i0, n, h, t, nx, ny, nz, k, geom, inst);
     }
   }
 
   static void cylinder_occluded(const RTCOccludedFunctionNArguments* args) {
     const auto& c = *static_cast<const PreparedShapes<float>*>(args->geometryUserPtr);
     const unsigned N = args->N, k = args->primID;
-    for (unsigned i = 0; i < N; ++i) {
-      float t;
-      Vec3<float> n;
-      const bool h = cylinder_t(c, k, args->ray, N, i, t, n) && args->valid[i] == -1;
-      RTCRayN_tfar(args->ray, N, i) =
-          h ? -std::numeric_limits<float>::infinity() : RTCRayN_tfar(args->ray, N, i);
+    auto* ray = reinterpret_cast<float*>(args->ray);
+    alignas(64) float t[kLaneChunk], nx[kLaneChunk], ny[kLaneChunk], nz[kLaneChunk];
+    alignas(64) int h[kLaneChunk];
+    for (unsigned i0 = 0; i0 < N; i0 += kLaneChunk) {
+      const unsigned n = std::min(kLaneChunk, N - i0);
+      cylinder_lanes(c, k, ray, N, i0, n, args->valid, t, h, nx, ny, nz);
+      select_lanes(ray + 8 * N + i0, h, -std::numeric_limits<float>::infinity(), int(n));
     }
   }
 };
