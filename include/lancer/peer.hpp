@@ -110,9 +110,9 @@ EmbreeConfig embree_config_from_env();
 // streams.
 std::vector<EmbreeConfig> embree_setups();
 // The same for these scenes: with no triangle, mesh or cylinder in any, the setups above; else
-// build quality MEDIUM, HIGH and MEDIUM with RTC_SCENE_FLAG_ROBUST, each with row packets,
-// square packets and streams, and, when a scene has cylinders, each of those with cylinders as
-// user geometry and as round linear curves (spheres, if any, as sphere points).
+// build quality MEDIUM and HIGH, each without and with RTC_SCENE_FLAG_ROBUST, each with row
+// packets, square packets and streams, and, when a scene has cylinders, each of those with
+// cylinders as user geometry and as round linear curves (spheres, if any, as sphere points).
 std::vector<EmbreeConfig> embree_setups(const std::vector<const Scene*>& scenes);
 
 class EmbreeScene {

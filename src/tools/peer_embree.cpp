@@ -228,12 +228,12 @@ std::vector<EmbreeConfig> embree_setups(const std::vector<const Scene*>& scenes)
     // Build quality and the robust flag change the scene; packets and streams only how it is
     // traced (those setups share one Embree scene in lancer bench).
     for (int curves = 0; curves <= int(cylinders); ++curves)
-      for (int build = 0; build < 3; ++build)
+      for (int build = 0; build < 4; ++build)
         for (int trace = 0; trace < 3; ++trace) {
           EmbreeConfig c;
           c.curves = curves == 1;
-          c.high_quality = build == 1;
-          c.robust = build == 2;
+          c.high_quality = build % 2 == 1;
+          c.robust = build >= 2;
           c.tiles = trace == 1;
           c.streams = trace == 2;
           out.push_back(c);

@@ -153,15 +153,16 @@ TEST(EmbreePeerShapes, SetupsOfShapeScenesSpanBuildsPacketsAndCylinderModels) {
   const Scene cyl = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/prims/cylinders.json");
   const std::vector<peer::EmbreeConfig> m = peer::embree_setups({&mesh});
   const std::vector<peer::EmbreeConfig> c = peer::embree_setups({&mesh, &cyl});
-  EXPECT_EQ(m.size(), 9u);
-  EXPECT_EQ(c.size(), 18u);
+  EXPECT_EQ(m.size(), 12u);
+  EXPECT_EQ(c.size(), 24u);
   std::vector<std::string> names;
   for (const peer::EmbreeConfig& how : c) names.push_back(how.name());
   std::sort(names.begin(), names.end());
   EXPECT_EQ(std::unique(names.begin(), names.end()), names.end()) << "two setups, one name";
   EXPECT_EQ(m[0].name(), "triangles, build medium");
   EXPECT_EQ(m[8].name(), "triangles, build medium, robust, 1M streams");
-  EXPECT_EQ(c[17].name(), "round curves, build medium, robust, 1M streams");
+  EXPECT_EQ(m[11].name(), "triangles, build high, robust, 1M streams");
+  EXPECT_EQ(c[23].name(), "round curves, build high, robust, 1M streams");
   EXPECT_TRUE(m[1].same_build(m[0]));
   EXPECT_FALSE(m[3].same_build(m[0]));
 }
@@ -279,8 +280,8 @@ TEST(EmbreePeerShapes, BenchRunsThePeerOnShapeScenesAndNamesTheFastestSetup) {
       EXPECT_TRUE(name.find("user cylinders") == 0 || name.find("round curves") == 0) << name;
     }
   EXPECT_EQ(peer_rows, 1);
-  // Width 1: no square packets; rows and streams of three builds, two cylinder models.
-  EXPECT_EQ(j["peer_setups"].size(), 12u);
+  // Width 1: no square packets; rows and streams of four builds, two cylinder models.
+  EXPECT_EQ(j["peer_setups"].size(), 16u);
 }
 
 }  // namespace
