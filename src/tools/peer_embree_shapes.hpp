@@ -80,6 +80,7 @@ class EmbreeShapes {
       vertices_[3 * v + 2] = sh_->vz[v];
     }
     index_.assign(sh_->tri.begin(), sh_->tri.end());
+    index_.resize(index_.size() + 4, 0);
   }
 
   // Attaches the meshes and cylinders to `scene`, recording each geometry's ids in `geoms`
@@ -159,8 +160,10 @@ class EmbreeShapes {
 
  private:
   const PreparedShapes<float>* sh_ = nullptr;
-  std::vector<float> vertices_;       // x, y, z of every vertex, then one float of padding
-  std::vector<std::uint32_t> index_;  // lancer's triangle indices, writable as Embree asks
+  std::vector<float> vertices_;  // x, y, z of every vertex, then one float of padding
+  // lancer's triangle indices, padded by 16 bytes as the vertices: Embree may read a buffer's
+  // last item with a 16-byte load.
+  std::vector<std::uint32_t> index_;
 
   static void cylinder_bounds(const RTCBoundsFunctionArguments* args) {
     const auto& c = *static_cast<const PreparedShapes<float>*>(args->geometryUserPtr);
