@@ -24,8 +24,9 @@
 //    at width 1. So the default is the user geometry; quads are kept for comparison.
 //  - triangles: each mesh (a lone triangle is a mesh of one) as one RTC_GEOMETRY_TYPE_TRIANGLE
 //    geometry, all of them over one shared vertex buffer (lancer's prepared float vertices, each
-//    once) with the mesh's slice of lancer's index buffer: Embree's own triangle test (Moller-
-//    Trumbore; with RTC_SCENE_FLAG_ROBUST its watertight one), not lancer's;
+//    once) with the mesh's slice of lancer's index buffer: Embree's own triangle test, not
+//    lancer's (with RTC_SCENE_FLAG_ROBUST, Embree's robust traversal and tests, which avoid
+//    optimisations that lose accuracy);
 //  - cylinders, by default, as one user geometry whose callback computes the capped (or open)
 //    cylinder, the peer's own formula; or, with EmbreeConfig::curves, as Embree's
 //    RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, one segment per cylinder. A round linear segment is a
@@ -82,7 +83,7 @@ struct PeerHit {
 // spheres as RTC_GEOMETRY_TYPE_SPHERE_POINT (Embree 3.13 tests their leaves one lane at a
 // time) or as a user geometry whose callback takes a whole packet; build quality MEDIUM
 // (Embree's default) or HIGH (spatial splits: a better tree, a slower build);
-// RTC_SCENE_FLAG_ROBUST (triangles by the watertight test, no shortcuts that lose accuracy);
+// RTC_SCENE_FLAG_ROBUST (robust traversal, no optimisations that lose accuracy);
 // cylinders as user geometry or round linear curves; camera packets of W as a row's W columns
 // or as squares (4x4, 4x2, 2x2 pixels, as lancer's), or, at any width, rtcIntersect1M streams
 // of 64 camera rays (four 4x4 squares) that Embree regroups itself; RTC_SCENE_FLAG_COMPACT.
