@@ -10,12 +10,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "lancer/error.hpp"
 #include "lancer/formulas.hpp"
 #include "lancer/generate.hpp"
 #include "lancer/peer.hpp"
@@ -167,6 +169,39 @@ TEST(EmbreePeerShapes, SetupsOfShapeScenesSpanBuildsPacketsAndCylinderModels) {
   EXPECT_FALSE(m[3].same_build(m[0]));
 }
 
+// Sets LANCER_EMBREE_SETUP for a scope.
+struct SetupEnv {
+  explicit SetupEnv(const char* v) { ::setenv("LANCER_EMBREE_SETUP", v, 1); }
+  ~SetupEnv() { ::unsetenv("LANCER_EMBREE_SETUP"); }
+};
+
+TEST(EmbreePeerShapes, SetupWordsNameTheRobustFlagAndCurves) {
+  const SetupEnv env("robust,curves,streams");
+  const peer::EmbreeConfig c = peer::embree_config_from_env();
+  EXPECT_TRUE(c.robust && c.curves && c.streams && !c.high_quality);
+  const Scene cyl = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/prims/cylinders.json");
+  const std::vector<peer::EmbreeConfig> only = peer::embree_setups({&cyl});
+  ASSERT_EQ(only.size(), 1u);
+  EXPECT_EQ(only[0].name(), "round curves, build medium, robust, 1M streams");
+  const SetupEnv bad("robust,wobbly");
+  EXPECT_THROW(peer::embree_config_from_env(), InputError);
+}
+
+// Setups that trace alike share one Embree scene; one that builds otherwise cannot.
+TEST(EmbreePeerShapes, OnlySetupsOfTheSameBuildShareAScene) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  const Scene scene = generated(0, 0, 500, 32, 24);
+  peer::EmbreeConfig rows, squares, high;
+  squares.tiles = true;
+  high.high_quality = true;
+  const peer::EmbreeScene built(scene, peer::PlaneMode::user, "", rows);
+  const peer::EmbreeScene shared(built, squares);
+  EXPECT_EQ(shared.config().name(), squares.name());
+  EXPECT_EQ(shared.build_seconds(), built.build_seconds());
+  EXPECT_EQ(shared.primary(4, 1).rays, built.primary(4, 1).rays);
+  EXPECT_THROW(peer::EmbreeScene(built, high), std::logic_error);
+}
+
 TEST(EmbreePeerShapes, MeshCameraRaysHitAsLancerInEverySetup) {
   if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
   const Scene scene = generated(0, 0, 1000, 96, 64);
@@ -191,6 +226,9 @@ TEST(EmbreePeerShapes, MixedSceneObjectIdsMapBackToLancers) {
   const Scene scene = generated(300, 40, 2000, 96, 64);
   ASSERT_FALSE(scene.spheres.empty());
   ASSERT_FALSE(scene.planes.empty());
+  ASSERT_TRUE(std::any_of(scene.shapes.begin(), scene.shapes.end(),
+                          [](const Shape& sh) { return sh.kind == Shape::Kind::cylinder; }));
+  ASSERT_GT(scene.triangles(), 1999u);
   for (const peer::EmbreeConfig& how : peer::embree_setups({&scene})) {
     if (how.curves) continue;  // capsules: checked on cylinder sides below
     SCOPED_TRACE(how.name());
@@ -201,7 +239,8 @@ TEST(EmbreePeerShapes, MixedSceneObjectIdsMapBackToLancers) {
 
 TEST(EmbreePeerShapes, CylindersAsUserGeometryHitAsLancerAndCurvesOnTheSides) {
   if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
-  const Scene scene = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/prims/cylinders.json");
+  Scene scene = load_scene(std::string(LANCER_SOURCE_DIR) + "/scenes/prims/cylinders.json");
+  scene.camera.nx = 240, scene.camera.ny = 160;  // the same view, a quarter of the rays
   for (const peer::EmbreeConfig& how : peer::embree_setups({&scene})) {
     const peer::EmbreeScene embree(scene, peer::PlaneMode::user, "", how);
     for (int w : widths()) {
