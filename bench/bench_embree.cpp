@@ -37,11 +37,15 @@ struct EmbreeCase {
 
 // "user-spheres-high-tiles": a setup as a benchmark name's last part.
 std::string slug(const peer::EmbreeConfig& how) {
-  std::string s = how.user_spheres ? "user-spheres" : "sphere-points";
+  std::string s = !how.name_spheres  ? "shapes"
+                  : how.user_spheres ? "user-spheres"
+                                     : "sphere-points";
   if (how.high_quality) s += "-high";
   if (how.tiles) s += "-tiles";
   if (how.streams) s += "-streams";
   if (how.compact) s += "-compact";
+  if (how.robust) s += "-robust";
+  if (how.curves) s += "-curves";
   return s;
 }
 
@@ -77,7 +81,7 @@ void register_embree_benchmarks(const std::string& scene_path) {
   static std::vector<std::unique_ptr<EmbreeCase>> cases;
   scenes.push_back(std::make_unique<Scene>(load_scene(scene_path)));
   const std::string name = std::filesystem::path(scene_path).stem().string();
-  for (const peer::EmbreeConfig& how : peer::embree_setups()) {
+  for (const peer::EmbreeConfig& how : peer::embree_setups({scenes.back().get()})) {
     cases.push_back(std::make_unique<EmbreeCase>(EmbreeCase{scenes.back().get(), how, nullptr}));
     EmbreeCase* c = cases.back().get();
     for (int width : peer::embree_widths(packet::supported_widths())) {

@@ -22,6 +22,20 @@
 //    crack, against none with the user geometry. Speed, measured side by side on
 //    lorenzi-reflections: user geometry within +-10% of the quad at widths 4-16, ~15% slower
 //    at width 1. So the default is the user geometry; quads are kept for comparison.
+//  - triangles: each mesh (a lone triangle is a mesh of one) as one RTC_GEOMETRY_TYPE_TRIANGLE
+//    geometry, all of them over one shared vertex buffer (lancer's prepared float vertices, each
+//    once) with the mesh's slice of lancer's index buffer: Embree's own triangle test, not
+//    lancer's (with RTC_SCENE_FLAG_ROBUST, Embree's robust traversal and tests, which avoid
+//    optimisations that lose accuracy);
+//  - cylinders, by default, as one user geometry whose callback computes the capped (or open)
+//    cylinder, the peer's own formula; or, with EmbreeConfig::curves, as Embree's
+//    RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, one segment per cylinder. A round linear segment is a
+//    capsule: a sphere of the cylinder's radius closes each end, where lancer's capped cylinder
+//    has a flat disc (and an open one nothing). Rays that meet lancer's cylinder on its side
+//    meet the capsule at the same point (the tube is convex and holds both half-spheres), but
+//    the half-spheres stick out by the radius past each end: cap hits are farther, and rays
+//    passing just beyond an end hit where lancer misses. A speed stand-in, not a model of the
+//    same surface: the user geometry is the one checked against lancer.
 // Rays: tnear = the scene's epsilon, tfar = infinity (primary and reflected) or the distance to
 // the light (shadow). Embree accepts hits with tnear <= t <= tfar where lancer wants
 // epsilon < t < tfar: the two differ only on exact ties.
@@ -68,26 +82,39 @@ struct PeerHit {
 // How the peer builds and traces, to find Embree's fastest setup on these rays (issue 12):
 // spheres as RTC_GEOMETRY_TYPE_SPHERE_POINT (Embree 3.13 tests their leaves one lane at a
 // time) or as a user geometry whose callback takes a whole packet; build quality MEDIUM
-// (Embree's default) or HIGH (spatial splits: a better tree, a slower build); camera packets
-// of W as a row's W columns or as squares (4x4, 4x2, 2x2 pixels, as lancer's), or, at any
-// width, rtcIntersect1M streams of 64 camera rays (four 4x4 squares) that Embree regroups
-// itself; RTC_SCENE_FLAG_COMPACT.
+// (Embree's default) or HIGH (spatial splits: a better tree, a slower build);
+// RTC_SCENE_FLAG_ROBUST (robust traversal, no optimisations that lose accuracy);
+// cylinders as user geometry or round linear curves; camera packets of W as a row's W columns
+// or as squares (4x4, 4x2, 2x2 pixels, as lancer's), or, at any width, rtcIntersect1M streams
+// of 64 camera rays (four 4x4 squares) that Embree regroups itself; RTC_SCENE_FLAG_COMPACT.
 struct EmbreeConfig {
   bool user_spheres = false;
   bool high_quality = false;
   bool tiles = false;
   bool compact = false;
   bool streams = false;
+  bool robust = false;
+  bool curves = false;
+  // What name() mentions: the sphere model (scenes with spheres, or none of the shapes) and the
+  // cylinder model (scenes with cylinders).
+  bool name_spheres = true, name_cylinders = false;
   std::string name() const;  // "user spheres, build high, square packets"
+  // Setups that differ in tracing only (tiles, streams) share one Embree scene.
+  bool same_build(const EmbreeConfig& o) const;
 };
-// From LANCER_EMBREE_SETUP, comma-separated words: user-spheres, high, tiles, compact, streams
-// (unset: the defaults). Throws InputError on an unknown word.
+// From LANCER_EMBREE_SETUP, comma-separated words: user-spheres, high, tiles, compact, streams,
+// robust, curves (unset: the defaults). Throws InputError on an unknown word.
 EmbreeConfig embree_config_from_env();
 // The setups lancer bench tries, each a row of its own, keeping the fastest per row: only
 // LANCER_EMBREE_SETUP's when it is set, else sphere points and user spheres, each at build
 // quality MEDIUM and HIGH, and user spheres with square packets (4x4, 4x2, 2x2 pixels) and with
 // streams.
 std::vector<EmbreeConfig> embree_setups();
+// The same for these scenes: with no triangle, mesh or cylinder in any, the setups above; else
+// build quality MEDIUM and HIGH, each without and with RTC_SCENE_FLAG_ROBUST, each with row
+// packets, square packets and streams, and, when a scene has cylinders, each of those with
+// cylinders as user geometry and as round linear curves (spheres, if any, as sphere points).
+std::vector<EmbreeConfig> embree_setups(const std::vector<const Scene*>& scenes);
 
 class EmbreeScene {
  public:
@@ -96,6 +123,8 @@ class EmbreeScene {
   // variable LANCER_EMBREE_CONFIG is used when it is empty.
   explicit EmbreeScene(const Scene& scene, PlaneMode planes = PlaneMode::user,
                        const std::string& config = "", const EmbreeConfig& how = {});
+  // Another setup over `built`'s Embree scene: allowed when how.same_build(built.config()).
+  EmbreeScene(const EmbreeScene& built, const EmbreeConfig& how);
   // Seconds the constructor took to build Embree's device, geometry and BVH.
   double build_seconds() const;
   const EmbreeConfig& config() const;
@@ -135,7 +164,8 @@ class EmbreeScene {
 
  private:
   struct Impl;
-  std::unique_ptr<Impl> impl_;
+  std::shared_ptr<const Impl> impl_;
+  EmbreeConfig how_;
 };
 
 // Widths the embree peer offers on this machine: those of `requested` that are 1 or a packet

@@ -125,11 +125,16 @@ void prepare_lancer(SceneRun& s, bool with_peer, const BenchOptions& opt) {
   }
 }
 
-// The peer's scenes (Embree's BVH, once per setup), untimed.
+// The peer's scenes (Embree's BVH, once per setup that builds differently), untimed.
 void prepare_peer(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups) {
-  for (const peer::EmbreeConfig& how : setups)
-    s.embrees.push_back(
-        std::make_unique<peer::EmbreeScene>(*s.scene, peer::plane_mode_from_env(), "", how));
+  for (const peer::EmbreeConfig& how : setups) {
+    const peer::EmbreeScene* built = nullptr;
+    for (const auto& e : s.embrees)
+      if (!built && how.same_build(e->config())) built = e.get();
+    s.embrees.push_back(built ? std::make_unique<peer::EmbreeScene>(*built, how)
+                              : std::make_unique<peer::EmbreeScene>(
+                                    *s.scene, peer::plane_mode_from_env(), "", how));
+  }
   for (std::size_t k = 0; k < s.out.rows.size(); ++k)
     if (s.row_setup[k] >= 0)
       s.out.rows[k].build_seconds = s.embrees[std::size_t(s.row_setup[k])]->build_seconds();
@@ -208,7 +213,7 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
   std::vector<peer::EmbreeConfig> setups;
   for (const std::string& p : opt.peers) {
     if (p != "embree") throw InputError("--peer: unknown peer '" + p + "' (known: embree)");
-    if (setups.empty()) setups = peer::embree_setups();
+    if (setups.empty()) setups = peer::embree_setups(scenes);
   }
   if (opt.widths.size() != opt.precisions.size())
     throw std::logic_error("run_bench: one list of widths per precision");

@@ -1,6 +1,8 @@
 // The Embree peer: the scene in Embree 3, traced with rtcIntersect1/4/8/16 and rtcOccluded1/4/8/16
 // on lancer's own camera rays. See include/lancer/peer.hpp for the model and its limits.
 #include <cstdlib>
+#include <memory>
+#include <stdexcept>
 
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
@@ -17,19 +19,23 @@ std::string embree_version() { return RTC_VERSION_STRING; }
 
 EmbreeScene::EmbreeScene(const Scene& scene, PlaneMode planes, const std::string& config,
                          const EmbreeConfig& how)
-    : impl_(std::make_unique<Impl>()) {
-  // The peer is given spheres and planes; a scene with more would be measured without them.
-  if (!scene.shapes.empty())
-    throw InputError(
-        "the Embree peer takes spheres and planes only, not triangles, meshes or "
-        "cylinders");
-  impl_->mode = planes;
-  impl_->config = how;
-  impl_->build(scene, config);
+    : how_(how) {
+  auto impl = std::make_shared<Impl>();
+  impl->mode = planes;
+  impl->config = how;
+  impl->build(scene, config);
+  impl_ = std::move(impl);
+}
+
+EmbreeScene::EmbreeScene(const EmbreeScene& built, const EmbreeConfig& how)
+    : impl_(built.impl_), how_(how) {
+  if (!how.same_build(built.how_))
+    throw std::logic_error("EmbreeScene: " + how.name() + " cannot share the scene of " +
+                           built.how_.name());
 }
 
 double EmbreeScene::build_seconds() const { return impl_->build_seconds; }
-const EmbreeConfig& EmbreeScene::config() const { return impl_->config; }
+const EmbreeConfig& EmbreeScene::config() const { return how_; }
 
 EmbreeScene::~EmbreeScene() = default;
 
@@ -55,11 +61,11 @@ PrimaryResult EmbreeScene::primary(int width, int threads) const {
   const auto start = Clock::now();
   res.rays = embree_tiles(im.s.camera.ny, res.threads, [&](int r0, int r1, RayCounts& c) {
     // Streams are Embree's own regrouping, whatever the width asked for; tiles are packets.
-    if (im.config.streams) return im.primary_streams(res.t.data(), r0, r1, c);
+    if (how_.streams) return im.primary_streams(res.t.data(), r0, r1, c);
     auto packets = [&](auto w) {
       constexpr int W = decltype(w)::value;
       if constexpr (W > 1) {
-        if (im.config.tiles) return im.template primary_tiles<W>(res.t.data(), r0, r1, c);
+        if (how_.tiles) return im.template primary_tiles<W>(res.t.data(), r0, r1, c);
       }
       im.template primary_rows<W>(res.t.data(), r0, r1, c);
     };
@@ -142,13 +148,11 @@ EmbreeScene::EmbreeScene(const Scene&, PlaneMode, const std::string&, const Embr
       "--peer embree: this lancer was built without Embree (install libembree-dev and "
       "configure with -DLANCER_WITH_EMBREE=ON)");
 }
+EmbreeScene::EmbreeScene(const EmbreeScene& built, const EmbreeConfig&) : impl_(built.impl_) {}
 EmbreeScene::~EmbreeScene() = default;
 PlaneMode EmbreeScene::plane_mode() const { return PlaneMode::user; }
 double EmbreeScene::build_seconds() const { return 0; }
-const EmbreeConfig& EmbreeScene::config() const {
-  static const EmbreeConfig none;
-  return none;
-}
+const EmbreeConfig& EmbreeScene::config() const { return how_; }
 PrimaryResult EmbreeScene::primary(int, int) const { return {}; }
 EmbreeScene::RaysResult EmbreeScene::trace_all(int, int) const { return {}; }
 std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
@@ -185,9 +189,13 @@ EmbreeConfig embree_config_from_env() {
       c.compact = true;
     else if (word == "streams")
       c.streams = true;
+    else if (word == "robust")
+      c.robust = true;
+    else if (word == "curves")
+      c.curves = true;
     else if (!word.empty())
       throw InputError("LANCER_EMBREE_SETUP: unknown word '" + word +
-                       "' (known: user-spheres, high, tiles, compact, streams)");
+                       "' (known: user-spheres, high, tiles, compact, streams, robust, curves)");
     start = comma + 1;
   }
   return c;
@@ -204,9 +212,52 @@ std::vector<EmbreeConfig> embree_setups() {
   return out;
 }
 
+std::vector<EmbreeConfig> embree_setups(const std::vector<const Scene*>& scenes) {
+  bool spheres = false, shapes = false, cylinders = false;
+  for (const Scene* s : scenes) {
+    spheres = spheres || !s->spheres.empty();
+    shapes = shapes || !s->shapes.empty();
+    for (const Shape& sh : s->shapes) cylinders = cylinders || sh.kind == Shape::Kind::cylinder;
+  }
+  std::vector<EmbreeConfig> out;
+  if (!shapes) {
+    out = embree_setups();
+  } else if (std::getenv("LANCER_EMBREE_SETUP")) {
+    out = {embree_config_from_env()};
+  } else {
+    // Build quality and the robust flag change the scene; packets and streams only how it is
+    // traced (those setups share one Embree scene in lancer bench).
+    for (int curves = 0; curves <= int(cylinders); ++curves)
+      for (int build = 0; build < 4; ++build)
+        for (int trace = 0; trace < 3; ++trace) {
+          EmbreeConfig c;
+          c.curves = curves == 1;
+          c.high_quality = build % 2 == 1;
+          c.robust = build >= 2;
+          c.tiles = trace == 1;
+          c.streams = trace == 2;
+          out.push_back(c);
+        }
+  }
+  for (EmbreeConfig& c : out) {
+    c.name_spheres = spheres || !shapes;
+    c.name_cylinders = cylinders;
+  }
+  return out;
+}
+
+bool EmbreeConfig::same_build(const EmbreeConfig& o) const {
+  return user_spheres == o.user_spheres && high_quality == o.high_quality && compact == o.compact &&
+         robust == o.robust && curves == o.curves;
+}
+
 std::string EmbreeConfig::name() const {
-  std::string n = user_spheres ? "user spheres" : "sphere points";
-  n += high_quality ? ", build high" : ", build medium";
+  std::string n;
+  if (name_spheres) n += user_spheres ? "user spheres, " : "sphere points, ";
+  if (name_cylinders) n += curves ? "round curves, " : "user cylinders, ";
+  if (!name_spheres && !name_cylinders) n += "triangles, ";
+  n += high_quality ? "build high" : "build medium";
+  if (robust) n += ", robust";
   if (streams)
     n += ", 1M streams";
   else if (tiles)

@@ -1,6 +1,7 @@
 // The Embree peer's scene (EmbreeScene::Impl): lancer's scene in Embree 3, with planes and
-// spheres as user geometry or Embree's own, and its camera rays traced by packets, rows, tiles
-// and streams. Included by peer_embree.cpp alone, inside LANCER_HAVE_EMBREE.
+// spheres as user geometry or Embree's own, shapes as peer_embree_shapes.hpp makes them, and its
+// camera rays traced by packets, rows, tiles and streams. Included by peer_embree.cpp alone, inside
+// LANCER_HAVE_EMBREE.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -17,7 +18,9 @@
 
 #include "lancer/formulas.hpp"
 #include "lancer/prepared.hpp"
+#include "lancer/shapes.hpp"
 #include "lancer/tiles.hpp"
+#include "peer_embree_shapes.hpp"
 
 namespace lancer::peer {
 
@@ -150,6 +153,8 @@ struct EmbreeScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   unsigned sphere_geom = RTC_INVALID_GEOMETRY_ID, plane_geom = RTC_INVALID_GEOMETRY_ID;
+  EmbreeShapes shapes;
+  std::vector<GeomIds> geoms;  // by geometry id
   EmbreeConfig config;
   double build_seconds = 0;
 
@@ -168,7 +173,7 @@ struct EmbreeScene::Impl {
   // lancer's object id of an Embree hit, -1 for none.
   int object_id(unsigned geom, unsigned prim) const {
     if (geom == RTC_INVALID_GEOMETRY_ID) return -1;
-    return geom == sphere_geom ? int(prim) : s.num_spheres + int(prim);
+    return geoms[geom].of(prim);
   }
 
   // ---- planes as user geometry: lancer's formula, exactly --------------------------------
@@ -300,7 +305,8 @@ struct EmbreeScene::Impl {
 
   void build(const Scene& src, const std::string& device_config) {
     s = prepare<float>(src);
-    plane_half = kPlaneExtent * scene_size(src);
+    shapes.set(s.shapes.get());
+    plane_half = kPlaneExtent * shapes.size(scene_size(src));
     std::string cfg = device_config;
     if (cfg.empty())
       if (const char* env = std::getenv("LANCER_EMBREE_CONFIG")) cfg = env;
@@ -320,15 +326,17 @@ struct EmbreeScene::Impl {
     build_seconds = std::min(build_seconds, make_scene());
   }
 
-  // The scene of the spheres and planes, committed: returns the seconds it took.
+  // The scene of the spheres, planes and shapes, committed: returns the seconds it took.
   double make_scene() {
     const auto start = Clock::now();
     sphere_geom = plane_geom = RTC_INVALID_GEOMETRY_ID;
+    geoms.clear();
     scene = rtcNewScene(device);
     check("rtcNewScene");
     rtcSetSceneBuildQuality(
         scene, config.high_quality ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM);
-    rtcSetSceneFlags(scene, config.compact ? RTC_SCENE_FLAG_COMPACT : RTC_SCENE_FLAG_NONE);
+    rtcSetSceneFlags(scene, RTCSceneFlags((config.compact ? RTC_SCENE_FLAG_COMPACT : 0) |
+                                          (config.robust ? RTC_SCENE_FLAG_ROBUST : 0)));
 
     if (s.num_spheres > 0 && config.user_spheres) {
       sphere_geom =
@@ -350,6 +358,10 @@ struct EmbreeScene::Impl {
       sphere_geom = rtcAttachGeometry(scene, g);
       rtcReleaseGeometry(g);
       check("spheres");
+    }
+    if (sphere_geom != RTC_INVALID_GEOMETRY_ID) {
+      geoms.resize(std::max<std::size_t>(geoms.size(), sphere_geom + 1));
+      geoms[sphere_geom] = {0, 1, nullptr};
     }
     if (s.num_planes > 0) {
       if (mode == PlaneMode::user) {
@@ -386,7 +398,11 @@ struct EmbreeScene::Impl {
         rtcReleaseGeometry(g);
       }
       check("planes");
+      geoms.resize(std::max<std::size_t>(geoms.size(), plane_geom + 1));
+      geoms[plane_geom] = {s.num_spheres, 1, nullptr};
     }
+    shapes.attach(device, scene, config, geoms);
+    check("shapes");
     rtcCommitScene(scene);
     check("rtcCommitScene");
     return std::chrono::duration<double>(Clock::now() - start).count();
@@ -596,7 +612,12 @@ struct EmbreeScene::Impl {
                 t[k] = RTCRayN_tfar(ray, W, k);
                 p[k] = along(o[k], d[k], t[k]);
                 const int m = id[k];
-                if (m < s.num_spheres) {
+                if (m >= s.num_spheres + s.num_planes) {
+                  // Shapes: the normal Embree reports (its triangle test's, the cylinder
+                  // callback's or the curve's), unit.
+                  n[k] = normalize(Vec3<float>{RTCHitN_Ng_x(hit, W, k), RTCHitN_Ng_y(hit, W, k),
+                                               RTCHitN_Ng_z(hit, W, k)});
+                } else if (m < s.num_spheres) {
                   const float r = s.spheres.r[m];
                   n[k] = Vec3<float>{(p[k].x - s.spheres.cx[m]) / r, (p[k].y - s.spheres.cy[m]) / r,
                                      (p[k].z - s.spheres.cz[m]) / r};
