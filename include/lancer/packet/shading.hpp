@@ -192,17 +192,29 @@ struct Shading : Queries<Arch, Real, Mode> {
   // would give the hot path's vectors a home in memory.
   [[gnu::noinline]] static Shade general_light_sums(const Prepared& s, M hit, I id, B delta, V p,
                                                     V n, V view, I here, RayCounts& counts,
-                                                    bool secondary, V side) noexcept {
-    if (Prims::Meshes::smooth(s)) {
-      if (s.features.coloured_lights)
-        return light_sums<3, true, true, true>(s, hit, id, delta, p, n, view, here, counts,
-                                               secondary, side);
-      return light_sums<1, true, true, true>(s, hit, id, delta, p, n, view, here, counts, secondary,
-                                             side);
-    }
+                                                    bool secondary) noexcept {
     if (s.features.coloured_lights)
       return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts, secondary, n);
     return light_sums<1, true>(s, hit, id, delta, p, n, view, here, counts, secondary, n);
+  }
+  // Scenes with smooth meshes: their lanes shade with the blended normal (facing the ray on its
+  // own) while the shadow rays leave by the geometric normal's side n, as the reference.
+  [[gnu::noinline]] static Shade smooth_light_sums(const Prepared& s, M hit, I id, B delta, V p,
+                                                   V n, V view, I here, RayCounts& counts,
+                                                   bool secondary, I best_id, V o, V d) noexcept {
+    const V ns = facing_shading(s, hit, best_id, o, d, n);
+    if (s.features.coloured_lights)
+      return light_sums<3, true, true, true>(s, hit, id, delta, p, ns, view, here, counts,
+                                             secondary, n);
+    return light_sums<1, true, true, true>(s, hit, id, delta, p, ns, view, here, counts, secondary,
+                                           n);
+  }
+  // The normal shading uses, facing the ray: a smooth mesh's blend where the lanes hit one, else
+  // n (the geometric normal, already facing the ray).
+  [[gnu::noinline]] static V facing_shading(const Prepared& s, const M& hit, const I& best_id,
+                                            const V& o, const V& d, const V& n) noexcept {
+    const V ns = Prims::Meshes::shading_normal(s, hit, best_id, o, d, n);
+    return select3(Mth::dot(ns, d) > B(0), -ns, ns);
   }
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
@@ -251,18 +263,12 @@ struct Shading : Queries<Arch, Real, Mode> {
       if (K::present(s)) K::surface(s, hit, best_id, id, o, d, best_t, magnitude, p, n, delta);
     });
     // The geometric normal's side: the ray enters the object where cos_in < 0 (step 7).
-    // Smooth meshes shade with their blend of vertex normals, turned to the ray on its own;
-    // rays leave by the geometric normal's side (the reference's n and side).
-    V shading_n;
-    const bool smooth = Prims::Meshes::smooth(s);
-    if (smooth) {
-      shading_n = Prims::Meshes::shading_normal(s, hit, best_id, o, d, n);
-      shading_n = select3(Mth::dot(shading_n, d) > B(0), -shading_n, shading_n);
-    }
     const B cos_in = Mth::dot(n, d);
     const M inside = cos_in > B(0);
     n = select3(inside, -n, n);
-    if (!smooth) shading_n = n;
+    // Smooth meshes shade with their blend of vertex normals (facing_shading), computed where
+    // used; rays leave by the geometric normal's side n (the reference's n and side).
+    const bool smooth = Prims::Meshes::smooth(s);
     const V view = -d;
     // The sphere hit from outside, which this level's shadow rays and reflections leave.
     I here(Id(-1));
@@ -272,8 +278,10 @@ struct Shading : Queries<Arch, Real, Mode> {
 
     const bool secondary = depth > 0;
     const Shade sum =
-        s.features.coloured_lights || s.features.transparency || smooth
-            ? general_light_sums(s, hit, id, delta, p, shading_n, view, here, counts, secondary, n)
+        smooth ? smooth_light_sums(s, hit, id, delta, p, n, view, here, counts, secondary, best_id,
+                                   o, d)
+        : s.features.coloured_lights || s.features.transparency
+            ? general_light_sums(s, hit, id, delta, p, n, view, here, counts, secondary)
             : light_sums<1, false, kOneRay>(s, hit, id, delta, p, n, view, here, counts, secondary,
                                             n);
     out.r = xsimd::select(hit, gather(s, s.materials.r, id) * sum.r, out.r);
@@ -287,7 +295,8 @@ struct Shading : Queries<Arch, Real, Mode> {
     // Refracted rays first, while o and d are still this level's rays; their term is added
     // after the reflection's all the same (radiance_tree).
     if constexpr (kTree) {
-      refract_rays(s, hit, id, d, delta, p, n, shading_n, cos_in, here, out, counts);
+      refract_rays(s, hit, id, d, delta, p, n, cos_in, here, out, counts,
+                   smooth ? facing_shading(s, hit, best_id, o, d, n) : n);
       if (!s.features.reflection) {
         lap(counts, kShading);
         return out.reflected;
@@ -302,7 +311,8 @@ struct Shading : Queries<Arch, Real, Mode> {
       // times t / r, and the next reflection's length by four times that: 1e-4 by the third
       // bounce inside a mirrored sphere, 2.4% of pixels off (FastMode.RaysInsideASphere...),
       // and 14 dB of PSNR lost on lorenzi-reflections, for 2.5% of speed.
-      const V r = Mth::normalize(Mth::reflect(d, shading_n));
+      const V r =
+          Mth::normalize(Mth::reflect(d, smooth ? facing_shading(s, hit, best_id, o, d, n) : n));
       // n faces the incoming ray, so the reflected one leaves on its side: r.n = -d.n >= 0.
       // Exact computes r.n as the reference does; fast takes the sign as known.
       const V from = offset_origin(p, n, kFast ? B(1) : Mth::dot(r, n), delta);
@@ -322,9 +332,9 @@ struct Shading : Queries<Arch, Real, Mode> {
   // nothing; a totally reflected one leaves on the near side like a reflection.
   [[gnu::always_inline]] static void refract_rays(const Prepared& s, const M& hit, const I& id,
                                                   const V& d, const B& delta, const V& p,
-                                                  const V& n, const V& shading_n, const B& cos_in,
-                                                  const I& here, Level& out,
-                                                  RayCounts& counts) noexcept {
+                                                  const V& n, const B& cos_in, const I& here,
+                                                  Level& out, RayCounts& counts,
+                                                  const V& shading_n) noexcept {
     out.transmit = gather(s, s.materials.transmit, id);
     out.refracted = hit & (out.transmit > B(0));
     if (!xsimd::any(out.refracted)) return;
