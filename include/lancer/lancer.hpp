@@ -88,7 +88,7 @@ struct alignas(64) RayPacket {
 //     planes and cylinders, which have none.
 //   ng: the unit geometric normal at the hit, not turned towards the ray (spheres: outward;
 //     planes: as described, normalised; triangles: along (v1 - v0) x (v2 - v0), Embree's Ng
-//     normalised, so counter-clockwise corners seen from the ray's side face it; cylinders:
+//     normalised: towards the side from which v0, v1, v2 run counter-clockwise; cylinders:
 //     outward from the axis on the side, along the axis (base to top) on the top cap and against
 //     it on the base).
 template <int N>
