@@ -49,7 +49,9 @@ struct Info {
   std::string isa;                      // "avx512f", "avx2", "sse4.2", "scalar", ...
   int threads = 1;                      // what render_rows and primary_hits run on
   int nx = 0, ny = 0, supersample = 1;  // the camera's image
-  int objects = 0;                      // ids 0 .. objects-1: spheres, then planes, in order
+  // Ids 0 .. objects-1: the spheres, then the planes, then the triangles, meshes and cylinders
+  // (SceneDescription::shapes), each kind in file order.
+  int objects = 0;
 };
 
 // Every object's mask: a ray's mask selects the objects it may hit, as Embree's geometry masks
@@ -77,12 +79,18 @@ struct alignas(64) RayPacket {
 // Closest hits of N rays, as Embree's RTCHitN plus the distance (64-byte aligned).
 //   id: the object hit (Info::objects, Embree's geomID), -1 for a miss (then t is infinity, ng,
 //     u and v zero, prim_id -1).
-//   prim_id: the primitive within the object (Embree's primID): 0 for a sphere or a plane, each
-//     one primitive.
-//   u, v: the hit's coordinates on the primitive (barycentric on a triangle): 0 on spheres and
-//     planes, which have none.
+//   prim_id: the primitive within the object (Embree's primID): on a mesh, the triangle's index
+//     in its file's order, as in SceneDescription's Mesh::indices (zero-area triangles, dropped
+//     when the mesh is loaded, not counted; a face of n corners is its n - 2 fan triangles); 0 for
+//     a sphere, a plane, a lone triangle or a cylinder, each one primitive.
+//   u, v: on a triangle (v0, v1, v2), Embree's barycentric coordinates: the hit lies at
+//     (1 - u - v) v0 + u v1 + v v2, with u, v >= 0 and u + v <= 1 up to rounding. 0 on spheres,
+//     planes and cylinders, which have none.
 //   ng: the unit geometric normal at the hit, not turned towards the ray (spheres: outward;
-//     planes: as described, normalised).
+//     planes: as described, normalised; triangles: along (v1 - v0) x (v2 - v0), Embree's Ng
+//     normalised: towards the side from which v0, v1, v2 run counter-clockwise; cylinders:
+//     outward from the axis on the side, along the axis (base to top) on the top cap and against
+//     it on the base).
 template <int N>
 struct alignas(64) HitPacket {
   float t[N];
@@ -128,7 +136,7 @@ class LANCER_API Scene {
   static Scene load(const std::string& path, const Options& options = {});
   // A description built in code is held to the file loader's own rules, with its messages,
   // before it is prepared (no scene file is written or read): objects are numbered spheres
-  // first, then planes, as in Info::objects, and materials by index
+  // first, then planes, then shapes, as in Info::objects, and materials by index
   // (`code: materials[2].kd: must be >= 0`, `code: objects[5].radius: must be > 0`).
   static Scene from_description(SceneDescription description, const Options& options = {});
 

@@ -40,7 +40,7 @@ typedef struct lancer_info {
   int width;
   int threads;
   int nx, ny, supersample;
-  int objects; /* ids 0 .. objects - 1: spheres, then planes */
+  int objects; /* ids 0 .. objects - 1: spheres, then planes, then triangles, meshes, cylinders */
 } lancer_info;
 
 typedef struct lancer_scene lancer_scene;

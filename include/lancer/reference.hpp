@@ -10,6 +10,11 @@
 #include "lancer/stats.hpp"
 #include "lancer/vec3.hpp"
 
+namespace lancer {
+template <class T>
+struct ShapeHit;  // lancer/shapes.hpp
+}  // namespace lancer
+
 namespace lancer::reference {
 
 // Renders rows [row_begin, row_end) into `image` (already sized nx x ny).
@@ -67,6 +72,12 @@ template <class T>
 Hit<T> closest_hit(const PreparedScene<T>& scene, const Vec3<T>& origin, const Vec3<T>& dir,
                    T tmin);
 
+// The same, with the primitive hit where it is a triangle, mesh or cylinder (shape.object -1
+// where the hit is a sphere, a plane or none): what shapes_surface and shapes_normals take.
+template <class T>
+Hit<T> closest_hit(const PreparedScene<T>& scene, const Vec3<T>& origin, const Vec3<T>& dir, T tmin,
+                   ShapeHit<T>& shape);
+
 extern template void render_rows<float>(const PreparedScene<float>&, Image&, int, int, RayCounts&);
 extern template void render_rows<double>(const PreparedScene<double>&, Image&, int, int,
                                          RayCounts&);
@@ -86,5 +97,9 @@ extern template Hit<float> closest_hit<float>(const PreparedScene<float>&, const
                                               const Vec3<float>&, float);
 extern template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
                                                 const Vec3<double>&, double);
+extern template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
+                                              const Vec3<float>&, float, ShapeHit<float>&);
+extern template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
+                                                const Vec3<double>&, double, ShapeHit<double>&);
 
 }  // namespace lancer::reference

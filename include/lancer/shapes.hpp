@@ -89,6 +89,20 @@ template <class T>
 void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
                     const Vec3<T>& d, const Vec3<T>& p, Vec3<T>& geometric, Vec3<T>& shading);
 
+// Where a hit lies on its primitive, as Embree reports it (the library API's prim_id, u, v):
+// the primitive's index within its object (a mesh's triangle in its file order, zero-area ones
+// left out as they are when loaded; 0 for a lone triangle or a cylinder), and on a triangle the
+// barycentric weights of vertices 1 and 2, so that the hit lies at (1 - u - v) v0 + u v1 + v v2
+// (the watertight test's own weights, from the same edge functions); u = v = 0 on a cylinder.
+template <class T>
+struct ShapeSurface {
+  int prim_in_object = 0;
+  T u = 0, v = 0;
+};
+template <class T>
+ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
+                               const Vec3<T>& d);
+
 extern template PreparedShapes<float> prepare_shapes<float>(const Scene&, const Frame&, int);
 extern template PreparedShapes<double> prepare_shapes<double>(const Scene&, const Frame&, int);
 

@@ -14,6 +14,7 @@
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
+#include "lancer/shapes.hpp"
 #include "lancer/tiles.hpp"
 #include "scene_rules.hpp"
 
@@ -104,6 +105,9 @@ struct Chunk {
   bool valid[kMaxLanes];   // by the kernel
   bool alone[kMaxLanes];   // by the reference from tmin
   bool out[kMaxLanes];
+  // Lanes the reference answered: the triangle, mesh or cylinder primitive hit (object -1 for
+  // a sphere, a plane or none). The kernels never meet one (such scenes run at width 1).
+  ShapeHit<T> shape[kMaxLanes];
 };
 
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
@@ -136,6 +140,7 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     ch.t[l] = tfar;
     ch.id[l] = -1;
     ch.out[l] = false;
+    ch.shape[l] = ShapeHit<T>{};
   }
   return active;
 }
@@ -151,28 +156,32 @@ template <class T>
 void trace_alone(const PreparedScene<T>& s, int w, Chunk<T>& ch) {
   for (int l = 0; l < w; ++l) {
     if (!ch.alone[l]) continue;
-    const reference::Hit<T> hit =
-        reference::closest_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.tmin[l]);
+    const reference::Hit<T> hit = reference::closest_hit(
+        s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.tmin[l], ch.shape[l]);
     ch.out[l] = hit.id >= 0 && hit.t < ch.t[l];
     if (ch.out[l]) ch.t[l] = hit.t, ch.id[l] = hit.id;
   }
 }
 
-// The renderer's normal at a hit, before it is turned towards the ray, in world space.
+// The renderer's geometric normal at a hit, before it is turned towards the ray, in world space.
 template <class T>
 Vec3<double> world_normal(const PreparedScene<T>& s, const Chunk<T>& ch, int w, int l) {
   const int id = ch.id[l];
+  const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
   Vec3<T> n;
   if (id < s.num_spheres) {
-    const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
     const Vec3<T> centre{s.spheres.cx[id], s.spheres.cy[id], s.spheres.cz[id]};
     const T r2 = s.spheres.r2[id], m = hit_magnitude(o, ch.t[l]);
     n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], centre, r2).normal
         : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], centre, r2, m).normal
                                  : sphere_point_along<T>(o, d, ch.t[l], centre, m).normal;
-  } else {
+  } else if (id < s.num_spheres + s.num_planes) {
     const int q = id - s.num_spheres;
     n = {s.planes.nx[q], s.planes.ny[q], s.planes.nz[q]};
+  } else {
+    // A triangle, mesh or cylinder, at the point the reference shades (reference.cpp).
+    Vec3<T> shading;
+    shapes_normals(*s.shapes, ch.shape[l], o, d, along(o, d, ch.t[l]), n, shading);
   }
   return s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
 }
@@ -194,15 +203,20 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
       const int kk = c + l;
       const int id = ch.id[l];
       h.id[kk] = id;
-      h.u[kk] = h.v[kk] = 0;  // spheres and planes have no surface coordinates
       if (id < 0) {
+        h.u[kk] = h.v[kk] = 0;
         h.t[kk] = std::numeric_limits<float>::infinity();
         h.ng_x[kk] = h.ng_y[kk] = h.ng_z[kk] = 0;
         h.prim_id[kk] = -1;
         continue;
       }
       h.t[kk] = static_cast<float>(ch.t[l]);
-      h.prim_id[kk] = 0;  // a sphere or a plane is one primitive
+      // A sphere or a plane is one primitive with no surface coordinates.
+      ShapeSurface<T> at;
+      if (ch.shape[l].object >= 0)
+        at = shapes_surface(*s.shapes, ch.shape[l], lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3));
+      h.prim_id[kk] = at.prim_in_object;
+      h.u[kk] = static_cast<float>(at.u), h.v[kk] = static_cast<float>(at.v);
       const Vec3<double> ng = world_normal(s, ch, w, l);
       h.ng_x[kk] = float(ng.x), h.ng_y[kk] = float(ng.y), h.ng_z[kk] = float(ng.z);
     }

@@ -334,6 +334,12 @@ Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<
   return closest_hit_detail(s, origin, dir, shape, eps);
 }
 
+template <class T>
+Hit<T> closest_hit(const PreparedScene<T>& s, const Vec3<T>& origin, const Vec3<T>& dir,
+                   const T eps, ShapeHit<T>& shape) {
+  return closest_hit_detail(s, origin, dir, shape, eps);
+}
+
 namespace {
 
 template <class T>
@@ -433,6 +439,10 @@ template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<f
                                        const Vec3<float>&, float);
 template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
                                          const Vec3<double>&, double);
+template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
+                                       const Vec3<float>&, float, ShapeHit<float>&);
+template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,
+                                         const Vec3<double>&, double, ShapeHit<double>&);
 template Hit<float> closest_hit<float>(const PreparedScene<float>&, const Vec3<float>&,
                                        const Vec3<float>&);
 template Hit<double> closest_hit<double>(const PreparedScene<double>&, const Vec3<double>&,

@@ -410,6 +410,22 @@ void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Ve
   shading = prim::smooth_normal(bary, normal(0), normal(1), normal(2), geometric);
 }
 
+template <class T>
+ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
+                               const Vec3<T>& d) {
+  ShapeSurface<T> out;
+  const std::int32_t ref = s.prim[std::size_t(hit.prim)];
+  if (ref < 0) return out;  // a cylinder: one primitive, no surface coordinates
+  // Triangles are stored in object order, so an object's first is the first with its id.
+  const auto& objects = s.tri_object;
+  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[std::size_t(ref)]);
+  out.prim_in_object = static_cast<int>(ref - (first - objects.begin()));
+  const PrimRay<T> ray(s, o, d, T(0));
+  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
+  out.u = bary.y, out.v = bary.z;
+  return out;
+}
+
 #define LANCER_SHAPES(T)                                                                           \
   template struct PreparedShapes<T>;                                                               \
   template PreparedShapes<T> prepare_shapes<T>(const Scene&, const Frame&, int);                   \
@@ -418,7 +434,9 @@ void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Ve
   template void shapes_met<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, T, T,      \
                               bool, std::vector<int>&);                                            \
   template void shapes_normals<T>(const PreparedShapes<T>&, const ShapeHit<T>&, const Vec3<T>&,    \
-                                  const Vec3<T>&, const Vec3<T>&, Vec3<T>&, Vec3<T>&);
+                                  const Vec3<T>&, const Vec3<T>&, Vec3<T>&, Vec3<T>&);             \
+  template ShapeSurface<T> shapes_surface<T>(const PreparedShapes<T>&, const ShapeHit<T>&,         \
+                                             const Vec3<T>&, const Vec3<T>&);
 LANCER_SHAPES(float)
 LANCER_SHAPES(double)
 #undef LANCER_SHAPES

@@ -1,6 +1,6 @@
 /* The C API (include/lancer/lancer_c.h), compiled as C: loading, info, rows, closest hits and
- * occlusion on arrays, and errors through lancer_last_error. Exit status 0 iff every check
- * holds; each failure prints one line. */
+ * occlusion on arrays (spheres and planes, then cylinders), and errors through lancer_last_error.
+ * Exit status 0 iff every check holds; each failure prints one line. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -103,6 +103,20 @@ int main(void) {
 
   lancer_scene_release(s);
   lancer_scene_release(NULL);
+
+  /* Cylinders 1-4 after the plane y = -1 (id 0); cylinder 1 stands on (-2, -1, 0), radius 0.6,
+   * top at y = 1.2: its side from +z (normal +z), its top cap from above (normal +y). */
+  s = lancer_scene_load(LANCER_SOURCE_DIR "/scenes/prims/cylinders.json", &opt);
+  CHECK(s != NULL);
+  if (!s) return 1;
+  CHECK(lancer_scene_info(s, &info) == 0 && info.objects == 5);
+  const float corg[6] = {-2, 0, 5, -2, 5, 0}, cdir[6] = {0, 0, -1, 0, -1, 0};
+  CHECK(lancer_intersect(s, 2, corg, cdir, NULL, NULL, t, id, ng) == 0);
+  CHECK(id[0] == 1 && fabsf(t[0] - 4.4f) < 1e-4f);
+  CHECK(fabsf(ng[0]) < 1e-6f && fabsf(ng[1]) < 1e-6f && fabsf(ng[2] - 1) < 1e-6f);
+  CHECK(id[1] == 1 && fabsf(t[1] - 3.8f) < 1e-4f);
+  CHECK(fabsf(ng[3]) < 1e-6f && fabsf(ng[4] - 1) < 1e-6f && fabsf(ng[5]) < 1e-6f);
+  lancer_scene_release(s);
   if (failures == 0) printf("test_api_c: every check holds\n");
   return failures == 0 ? 0 : 1;
 }

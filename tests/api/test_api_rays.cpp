@@ -1,11 +1,14 @@
 // The library API's per-ray fields beyond origin, direction and tfar: tnear, the ray mask, and
-// the hit's primitive id and u, v, on spheres and planes, at every packet width.
+// the hit's primitive id, u, v and normal, on spheres and planes and on triangles, meshes and
+// cylinders, at every packet width.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "api/api_util.hpp"
@@ -171,6 +174,127 @@ TEST(ApiRays, NanTnearIsAnErrorNamingTheLane) {
   api::Hit8 h;
   EXPECT_EQ(testing::error_of([&] { scene.intersect(nullptr, r, h); }),
             "intersect: lane 5: tnear is NaN");
+}
+
+// A scene whose objects are sphere 0, plane 1 (y = -50), a lone triangle 2, a mesh 3 and a
+// capped cylinder 4 (axis x = -6, z = -3, y from -1 to 1, radius 1). The mesh's faces, in file
+// order: triangle 0 at z = -1 (counter-clockwise seen from +z), triangle 1 at z = -2 (clockwise),
+// a zero-area face (dropped, not counted) and a quad at z = -3 (fan triangles 2 and 3).
+struct ShapeScene {
+  testing::TempDir dir;
+  std::string path = dir.file("shapes.json");
+  ShapeScene() {
+    std::ofstream(dir.file("m.obj")) << "v -1 -1 -1\nv 3 -1 -1\nv -1 3 -1\n"
+                                        "v -1 -1 -2\nv 3 -1 -2\nv -1 3 -2\n"
+                                        "v -1 -1 -3\nv 3 -1 -3\nv 3 3 -3\nv -1 3 -3\n"
+                                        "v 1 -1 -1\n"
+                                        "f 1 2 3\nf 4 6 5\nf 1 11 2\nf 7 8 9 10\n";
+    std::ofstream(path) << R"({
+      "camera": {"position": [0, 0, 5], "direction": [0, 0, -1], "distance": 1,
+                 "resolution": [8, 8], "bounds": [-1, 1, -1, 1]},
+      "objects": [
+        {"type": "sphere", "center": [20, 20, 20], "radius": 1},
+        {"type": "plane", "point": [0, -50, 0], "normal": [0, 1, 0]},
+        {"type": "triangle", "vertices": [[9, -1, -1], [11, -1, -1], [9, 1, -1]]},
+        {"type": "mesh", "file": "m.obj"},
+        {"type": "cylinder", "base": [-6, -1, -3], "top": [-6, 1, -3], "radius": 1}]})";
+  }
+};
+
+// The ray from `from` through `at`, and the distance between them.
+Ray aimed(const Vec3<double>& from, const Vec3<double>& at, double& dist) {
+  Ray r;
+  r.org = from, r.dir = normalize(at - from), dist = length(at - from);
+  return r;
+}
+
+void expect_normal(const Hit& h, const Vec3<double>& n) {
+  EXPECT_NEAR(h.ng[0], n.x, 1e-6);
+  EXPECT_NEAR(h.ng[1], n.y, 1e-6);
+  EXPECT_NEAR(h.ng[2], n.z, 1e-6);
+}
+
+// The mesh's triangle `prim` hit at `at` by `ray`, `dist` along it: prim_id, Embree's u, v (the
+// weights of v1 and v2, checked against the expected ones and by rebuilding the point from the
+// corners), t and the geometric normal.
+void expect_triangle(const Hit& h, const Ray& ray, int id, int prim, const Vec3<double> (&v)[3],
+                     double u, double vv, double dist, const Vec3<double>& n) {
+  EXPECT_EQ(h.id, id);
+  EXPECT_EQ(h.prim_id, prim);
+  EXPECT_NEAR(h.u, u, 1e-5);
+  EXPECT_NEAR(h.v, vv, 1e-5);
+  EXPECT_NEAR(h.t, dist, 1e-4);
+  const Vec3<double> rebuilt = v[0] * (1.0 - h.u - h.v) + v[1] * double(h.u) + v[2] * double(h.v);
+  EXPECT_NEAR(length(rebuilt - (ray.org + ray.dir * double(h.t))), 0.0, 1e-4);
+  expect_normal(h, n);
+  EXPECT_EQ(h.occluded, 1);
+}
+
+TEST(ApiRays, TrianglesMeshesAndCylindersGiveEmbreesHitFields) {
+  const ShapeScene file;
+  for (const api::Options& opt : {with(Precision::exact), with(Precision::dbl)}) {
+    SCOPED_TRACE(to_string(opt.precision));
+    const api::Scene scene = api::Scene::load(file.path, opt);
+    ASSERT_EQ(scene.info().objects, 5);
+    const Vec3<double> tri0[3] = {{-1, -1, -1}, {3, -1, -1}, {-1, 3, -1}};
+    const Vec3<double> tri1[3] = {{-1, -1, -2}, {-1, 3, -2}, {3, -1, -2}};
+    const Vec3<double> tri2[3] = {{-1, -1, -3}, {3, -1, -3}, {3, 3, -3}};
+    const Vec3<double> tri3[3] = {{-1, -1, -3}, {3, 3, -3}, {-1, 3, -3}};
+    const Vec3<double> up{0, 0, 1}, down{0, 0, -1};
+
+    // An oblique ray through (0.5, -0.5) on z = -1; each unit of depth moves it (0.1, 0.25).
+    const Vec3<double> step{0.1, 0.25, -1}, p0{0.5, -0.5, -1};
+    double d0;
+    Ray ray = aimed(p0 - step * 6.0, p0, d0);
+    const double dz = length(step);  // the distance from one z plane to the next
+    expect_triangle(trace_everywhere(scene, ray), ray, 3, 0, tri0, 0.375, 0.125, d0, up);
+    // tnear past each triangle finds the next one along the ray.
+    ray.tnear = float(d0 + 0.5 * dz);
+    expect_triangle(trace_everywhere(scene, ray), ray, 3, 1, tri1, 0.1875, 0.4, d0 + dz, down);
+    ray.tnear = float(d0 + 1.5 * dz);  // (0.7, 0, -3): below the quad's diagonal
+    expect_triangle(trace_everywhere(scene, ray), ray, 3, 2, tri2, 0.175, 0.25, d0 + 2 * dz, up);
+    ray.tnear = float(d0 + 2.5 * dz);
+    const Hit none = trace_everywhere(scene, ray);
+    EXPECT_EQ(none.id, -1);
+    EXPECT_EQ(none.prim_id, -1);
+    EXPECT_EQ(none.occluded, 0);
+
+    // Straight down at (1, 2.5): outside triangles 0 and 1, above the quad's diagonal.
+    double d3;
+    ray = aimed({1, 2.5, 4}, {1, 2.5, -3}, d3);
+    expect_triangle(trace_everywhere(scene, ray), ray, 3, 3, tri3, 0.5, 0.375, d3, up);
+
+    // The lone triangle is object 2's one primitive.
+    const Vec3<double> lone[3] = {{9, -1, -1}, {11, -1, -1}, {9, 1, -1}};
+    double dl;
+    ray = aimed({8, 0, 3}, {9.5, -0.75, -1}, dl);
+    expect_triangle(trace_everywhere(scene, ray), ray, 2, 0, lone, 0.25, 0.125, dl, up);
+
+    // The cylinder: its side (outward from the axis), top cap (+axis) and base (-axis).
+    struct CylinderCase {
+      Ray ray;
+      double t;
+      Vec3<double> ng;
+    };
+    const Vec3<double> side{-6 + 0.6, 0.3, -3 + 0.8},
+        towards = normalize(Vec3<double>{0.2, -0.1, -1});
+    double dist;
+    const CylinderCase cases[] = {
+        {aimed(side - towards * 5.0, side, dist), 5.0, {0.6, 0, 0.8}},
+        {aimed({-6.2, 5, -3.1}, {-6.2, 1, -3.1}, dist), 4.0, {0, 1, 0}},
+        {aimed({-5.7, -5, -3.3}, {-5.7, -1, -3.3}, dist), 4.0, {0, -1, 0}}};
+    for (const CylinderCase& c : cases) {
+      SCOPED_TRACE("cylinder, normal (" + std::to_string(c.ng.x) + ", " + std::to_string(c.ng.y) +
+                   ", " + std::to_string(c.ng.z) + ")");
+      const Hit h = trace_everywhere(scene, c.ray);
+      EXPECT_EQ(h.id, 4);
+      EXPECT_EQ(h.prim_id, 0);
+      EXPECT_EQ(h.u, 0.0f);
+      EXPECT_EQ(h.v, 0.0f);
+      EXPECT_NEAR(h.t, c.t, 1e-4);
+      expect_normal(h, c.ng);
+    }
+  }
 }
 
 // Packets are laid out for aligned vector loads, as Embree's.
