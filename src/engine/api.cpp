@@ -328,12 +328,12 @@ Scene Scene::make(SceneDescription description, const Options& options) {
     info.precision_reason = c.reason;
   }
   if (!s.shapes.empty()) {
-    // Triangles, meshes and cylinders: the reference only until the packets model them, as
-    // lancer render runs them (render.cpp).
+    // Triangles, meshes and cylinders: the reference, whose hits give the primitive and its
+    // u, v (the packets' do not hand them back yet).
     if (info.precision == Precision::fast || (options.width != 0 && options.width != 1))
       throw InputError(
-          "width: scenes with triangles, meshes or cylinders run on the reference "
-          "only (width 1, exact or double precision) until the packets model them");
+          "width: the library answers scenes with triangles, meshes or cylinders on the "
+          "reference only (width 1, exact or double precision), for their primitive ids and u, v");
     info.width = 1;
   } else {
     info.width = resolve_width(options.width, info.precision, "width");

@@ -45,7 +45,10 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   using typename L::V;
   using Shapes = PreparedShapes<T>;
 
-  static bool present(const Prepared& s) noexcept { return s.features.shapes; }
+  // Expected false: the branches on it are laid out for the scenes without shapes.
+  static bool present(const Prepared& s) noexcept {
+    return __builtin_expect(s.features.shapes, false);
+  }
   // Shape ids start after the planes'.
   static int first_id(const Prepared& s) noexcept { return s.num_spheres + s.num_planes; }
 
@@ -404,7 +407,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
 
   // Whether any mesh is smooth: shading then takes shading_normal() for its lighting.
   static bool smooth(const Prepared& s) noexcept {
-    return s.features.shapes && !s.shapes->tri_normals.empty();
+    return __builtin_expect(s.features.shapes && !s.shapes->tri_normals.empty(), false);
   }
   // The shading normal at the lanes of `hit` (not turned to the ray): a smooth triangle's blend
   // of its vertex normals at the hit's barycentrics (prim::smooth_normal), else `geometric`.
