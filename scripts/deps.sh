@@ -23,6 +23,9 @@ packages=(
   jq python3              # scripts/measure.sh and scaling.sh read bench's JSON; CI's skip check
   libbenchmark-tools python3-scipy  # Google Benchmark's compare.py (README), which imports scipy
   strace                  # the fsync-order test of atomic replace (tests/fuzz/test_edges.cpp)
+  pybind11-dev python3-dev python3-numpy  # the Python module (docs/python.md)
+  python3-pytest          # its tests (tests/python/)
+  jupyter-nbconvert python3-ipykernel python3-matplotlib  # the example notebook, run headless in CI
   libsimde-dev            # x86 intrinsics over NEON: the kernels' aarch64 build (docs/platforms.md)
 )
 # On x86-64, the aarch64 cross build that .ci/arm.sh runs under qemu-aarch64: Debian's cross

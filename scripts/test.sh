@@ -2,9 +2,9 @@
 # The second command: every test. Installs what is missing and builds first, so it works on a
 # fresh clone. Stages: the Release suite (ctest; a skip not listed in .ci/expected-skips.txt
 # fails), validate on every scene, the binary under emulated SSE4.2-only and AVX2-only CPUs,
-# the aarch64 build under qemu-aarch64 (those two on x86-64 only), renders across MPI ranks,
-# the README's commands, then, unless --quick, the same suite under ASan+UBSan and a bounded
-# fuzzing run of the scene loader.
+# the aarch64 build under qemu-aarch64 (those two on x86-64 only), the Python module's tests and
+# notebook, renders across MPI ranks, the README's commands, then, unless --quick, the same suite
+# under ASan+UBSan and a bounded fuzzing run of the scene loader.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
@@ -23,8 +23,12 @@ cmake --build build -j"$(nproc)"
 # A skipped gtest case passes in ctest's summary: fail on any not listed as expected.
 .ci/skips.py build/ctest-junit.xml
 
-for s in scenes/*.json; do build/lancer validate "$s" >/dev/null || { echo "validate: $s differs"; exit 1; }; done
-echo "validate: every scene in scenes/ bit-identical at every width this CPU runs"
+for s in scenes/*.json scenes/prims/*.json; do
+  for p in exact double; do
+    build/lancer validate --precision "$p" "$s" >/dev/null || { echo "validate: $s differs ($p)"; exit 1; }
+  done
+done
+echo "validate: every scene in scenes/ and scenes/prims/ bit-identical at every width this CPU runs (exact and double)"
 
 if [ "$(uname -m)" = x86_64 ]; then
   # The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
@@ -33,6 +37,9 @@ if [ "$(uname -m)" = x86_64 ]; then
   # against this machine's (docs/platforms.md).
   .ci/arm.sh build build-arm
 fi
+
+# The Python module's tests (pytest) and the example notebook, executed headless.
+.ci/python.sh build
 
 # The installed package, used from outside the tree (find_package(lancer); about 10 s).
 .ci/consumer.sh build

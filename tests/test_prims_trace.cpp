@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <random>
@@ -11,6 +12,7 @@
 
 #include "lancer/generate.hpp"
 #include "lancer/mesh_io.hpp"
+#include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
@@ -100,7 +102,47 @@ Vec3<double> random_unit(std::mt19937_64& rng) {
 
 struct LeakCount {
   std::size_t rays = 0, leaks = 0, edges = 0;
+  // Per packet width this CPU runs (exact float or double kernels): the same rays' leaks.
+  std::map<int, std::size_t> packet_leaks;
+  std::map<int, std::size_t> packet_differs;  // hits not the reference's (id and t's bits)
 };
+
+// The closest hits of `rays` (origin, direction pairs) through one packet kernel, width lanes
+// at a time; the last packet's spare lanes are invalid.
+template <class T>
+std::vector<reference::Hit<T>> packet_hits(const PreparedScene<T>& p,
+                                           const packet::KernelTable<T>& k,
+                                           const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays) {
+  const int w = k.width;
+  std::vector<reference::Hit<T>> out(rays.size());
+  const std::size_t n = static_cast<std::size_t>(w);
+  std::vector<T> soa(6 * n), t(n);
+  std::vector<std::int32_t> id(n);
+  bool valid[16], hit[16];
+  for (std::size_t first = 0; first < rays.size(); first += std::size_t(w)) {
+    for (int l = 0; l < w; ++l) {
+      const std::size_t r = std::min(first + std::size_t(l), rays.size() - 1);
+      valid[l] = first + std::size_t(l) < rays.size();
+      const Vec3<T>& o = rays[r].first;
+      const Vec3<T>& d = rays[r].second;
+      const T v[6] = {o.x, o.y, o.z, d.x, d.y, d.z};
+      for (int c = 0; c < 6; ++c) soa[std::size_t(c * w + l)] = v[c];
+      t[std::size_t(l)] = std::numeric_limits<T>::infinity(), id[std::size_t(l)] = -1;
+    }
+    k.closest_hit_packet(p, valid, soa.data(), t.data(), id.data(), hit);
+    for (int l = 0; l < w && first + std::size_t(l) < rays.size(); ++l)
+      out[first + std::size_t(l)] = {id[std::size_t(l)], t[std::size_t(l)]};
+  }
+  return out;
+}
+
+template <class T>
+const packet::KernelTable<T>* kernels_of(int width) {
+  if constexpr (std::is_same_v<T, float>)
+    return packet::float_kernels(width, Precision::exact);
+  else
+    return packet::double_kernels(width);
+}
 
 // Rays through points of every edge shared by exactly two triangles (edges found by their
 // vertices' coordinates, so a triangle soup counts too) and through every vertex whose
@@ -143,6 +185,7 @@ LeakCount count_leaks(const Scene& scene, std::uint64_t seed, int points_per_edg
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u01(0, 1);
   LeakCount count;
+  std::vector<std::pair<Vec3<T>, Vec3<T>>> rays;
   // A ray through `at` along some d crossing every triangle of `tris` at a clear angle.
   auto fire = [&](const Vec3<double>& at, const std::vector<std::size_t>& tris) {
     for (int attempt = 0; attempt < 64; ++attempt) {
@@ -157,9 +200,7 @@ LeakCount count_leaks(const Scene& scene, std::uint64_t seed, int points_per_edg
       const Vec3<T> ot = Vec3<T>::from(at - d * reach);
       const Vec3<double> aim = at - Vec3<double>{double(ot.x), double(ot.y), double(ot.z)};
       const Vec3<T> dt = Vec3<T>::from(normalize(aim));
-      const reference::Hit<T> h = reference::closest_hit(p, ot, dt);
-      ++count.rays;
-      if (h.id < 0 || double(h.t) > reach * (1 + 1e-4)) ++count.leaks;
+      rays.push_back({ot, dt});
       return;
     }
   };
@@ -174,7 +215,36 @@ LeakCount count_leaks(const Scene& scene, std::uint64_t seed, int points_per_edg
     }
   }
   for (const auto& [v, tris] : fans) fire({std::get<0>(v), std::get<1>(v), std::get<2>(v)}, tris);
+  auto leaked = [&](const reference::Hit<T>& h) {
+    return h.id < 0 || double(h.t) > reach * (1 + 1e-4);
+  };
+  count.rays = rays.size();
+  for (const auto& [o, d] : rays) count.leaks += leaked(reference::closest_hit(p, o, d));
+  for (const int width :
+       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
+    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
+    if (!k) continue;
+    std::size_t& n = count.packet_leaks[width];
+    std::size_t& differ = count.packet_differs[width];
+    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
+    for (std::size_t r = 0; r < rays.size(); ++r) {
+      n += leaked(hits[r]);
+      const reference::Hit<T> ref = reference::closest_hit(p, rays[r].first, rays[r].second);
+      differ += hits[r].id != ref.id || (ref.id >= 0 && std::memcmp(&hits[r].t, &ref.t, sizeof(T)));
+    }
+  }
   return count;
+}
+
+// Every packet width this CPU runs traced the same rays, and none passed through.
+void expect_no_packet_leaks(const LeakCount& c, const std::string& what) {
+  EXPECT_FALSE(c.packet_leaks.empty()) << what << ": no packet width ran";
+  for (const auto& [width, leaks] : c.packet_leaks)
+    EXPECT_EQ(leaks, 0u) << what << ", width " << width << ": " << leaks << " of " << c.rays
+                         << " rays passed through";
+  for (const auto& [width, differ] : c.packet_differs)
+    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << c.rays
+                          << " hits not the reference's";
 }
 
 template <class T>
@@ -185,6 +255,7 @@ void expect_watertight(const Shape& mesh, const char* what, std::uint64_t seed) 
   EXPECT_GT(c.rays, 2 * c.edges) << what;
   EXPECT_EQ(c.leaks, 0u) << what << ": " << c.leaks << " of " << c.rays << " rays through "
                          << c.edges << " shared edges and the vertices passed through";
+  expect_no_packet_leaks(c, what);
 }
 
 TEST(Prims, WatertightTessellatedSpheresAndBoxes) {
@@ -222,6 +293,7 @@ TEST(Prims, WatertightGeneratedSphere) {
   const LeakCount c = count_leaks<float>(s, 11, 1);
   EXPECT_EQ(c.edges, std::size_t(3 * triangles / 2));  // closed: every edge shared by two
   EXPECT_EQ(c.leaks, 0u) << c.leaks << " of " << c.rays << " rays leaked";
+  expect_no_packet_leaks(c, "generated sphere");
 }
 
 // The Stanford bunny of Debian's glmark2-data (a triangle soup: its triangles share edges by
@@ -241,6 +313,7 @@ TEST(Prims, WatertightStanfordBunny) {
   const LeakCount c = count_leaks<float>(s, 7, 1);
   EXPECT_GT(c.edges, 50000u);
   EXPECT_EQ(c.leaks, 0u) << c.leaks << " of " << c.rays << " rays leaked";
+  expect_no_packet_leaks(c, "bunny");
 }
 
 // Log-uniform in [lo, hi].

@@ -36,6 +36,9 @@ struct StructureInfo {
   // Triangles, meshes and cylinders: their own hierarchy (lancer/shapes.hpp), when any.
   std::size_t shape_primitives = 0, shape_nodes = 0, shape_bytes = 0;
   double shape_build_seconds = 0;
+  // The primitive kinds the kernels test for this scene, in id order ("spheres, planes,
+  // triangles (smooth normals), cylinders"): a kind the scene lacks runs none of its code.
+  std::string kinds;
 };
 // One line for both: "closest hits one ray at a time; shadow rays packets, one ray alone at 1
 // lane" (each "packets", "one ray at a time" or "packets, one ray alone at N lanes or fewer").
@@ -67,7 +70,6 @@ struct RenderResult {
   int width = 1;
   int threads = 1;
   std::string isa;
-  std::string width_reason;                // why the width is what it is, when not as asked
   Precision precision = Precision::exact;  // as resolved: never automatic
   std::string precision_reason;            // why, when automatic chose it
   StructureInfo structure;

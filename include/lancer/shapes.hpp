@@ -49,6 +49,8 @@ struct PreparedShapes {
     std::uint32_t first = 0, count = 0;
   };
   std::vector<Node> nodes;
+  // The tree's depth bound: its walks keep fixed stacks of this many entries.
+  static constexpr int kMaxTreeDepth = 128;
   std::vector<std::uint32_t> order;  // primitive numbers in leaf order
   double build_seconds = 0;
 

@@ -47,7 +47,8 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
           : "";
   std::printf("  engine   width %d (%s), %s precision, %d thread%s%s\n", r.width, r.isa.c_str(),
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
-  if (!r.width_reason.empty()) std::printf("  width    1: %s\n", r.width_reason.c_str());
+  std::printf("  kinds    %s: the kernels test these and no other\n",
+              r.structure.kinds.c_str());
   if (!scene.shapes.empty()) {
     std::size_t meshes = 0, cylinders = 0, dropped = 0;
     for (const Shape& sh : scene.shapes) {
@@ -137,7 +138,7 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                 {"gather_seconds", ranks->gather_seconds},
                 {"gather_bytes", ranks->gather_bytes}};
   }
-  if (!r.width_reason.empty()) j["width_reason"] = r.width_reason;
+  j["kinds"] = r.structure.kinds;
   if (!scene.shapes.empty()) {
     std::size_t meshes = 0, cylinders = 0, dropped = 0;
     for (const Shape& sh : scene.shapes) {

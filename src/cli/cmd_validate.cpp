@@ -27,11 +27,6 @@ struct ValidateArgs {
 void run_validate(const ValidateArgs& a, int& status) {
   Scene scene = load_scene(a.scene);
   apply_overrides(scene, a.overrides);
-  // Nothing to compare until the packets model them: refused before any output.
-  if (!scene.shapes.empty())
-    throw InputError(a.scene +
-                     ": triangles, meshes and cylinders run on the reference only "
-                     "until the packets model them: no packet width to validate");
   const Precision precision = parse_precision(a.precision, "--precision");
   if (precision != Precision::exact && precision != Precision::dbl)
     throw InputError("--precision: validate compares exact or double renders, not " + a.precision);

@@ -60,22 +60,9 @@ int resolve_width(int requested, Precision precision, const std::string& option)
 
 namespace {
 
-// Triangles, meshes and cylinders: the reference models them, the packets do not yet, so such a
-// scene runs at width 1 (auto) and a packet width asked for is refused rather than rendered
-// without them.
-int width_for(int requested, Precision precision, bool shapes) {
-  if (!shapes) return resolve_width(requested, precision);
-  if (precision == Precision::fast)
-    throw InputError(
-        "--precision: fast runs on packets only, and the packets do not model triangles, meshes "
-        "or cylinders yet: use exact or double");
-  if (requested != 0 && requested != 1)
-    throw InputError(
-        "--width: scenes with triangles, meshes or cylinders run on the reference "
-        "only (width 1) until the packets model them, not width " +
-        std::to_string(requested));
-  return 1;
-}
+// Every kind runs at every width: the packets model triangles, meshes and cylinders too
+// (packet/prim/shapes.hpp).
+int width_for(int requested, Precision precision) { return resolve_width(requested, precision); }
 
 }  // namespace
 
@@ -334,10 +321,9 @@ struct SampleOff {
 
 // The float scene it prepared goes to `keep` where given: a render that keeps float need not
 // prepare it again.
-// The widest packets of a precision, or the reference where the packets do not model the scene
-// (width_for).
-int sample_width(const Scene& scene, Precision precision) {
-  return scene.shapes.empty() ? packet::supported_widths(precision).front() : 1;
+// The widest packets of a precision.
+int sample_width(const Scene& /*scene*/, Precision precision) {
+  return packet::supported_widths(precision).front();
 }
 
 SampleOff measure_sample(const Scene& scene, int threads,
@@ -422,6 +408,18 @@ PrecisionChoice choose_precision(const Scene& scene) {
 template <class T>
 StructureInfo structure_of(const PreparedScene<T>& p) {
   StructureInfo info;
+  auto kind = [&](bool present, const char* name) {
+    if (!present) return;
+    info.kinds += (info.kinds.empty() ? "" : ", ") + std::string(name);
+  };
+  kind(p.features.spheres, "spheres");
+  kind(p.features.planes, "planes");
+  if (p.shapes) {
+    kind(p.shapes->triangles() > 0,
+         p.shapes->tri_normals.empty() ? "triangles" : "triangles (smooth normals)");
+    kind(!p.shapes->cyl_object.empty(), "cylinders");
+  }
+  if (info.kinds.empty()) info.kinds = "none (no object)";
   if (p.shapes) {
     info.shape_primitives = p.shapes->prim.size();
     info.shape_nodes = p.shapes->nodes.size();
@@ -463,8 +461,6 @@ std::string secondary_walk(const StructureInfo& st, int width) {
 
 struct PreparedRun::State {
   RenderOptions opt;
-  bool shapes = false;  // triangles, meshes or cylinders: the reference only  // accel,
-                        // model_everything and on_progress of every run
   Precision precision = Precision::exact;
   std::string reason;
   int nx = 0, ny = 0;
@@ -492,8 +488,7 @@ PreparedRun::PreparedRun(const Scene& scene, const RenderOptions& opt)
     st.reason = c.reason;
   }
   // Bad options fail before the work of preparing.
-  st.shapes = !scene.shapes.empty();
-  width_for(opt.width, st.precision, st.shapes);
+  width_for(opt.width, st.precision);
   st.nx = scene.camera.nx, st.ny = scene.camera.ny;
   if (st.precision == Precision::dbl)
     st.d = std::make_unique<PreparedScene<double>>(prepare_for<double>(scene, opt));
@@ -508,7 +503,7 @@ PreparedRun::~PreparedRun() = default;
 template <class Result, class Body>
 void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   const State& st = *state_;
-  res.width = width_for(width, st.precision, st.shapes);
+  res.width = width_for(width, st.precision);
   res.threads = resolve_threads(threads);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
@@ -539,10 +534,6 @@ RenderResult PreparedRun::render(int width, int threads) const {
           rows.render(prepared, res.image, r0, r1, c);
         });
   res.isa = packet::isa_name(res.width, res.precision);
-  if (st.shapes)
-    res.width_reason =
-        "triangles, meshes and cylinders: the reference only until the packets "
-        "model them";
   return res;
 }
 

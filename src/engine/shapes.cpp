@@ -17,7 +17,7 @@ namespace {
 constexpr int kBins = 16;
 constexpr std::uint32_t kLeafSize = 4;
 constexpr int kMedianDepth = 64;
-constexpr int kMaxDepth = 128;
+constexpr int kMaxDepth = PreparedShapes<float>::kMaxTreeDepth;
 
 template <class T>
 struct Box {

@@ -25,8 +25,6 @@ PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
     : state_(std::make_unique<State>()) {
   if (opt.precision != Precision::exact && opt.precision != Precision::fast)
     throw InputError("--precision: the kernel alone runs float packets: exact or fast");
-  if (!scene.shapes.empty())
-    throw InputError("--mode kernel: the packets do not model triangles, meshes or cylinders yet");
   const int width = resolve_width(opt.width, opt.precision);
   if (width == 1) throw InputError("--width: the kernel alone runs packets: 4, 8 or 16, not 1");
   State& st = *state_;

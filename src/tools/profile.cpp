@@ -19,10 +19,6 @@ const char* stage_name(int stage) {
 
 ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   ProfileResult res;
-  if (!scene.shapes.empty())
-    throw InputError(scene.name +
-                     ": profile instruments the packet kernels, which do not model "
-                     "triangles, meshes or cylinders yet");
   res.width = resolve_width(width, Precision::exact);
   if (res.width == 1)
     throw InputError("--width: profile instruments the packet kernels: width 4, 8 or 16");

@@ -49,7 +49,7 @@ struct Kernel : Rows<Arch, Real, Mode> {
     RayCounts unused;
     const M hit = closest_hit(s, v, o, d, bt, bid, unused);
     bt.store_unaligned(t);
-    store_ids(bid, id, W);
+    store_ids(Ro::object_ids(s, bid), id, W);
     const unsigned hb = bits(hit);
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }

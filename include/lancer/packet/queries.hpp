@@ -86,6 +86,12 @@ struct Queries : Hybrid<Arch, Real, Mode> {
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
   }
 
+  // The object ids of hit ids (meshes' hits carry their triangle: Primitives::Meshes).
+  [[gnu::always_inline]] static I object_ids(const Prepared& s, const I& hit_id) noexcept {
+    if (!Prims::Meshes::present(s)) return hit_id;
+    return Prims::Meshes::object_of(s, hit_id);
+  }
+
   // The unbounded kinds' part of closest_hit, after the hierarchy (their ids are higher).
   [[gnu::always_inline]] static void unbounded_closest(const Prepared& s, const M& valid,
                                                        const V& o, const V& d, B& best_t,

@@ -226,7 +226,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
         } else {
           store_lanes(sum, t_out + at, lanes);
         }
-        if (id_out) store_ids(first_id, id_out + at, lanes);
+        if (id_out) store_ids(Ra::object_ids(s, first_id), id_out + at, lanes);
       }
     }
   }
@@ -251,6 +251,11 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
       primary_blocks<kGroupX, kGroupY>(s, t_out, id_out, row_begin, row_end, 0, counts);
     else
       primary_blocks<1, 1>(s, t_out, id_out, row_begin, row_end, 0, counts);
+    // The blocks keep hit ids (render_rows shades from them): object ids for the caller.
+    if (id_out && Ra::Prims::Meshes::present(s))
+      for (std::size_t k = std::size_t(row_begin) * std::size_t(s.camera.nx);
+           k < std::size_t(row_end) * std::size_t(s.camera.nx); ++k)
+        id_out[k] = Ra::Prims::Meshes::object_of(s, id_out[k]);
   }
   // Blocks of gx x gy tiles (the block's shape fixed at compile time: its loops unroll). Pixel
   // (i, j) goes to t_out[(j - row_base) * nx + i].

@@ -113,11 +113,13 @@ struct Shading : Queries<Arch, Real, Mode> {
   struct Shade {
     B r, g, b;
   };
-  template <int C, bool kGlass, bool kOneRay = true>
+  // kSmooth: n is a smooth mesh's shading normal, and `side` the geometric normal facing the
+  // ray, by whose side the shadow rays leave (the reference's n and side); else side is n.
+  template <int C, bool kGlass, bool kOneRay = true, bool kSmooth = false>
   [[gnu::always_inline]] static Shade light_sums(const Prepared& s, const M& hit, const I& id,
                                                  const B& delta, const V& p, const V& n,
                                                  const V& view, const I& here, RayCounts& counts,
-                                                 bool secondary) noexcept {
+                                                 bool secondary, const V& side) noexcept {
     const B ka = gather(s, s.materials.ka, id), kd = gather(s, s.materials.kd, id);
     B ks(0), shininess(0), shininess_int(0);
     if (s.features.specular) {
@@ -146,7 +148,8 @@ struct Shading : Queries<Arch, Real, Mode> {
       // from outside skip it. Through glass the surface passes part of the light: traced, and
       // only the rays leaving outwards skip their sphere.
       const M traced = shortcuts ? lit & (cos_nl > B(0)) : lit;
-      const V from = offset_origin(p, n, shortcuts ? B(1) : cos_nl, delta);
+      const V from = kSmooth ? offset_origin(p, side, Mth::dot(l, side), delta)
+                             : offset_origin(p, n, shortcuts ? B(1) : cos_nl, delta);
       I skip_sphere = here;
       if constexpr (kFast)
         if (!shortcuts) skip_sphere = xsimd::select(to_mi(cos_nl > B(0)), here, I(Id(-1)));
@@ -189,10 +192,17 @@ struct Shading : Queries<Arch, Real, Mode> {
   // would give the hot path's vectors a home in memory.
   [[gnu::noinline]] static Shade general_light_sums(const Prepared& s, M hit, I id, B delta, V p,
                                                     V n, V view, I here, RayCounts& counts,
-                                                    bool secondary) noexcept {
+                                                    bool secondary, V side) noexcept {
+    if (Prims::Meshes::smooth(s)) {
+      if (s.features.coloured_lights)
+        return light_sums<3, true, true, true>(s, hit, id, delta, p, n, view, here, counts,
+                                               secondary, side);
+      return light_sums<1, true, true, true>(s, hit, id, delta, p, n, view, here, counts, secondary,
+                                             side);
+    }
     if (s.features.coloured_lights)
-      return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts, secondary);
-    return light_sums<1, true>(s, hit, id, delta, p, n, view, here, counts, secondary);
+      return light_sums<3, true>(s, hit, id, delta, p, n, view, here, counts, secondary, n);
+    return light_sums<1, true>(s, hit, id, delta, p, n, view, here, counts, secondary, n);
   }
 
   // Shades the lanes of `active` at one level; returns the lanes that reflect further and sets
@@ -234,16 +244,25 @@ struct Shading : Queries<Arch, Real, Mode> {
     const B magnitude = hit_magnitude(o, best_t);
     V p = Mth::along(o, d, best_t);
     B delta = offset_delta<T>(magnitude);
-    const I id = xsimd::select(to_mi(hit), best_id, I(0));
+    const I id = xsimd::select(to_mi(hit), Q::object_ids(s, best_id), I(0));
     V n{B(0), B(0), B(0)};
     Prims::All::each([&](auto kind) __attribute__((always_inline)) {
       using K = KindOf<decltype(kind)>;
       if (K::present(s)) K::surface(s, hit, best_id, id, o, d, best_t, magnitude, p, n, delta);
     });
     // The geometric normal's side: the ray enters the object where cos_in < 0 (step 7).
+    // Smooth meshes shade with their blend of vertex normals, turned to the ray on its own;
+    // rays leave by the geometric normal's side (the reference's n and side).
+    V shading_n;
+    const bool smooth = Prims::Meshes::smooth(s);
+    if (smooth) {
+      shading_n = Prims::Meshes::shading_normal(s, hit, best_id, o, d, n);
+      shading_n = select3(Mth::dot(shading_n, d) > B(0), -shading_n, shading_n);
+    }
     const B cos_in = Mth::dot(n, d);
     const M inside = cos_in > B(0);
     n = select3(inside, -n, n);
+    if (!smooth) shading_n = n;
     const V view = -d;
     // The sphere hit from outside, which this level's shadow rays and reflections leave.
     I here(Id(-1));
@@ -253,9 +272,10 @@ struct Shading : Queries<Arch, Real, Mode> {
 
     const bool secondary = depth > 0;
     const Shade sum =
-        s.features.coloured_lights || s.features.transparency
-            ? general_light_sums(s, hit, id, delta, p, n, view, here, counts, secondary)
-            : light_sums<1, false, kOneRay>(s, hit, id, delta, p, n, view, here, counts, secondary);
+        s.features.coloured_lights || s.features.transparency || smooth
+            ? general_light_sums(s, hit, id, delta, p, shading_n, view, here, counts, secondary, n)
+            : light_sums<1, false, kOneRay>(s, hit, id, delta, p, n, view, here, counts, secondary,
+                                            n);
     out.r = xsimd::select(hit, gather(s, s.materials.r, id) * sum.r, out.r);
     out.g = xsimd::select(hit, gather(s, s.materials.g, id) * sum.g, out.g);
     out.b = xsimd::select(hit, gather(s, s.materials.b, id) * sum.b, out.b);
@@ -267,7 +287,7 @@ struct Shading : Queries<Arch, Real, Mode> {
     // Refracted rays first, while o and d are still this level's rays; their term is added
     // after the reflection's all the same (radiance_tree).
     if constexpr (kTree) {
-      refract_rays(s, hit, id, d, delta, p, n, cos_in, here, out, counts);
+      refract_rays(s, hit, id, d, delta, p, n, shading_n, cos_in, here, out, counts);
       if (!s.features.reflection) {
         lap(counts, kShading);
         return out.reflected;
@@ -282,7 +302,7 @@ struct Shading : Queries<Arch, Real, Mode> {
       // times t / r, and the next reflection's length by four times that: 1e-4 by the third
       // bounce inside a mirrored sphere, 2.4% of pixels off (FastMode.RaysInsideASphere...),
       // and 14 dB of PSNR lost on lorenzi-reflections, for 2.5% of speed.
-      const V r = Mth::normalize(Mth::reflect(d, n));
+      const V r = Mth::normalize(Mth::reflect(d, shading_n));
       // n faces the incoming ray, so the reflected one leaves on its side: r.n = -d.n >= 0.
       // Exact computes r.n as the reference does; fast takes the sign as known.
       const V from = offset_origin(p, n, kFast ? B(1) : Mth::dot(r, n), delta);
@@ -302,8 +322,9 @@ struct Shading : Queries<Arch, Real, Mode> {
   // nothing; a totally reflected one leaves on the near side like a reflection.
   [[gnu::always_inline]] static void refract_rays(const Prepared& s, const M& hit, const I& id,
                                                   const V& d, const B& delta, const V& p,
-                                                  const V& n, const B& cos_in, const I& here,
-                                                  Level& out, RayCounts& counts) noexcept {
+                                                  const V& n, const V& shading_n, const B& cos_in,
+                                                  const I& here, Level& out,
+                                                  RayCounts& counts) noexcept {
     out.transmit = gather(s, s.materials.transmit, id);
     out.refracted = hit & (out.transmit > B(0));
     if (!xsimd::any(out.refracted)) return;
@@ -311,11 +332,11 @@ struct Shading : Queries<Arch, Real, Mode> {
     counts.refracted += count(out.refracted);
     const B eta = xsimd::select(cos_in < B(0), gather(s, s.materials.inv_ior, id),
                                 gather(s, s.materials.ior, id));
-    const Refraction<B> rf = refract<Mth>(d, n, eta);
+    const Refraction<B> rf = refract<Mth>(d, shading_n, eta);
     const M through = rf.k >= B(0);
     V t = Mth::normalize(rf.dir);
     if (!xsimd::all(through | ~out.refracted))
-      t = select3(through, t, Mth::normalize(Mth::reflect(d, n)));
+      t = select3(through, t, Mth::normalize(Mth::reflect(d, shading_n)));
     const B side = kFast ? xsimd::select(through, B(T(-1)), B(T(1))) : Mth::dot(t, n);
     out.to = offset_origin(p, n, side, delta);
     out.td = t;
