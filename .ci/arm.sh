@@ -44,6 +44,21 @@ emulate() { qemu-aarch64 "$@"; }
 widths_of() { grep -oE '^ +[0-9]+ ' | tr -d ' ' | tr '\n' ' '; }
 
 status=0
+# What the cross build leaves out is refused as bad input (exit 2, one line, no file), before any
+# work: a TIFF (the image modules) and a figure (cairo).
+refused() {
+  local what=$1 file=$2 rc=0
+  shift 2
+  emulate "$arm/lancer" "$@" >/dev/null 2>"$out/err.txt" || rc=$?
+  if [ $rc -ne 2 ] || [ -e "$file" ] || [ "$(wc -l <"$out/err.txt")" -ne 1 ]; then
+    echo "arm: $what gave exit $rc (2 expected, one line, no file)"; cat "$out/err.txt"; status=1
+  fi
+}
+refused "a TIFF without the image modules" "$out/x.tif" \
+  render scenes/lorenzi-diffuse.json -o "$out/x.tif" --resolution 16x16 --threads 1
+printf 'a,b\n1,2\n3,4\n' >"$out/d.csv"
+refused "a figure without cairo" "$out/p.svg" plot "$out/d.csv" --x a --y b -o "$out/p.svg"
+
 scenes=(scenes/*.json scenes/prims/*.json)
 compared=0
 for scene in "${scenes[@]}"; do
