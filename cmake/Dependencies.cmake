@@ -27,18 +27,35 @@ endif()
 # ones underneath, but brings 260 libraries with them.
 find_package(PNG REQUIRED)
 find_package(JPEG REQUIRED)
-find_package(TIFF 4.5 REQUIRED)  # 4.5: per-handle error handlers (TIFFOpenOptions)
-find_package(OpenEXR 3 CONFIG REQUIRED)
+# The image modules (TIFF and OpenEXR; OpenImageIO) and the figures (cairo) can be left out where
+# their libraries are not installed, as in the aarch64 cross build (docs/platforms.md).
+option(LANCER_WITH_IMAGE_MODULES "Build the TIFF/OpenEXR and OpenImageIO image modules" ON)
+option(LANCER_WITH_PLOTS "Draw figures with cairo (plot, and the figures of flux and trade)" ON)
+if(LANCER_WITH_IMAGE_MODULES)
+  find_package(TIFF 4.5 REQUIRED)  # 4.5: per-handle error handlers (TIFFOpenOptions)
+  find_package(OpenEXR 3 CONFIG REQUIRED)
 
-# OpenImageIO 2.4 (Debian) lists /usr/include/opencv4, which does not exist without OpenCV.
-find_package(OpenImageIO REQUIRED)
-foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)
-  get_target_property(_dirs OpenImageIO::OpenImageIO ${_prop})
-  if(_dirs)
-    list(FILTER _dirs EXCLUDE REGEX "opencv4")
-    set_target_properties(OpenImageIO::OpenImageIO PROPERTIES ${_prop} "${_dirs}")
-  endif()
-endforeach()
+  # OpenImageIO 2.4 (Debian) lists /usr/include/opencv4, which does not exist without OpenCV.
+  find_package(OpenImageIO REQUIRED)
+  foreach(_prop INTERFACE_INCLUDE_DIRECTORIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES)
+    get_target_property(_dirs OpenImageIO::OpenImageIO ${_prop})
+    if(_dirs)
+      list(FILTER _dirs EXCLUDE REGEX "opencv4")
+      set_target_properties(OpenImageIO::OpenImageIO PROPERTIES ${_prop} "${_dirs}")
+    endif()
+  endforeach()
+endif()
+
+# The packet kernels' ISAs: SSE4.2, AVX2 and AVX-512F on x86-64; NEON on aarch64, where the
+# kernels' x86 intrinsics come from SIMDe (Debian: libsimde-dev, headers only).
+set(LANCER_AARCH64 OFF)
+if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(aarch64|arm64|ARM64)$")
+  set(LANCER_AARCH64 ON)
+  find_path(LANCER_SIMDE_INCLUDE simde/x86/avx512.h REQUIRED)
+elseif(NOT CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$")
+  message(FATAL_ERROR "lancer's packet kernels are built for x86-64 and aarch64, "
+                      "not ${CMAKE_SYSTEM_PROCESSOR}")
+endif()
 
 # Embree 3 (Debian: libembree-dev), the peer of `lancer bench --peer embree`. Optional: without
 # it the peer is compiled out and --peer embree says so (exit 2).

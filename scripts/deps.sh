@@ -26,7 +26,17 @@ packages=(
   pybind11-dev python3-dev python3-numpy  # the Python module (docs/python.md)
   python3-pytest          # its tests (tests/python/)
   jupyter-nbconvert python3-ipykernel python3-matplotlib  # the example notebook, run headless in CI
+  libsimde-dev            # x86 intrinsics over NEON: the kernels' aarch64 build (docs/platforms.md)
 )
+# On x86-64, the aarch64 cross build that .ci/arm.sh runs under qemu-aarch64: Debian's cross
+# compiler and the arm64 packages the engine, the CLI and the core tests link (multiarch). The
+# image modules, cairo, Embree and MPI are left out of that build, so none of theirs.
+foreign=()
+if [ "$(dpkg --print-architecture)" = amd64 ]; then
+  packages+=(g++-aarch64-linux-gnu)
+  foreign=(libtbb-dev libgtest-dev libgmock-dev libpng-dev libjpeg-dev)
+  for p in "${foreign[@]}"; do packages+=("$p:arm64"); done
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -44,5 +54,8 @@ if [ "$(id -u)" -ne 0 ]; then
   sudo="sudo"
 fi
 export DEBIAN_FRONTEND=noninteractive
+if [ ${#foreign[@]} -gt 0 ] && ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  $sudo dpkg --add-architecture arm64
+fi
 $sudo apt-get update -qq
 $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"

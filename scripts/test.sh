@@ -2,8 +2,9 @@
 # The second command: every test. Installs what is missing and builds first, so it works on a
 # fresh clone. Stages: the Release suite (ctest; a skip not listed in .ci/expected-skips.txt
 # fails), validate on every scene, the binary under emulated SSE4.2-only and AVX2-only CPUs,
-# the Python module's tests and notebook, renders across MPI ranks, the README's commands, then,
-# unless --quick, the same suite under ASan+UBSan and a bounded fuzzing run of the scene loader.
+# the aarch64 build under qemu-aarch64 (those two on x86-64 only), the Python module's tests and
+# notebook, renders across MPI ranks, the README's commands, then, unless --quick, the same suite
+# under ASan+UBSan and a bounded fuzzing run of the scene loader.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
@@ -29,8 +30,13 @@ for s in scenes/*.json scenes/prims/*.json; do
 done
 echo "validate: every scene in scenes/ and scenes/prims/ bit-identical at every width this CPU runs (exact and double)"
 
-# The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
-.ci/qemu.sh build
+if [ "$(uname -m)" = x86_64 ]; then
+  # The same binary on an SSE4.2-only and an AVX2-only CPU (qemu-user).
+  .ci/qemu.sh build
+  # The aarch64 build under qemu-aarch64: validate, the core suites, renders byte for byte
+  # against this machine's (docs/platforms.md).
+  .ci/arm.sh build build-arm
+fi
 
 # The Python module's tests (pytest) and the example notebook, executed headless.
 .ci/python.sh build

@@ -10,8 +10,15 @@ namespace lancer::packet {
 
 namespace {
 
+#if defined(__x86_64__)
 enum class Isa { sse4_2, avx2, avx512f };
+#elif defined(__aarch64__)
+enum class Isa { neon64 };
+#else
+#error "lancer's packet kernels are built for x86-64 and aarch64"
+#endif
 
+#if defined(__x86_64__)
 // __builtin_cpu_supports reads CPUID and, for AVX and AVX-512, whether the OS saves their
 // registers (XCR0), which xsimd 8's own detection does not check. Under valgrind, which has no
 // AVX-512, CPUID reports none and we fall back to AVX2.
@@ -27,6 +34,12 @@ bool cpu_runs(Isa isa) {
   }
   return false;
 }
+int float_lanes(Isa isa) { return isa == Isa::sse4_2 ? 4 : isa == Isa::avx2 ? 8 : 16; }
+#else
+// Advanced SIMD is part of the AArch64 base architecture: every aarch64 CPU runs it.
+bool cpu_runs(Isa) { return true; }
+int float_lanes(Isa) { return 4; }
+#endif
 
 // LANCER_MAX_WIDTH caps the float width offered (1, 4, 8 or 16), to run a narrower ISA's path as
 // a CPU without the wider one would. Parsed strictly: a cap that is not one of those is an error,
@@ -46,17 +59,19 @@ int width_cap() {
   return cap;
 }
 
-bool allowed(Isa isa) {
-  const int float_width = isa == Isa::sse4_2 ? 4 : isa == Isa::avx2 ? 8 : 16;
-  return float_width <= width_cap() && cpu_runs(isa);
-}
+bool allowed(Isa isa) { return float_lanes(isa) <= width_cap() && cpu_runs(isa); }
 
-// Float lanes 4, 8, 16 and double lanes 2, 4, 8 map onto the same three ISAs.
+// Float lanes 4, 8, 16 and double lanes 2, 4, 8 map onto the same three x86 ISAs; on aarch64,
+// float 4 and double 2 onto NEON's 128-bit registers.
 bool isa_of(int lanes, bool dbl, Isa& isa) {
   const int base = dbl ? 2 : 4;
+#if defined(__x86_64__)
   if (lanes == base) return isa = Isa::sse4_2, true;
   if (lanes == 2 * base) return isa = Isa::avx2, true;
   if (lanes == 4 * base) return isa = Isa::avx512f, true;
+#else
+  if (lanes == base) return isa = Isa::neon64, true;
+#endif
   return false;
 }
 
@@ -69,6 +84,7 @@ template <class Real, class Mode>
 const KernelTable<Real>* table_for(int lanes) {
   Isa isa;
   if (!runnable(lanes, sizeof(Real) == 8, isa)) return nullptr;
+#if defined(__x86_64__)
   switch (isa) {
     case Isa::sse4_2:
       return table<xsimd::sse4_2, Real, Mode>();
@@ -78,6 +94,9 @@ const KernelTable<Real>* table_for(int lanes) {
       return table<xsimd::avx512f, Real, Mode>();
   }
   return nullptr;
+#else
+  return table<xsimd::neon64, Real, Mode>();
+#endif
 }
 
 }  // namespace
@@ -87,6 +106,7 @@ const KernelTable<float>* float_kernels(int width, Precision precision) {
   if (precision != Precision::fast) return nullptr;
   Isa isa;
   if (!runnable(width, false, isa)) return nullptr;
+#if defined(__x86_64__)
   switch (isa) {  // fast AVX2 is fma3<avx2>: its fused operations need FMA
     case Isa::sse4_2:
       return table<xsimd::sse4_2, float, FastMode>();
@@ -96,6 +116,9 @@ const KernelTable<float>* float_kernels(int width, Precision precision) {
       return table<xsimd::avx512f, float, FastMode>();
   }
   return nullptr;
+#else
+  return table<xsimd::neon64, float, FastMode>();
+#endif
 }
 
 const KernelTable<float>* profiled_kernels(int width) {
@@ -121,11 +144,20 @@ std::vector<int> supported_widths(Precision precision) {
 
 std::string isa_name(int width, Precision precision) {
   if (width == 1) return "scalar";
+#if defined(__aarch64__)
+  // The x86 widths are named too: a request for one says what it would need.
+  const int base = precision == Precision::dbl ? 2 : 4;
+  if (width == base) return "neon64";
+  if (width == 2 * base) return "avx2 (x86-64)";
+  if (width == 4 * base) return "avx512f (x86-64)";
+  return "none";
+#else
   Isa isa;
   if (!isa_of(width, precision == Precision::dbl, isa)) return "none";
   if (isa == Isa::sse4_2) return "sse4.2";
   if (isa == Isa::avx2) return precision == Precision::fast ? "fma3<avx2>" : "avx2";
   return "avx512f";
+#endif
 }
 
 }  // namespace lancer::packet

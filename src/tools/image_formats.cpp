@@ -303,6 +303,11 @@ struct FloatModule {
 // Loaded once: where `cmake --install` puts it relative to the executable
 // (<bindir>/../<libdir>/lancer/), else where this build made it.
 const FloatModule& float_module() {
+#if defined(LANCER_WITHOUT_IMAGE_MODULES)
+  throw InputError(
+      "TIFF and OpenEXR: this lancer was built without its image modules "
+      "(LANCER_WITH_IMAGE_MODULES=OFF); it writes .pfm, .ppm, .png and .jpg");
+#endif
   static const FloatModule module = [] {
     std::vector<std::string> tried;
     std::error_code ec;

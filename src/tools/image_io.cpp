@@ -163,6 +163,11 @@ struct ImageModule {
   ImageModuleReadFn read = nullptr;
 };
 const ImageModule& image_module() {
+#if defined(LANCER_WITHOUT_IMAGE_MODULES)
+  throw InputError(
+      "BMP, Targa and HDR: this lancer was built without its image modules "
+      "(LANCER_WITH_IMAGE_MODULES=OFF); it writes .pfm, .ppm, .png and .jpg");
+#endif
   static const ImageModule module = [] {
     std::vector<std::string> tried;
     std::error_code ec;

@@ -2,7 +2,9 @@
 // primary rays. See include/lancer/peak.hpp for what is counted and how.
 #include "lancer/peak.hpp"
 
+#if defined(__x86_64__)
 #include <immintrin.h>
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -20,6 +22,7 @@ namespace peak_kernels {
 
 volatile float sink = 0;
 
+#if defined(__x86_64__)
 // Scalar mulss + addss. The _ss intrinsics keep the compiler from packing the chains into
 // vectors (which it could do with plain float code), so this is the width-1 rate.
 double scalar_muladd(long iterations) {
@@ -37,6 +40,28 @@ double scalar_muladd(long iterations) {
   sink = _mm_cvtss_f32(sum);
   return 2.0 * N * double(iterations);
 }
+#else
+// Scalar fmul + fadd: the empty asm keeps each chain in its own register, so that the compiler
+// cannot pack the chains into vectors (nor fuse them: -ffp-contract=off).
+double scalar_muladd(long iterations) {
+  constexpr int N = kPeakChains;
+  const float a = 0.999f, b = 1e-3f;
+  float acc[N];
+#pragma GCC unroll 16
+  for (int k = 0; k < N; ++k) acc[k] = 1.0f + 0.01f * k;
+  for (long i = 0; i < iterations; ++i) {
+#pragma GCC unroll 16
+    for (int k = 0; k < N; ++k) {
+      acc[k] = acc[k] * a + b;
+      asm volatile("" : "+w"(acc[k]));
+    }
+  }
+  float sum = acc[0];
+  for (int k = 1; k < N; ++k) sum += acc[k];
+  sink = sum;
+  return 2.0 * N * double(iterations);
+}
+#endif
 
 }  // namespace peak_kernels
 
@@ -66,6 +91,11 @@ PeakKernel peak_kernel(int width, bool fma) {
   switch (width) {
     case 1:
       return peak_kernels::scalar_muladd;
+#if defined(__aarch64__)
+    case 4:
+      return fma ? peak_kernels::chains<xsimd::neon64, true, kPeakChains>
+                 : peak_kernels::chains<xsimd::neon64, false, kPeakChains>;
+#else
     case 4:
       return peak_kernels::chains<xsimd::sse4_2, false, kPeakChains>;
     case 8:
@@ -74,6 +104,7 @@ PeakKernel peak_kernel(int width, bool fma) {
     case 16:
       return fma ? peak_kernels::chains<xsimd::avx512f, true, kPeakChainsAvx512>
                  : peak_kernels::chains<xsimd::avx512f, false, kPeakChainsAvx512>;
+#endif
     default:
       return nullptr;
   }

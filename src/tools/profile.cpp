@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "lancer/cycles.hpp"
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/prepared.hpp"
@@ -32,9 +33,9 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
 
   // The TSC's rate, from the same run: cycles and seconds of the whole render.
   const auto t0 = std::chrono::steady_clock::now();
-  const std::uint64_t c0 = __builtin_ia32_rdtsc();
+  const std::uint64_t c0 = ticks();
   k->render_rows(prepared, image, 0, scene.camera.ny, counts);
-  const std::uint64_t c1 = __builtin_ia32_rdtsc();
+  const std::uint64_t c1 = ticks();
   res.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double seconds_per_cycle = c1 > c0 ? res.total_seconds / double(c1 - c0) : 0;
 

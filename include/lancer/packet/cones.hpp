@@ -7,13 +7,12 @@
 // ISA (packet/traversal.hpp).
 #pragma once
 
-#include <immintrin.h>
-
 #include <cstdint>
 #include <cstring>
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/packet/fused.hpp"
+#include "lancer/packet/intrin.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/vec3.hpp"

@@ -3,13 +3,12 @@
 // step. Include only from code built for the batch's ISA.
 #pragma once
 
-#include <immintrin.h>
-
 #include <cstdint>
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/packet/fused.hpp"
+#include "lancer/packet/intrin.hpp"
 #include "lancer/vec3.hpp"
 
 namespace lancer::packet {

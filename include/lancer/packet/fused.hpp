@@ -2,13 +2,14 @@
 // fma3<...> architectures: for avx512f its fma, fms and fnma are a multiplication then an
 // addition (two roundings, and two instructions under -ffp-contract=off), so AVX-512F gets its
 // own intrinsics here. SSE4.2 has no FMA instruction: there the unfused pair is what it has.
+// On aarch64 the 128-bit x86 names come from SIMDe (intrin.hpp).
 // Include only from code built for the batch's ISA (packet/kernel.hpp, src/isa/).
 #pragma once
 
-#include <immintrin.h>
-
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
+
+#include "lancer/packet/intrin.hpp"
 
 namespace lancer::packet {
 
@@ -24,9 +25,14 @@ template <class Arch>
 struct IsFma3 : std::false_type {};
 template <class Arch>
 struct IsFma3<xsimd::fma3<Arch>> : std::true_type {};
+// NEON's fma and fms (xsimd: vfmaq) are fused: aarch64 has no unfused multiply-add. Exact mode
+// uses them only where AVX2 does, in the traversal's slab test.
+template <class Arch>
+inline constexpr bool kNeon64 = std::is_same_v<Arch, xsimd::neon64>;
 // Whether fmsub below rounds once on this arch (interval bounds must round as the lanes do).
 template <class Arch>
-inline constexpr bool kFusedFmsub = kAvx512<Arch> || kAvx2<Arch> || IsFma3<Arch>::value;
+inline constexpr bool kFusedFmsub =
+    kAvx512<Arch> || kAvx2<Arch> || IsFma3<Arch>::value || kNeon64<Arch>;
 
 // a * b + c
 template <class T, class Arch>

@@ -5,17 +5,17 @@
 // batch's ISA (src/isa/*.cpp, through packet/kernel.hpp).
 #pragma once
 
-#include <immintrin.h>
-
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
 #include <vector>
 #include <xsimd/xsimd.hpp>
 
+#include "lancer/cycles.hpp"
 #include "lancer/formulas.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/packet/fast_math.hpp"
+#include "lancer/packet/intrin.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/packet/traversal.hpp"
 #include "lancer/stage_profile.hpp"
@@ -62,7 +62,7 @@ struct Lanes {
   // kernel's whole time between them.
   static void lap(RayCounts& c, int stage) noexcept {
     if constexpr (kProfile) {
-      const std::uint64_t now = __rdtsc();
+      const std::uint64_t now = lancer::ticks();
       c.profile->cycles[stage] += now - c.profile->last_tsc;
       c.profile->last_tsc = now;
     }

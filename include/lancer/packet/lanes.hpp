@@ -2,10 +2,10 @@
 // Include only from code built for the batch's ISA.
 #pragma once
 
-#include <immintrin.h>  // every ISA's register types
-
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
+
+#include "lancer/packet/intrin.hpp"
 
 namespace lancer::packet {
 

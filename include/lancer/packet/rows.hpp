@@ -131,7 +131,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
       band_t.resize(std::size_t(cam.nx) * kBlockRows + W);
       band_id.resize(band_t.size());
     }
-    if constexpr (kProfile) counts.profile->last_tsc = __rdtsc();
+    if constexpr (kProfile) counts.profile->last_tsc = lancer::ticks();
     for (int j = row_begin; j < row_end; ++j) {
       [[maybe_unused]] const int band_row = (j - row_begin) % kBlockRows;
       if constexpr (kBlocks) {

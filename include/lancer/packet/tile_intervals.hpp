@@ -58,6 +58,10 @@ struct TileIntervals : OneRayWalk<Arch, T> {
       return _mm512_castps512_ps128(  // are zero
           _mm512_fmsub_ps(_mm512_zextps128_ps512(a), _mm512_zextps128_ps512(b),
                           _mm512_zextps128_ps512(c)));
+#if !LANCER_X86
+    else if constexpr (kNeon64<Arch>)  // SIMDe's _mm_fmsub_ps rounds twice; NEON's own once
+      return vfmaq_f32(vnegq_f32(c), a, b);
+#endif
     else if constexpr (kFusedFmsub<Arch>)
       return _mm_fmsub_ps(a, b, c);  // the lanes' fmsub is fused on these paths (fused.hpp)
     else

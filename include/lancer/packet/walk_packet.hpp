@@ -412,7 +412,8 @@ struct PacketWalk {
   static T live_span(const M& valid, const B& x) noexcept {
     const M v[1] = {valid};
     auto get = [&](int) { return x; };
-    return _mm_cvtss_f32(lane_bound<true, 1>(v, get)) - _mm_cvtss_f32(lane_bound<false, 1>(v, get));
+    return _mm_cvtss_f32((lane_bound<true, 1>(v, get))) -
+           _mm_cvtss_f32((lane_bound<false, 1>(v, get)));
   }
 };
 

@@ -169,7 +169,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   template <class Hit>
   static bool spheres_one(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit&& hit) noexcept {
-    using B4 = xsimd::batch<float, xsimd::sse4_2>;
+    using B4 = xsimd::batch<float, Arch4>;
     const Bvh<T>& h = s.bvh;
     const int total = int(h.cx.size());
     const Vec3<B4> ov{B4(o[0]), B4(o[1]), B4(o[2])}, dv{B4(d[0]), B4(d[1]), B4(d[2])};
@@ -194,7 +194,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
       const auto live = (sd.disc >= B4(0.f)) & (lane < B4(float(m)));
       if (!xsimd::any(live)) continue;
       const B4 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      unsigned met = unsigned(_mm_movemask_ps(live & (t > eps)));
+      unsigned met = lane_bits(live & (t > eps));
       if (!met) continue;
       alignas(16) T tt[4];
       t.store_aligned(tt);
