@@ -224,8 +224,7 @@ TEST(Prims, ValidateMixedGeneratedScenes) {
                                   scene + extra);
     ASSERT_EQ(r.status, 0) << r.out;
     for (const char* precision : {"exact", "double"}) {
-      r = testing::run_command(testing::cli() + " validate --precision " + precision + " " +
-                               scene);
+      r = testing::run_command(testing::cli() + " validate --precision " + precision + " " + scene);
       EXPECT_EQ(r.status, 0) << extra << ", " << precision << ": " << r.out;
       EXPECT_NE(r.out.find("structure bvh"), std::string::npos) << r.out;
     }

@@ -47,8 +47,7 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
           : "";
   std::printf("  engine   width %d (%s), %s precision, %d thread%s%s\n", r.width, r.isa.c_str(),
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
-  std::printf("  kinds    %s: the kernels test these and no other\n",
-              r.structure.kinds.c_str());
+  std::printf("  kinds    %s: the kernels test these and no other\n", r.structure.kinds.c_str());
   if (!scene.shapes.empty()) {
     std::size_t meshes = 0, cylinders = 0, dropped = 0;
     for (const Shape& sh : scene.shapes) {
