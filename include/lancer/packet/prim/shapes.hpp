@@ -379,9 +379,8 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   }
 
   // The geometric normal at the lanes of `hit` on a shape (prim::triangle_normal,
-  // prim::cylinder_normal, as the reference's shapes_normals), and, where `shading` is not null,
-  // the shading normal (smooth meshes' blend of vertex normals; else the geometric normal).
-  // The last kind in id order: it overwrites its lanes of n.
+  // prim::cylinder_normal, as the reference's shapes_normals); smooth meshes' shading normal is
+  // shading_normal()'s. The last kind in id order: it overwrites its lanes of n.
   [[gnu::always_inline]] static void surface(const Prepared& s, const M& hit, const I& best_id,
                                              const I& id, const V& o, const V& d, const B& best_t,
                                              const B& magnitude, V& p, V& n, B& delta) noexcept {
