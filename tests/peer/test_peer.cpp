@@ -23,6 +23,7 @@
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
+#include "peer_compare.hpp"
 
 namespace lancer {
 namespace {
@@ -36,39 +37,8 @@ std::vector<std::string> scenes() {
   return out;
 }
 
-struct Agreement {
-  std::size_t rays = 0, hit_miss = 0, other_object = 0;
-  double max_rel_t = 0;  // over rays both hit on the same object
-};
-
-// Every camera ray of `scene` through lancer's reference closest hit (bit-identical to the
-// packets by lancer's own tests) and through Embree at `width`.
-Agreement compare_camera_rays(const Scene& scene, const peer::EmbreeScene& embree, int width) {
-  const PreparedScene<float> s = prepare<float>(scene);
-  const PreparedCamera<float>& cam = s.camera;
-  const std::vector<peer::PeerHit> hits = embree.camera_hits(width);
-  Agreement a;
-  for (int b = 0; b < cam.samples; ++b)
-    for (int aa = 0; aa < cam.samples; ++aa)
-      for (int j = 0; j < cam.ny; ++j)
-        for (int i = 0; i < cam.nx; ++i) {
-          Vec3<float> o, d;
-          camera_ray(cam, cam.screen_x[std::size_t(aa) * cam.nx + i],
-                     cam.screen_y[std::size_t(b) * cam.ny + j], o, d);
-          const reference::Hit<float> l = reference::closest_hit(s, o, d);
-          const peer::PeerHit& e =
-              hits[(std::size_t(b * cam.samples + aa) * cam.ny + j) * cam.nx + i];
-          ++a.rays;
-          if ((l.id >= 0) != (e.id >= 0)) {
-            ++a.hit_miss;
-          } else if (l.id != e.id) {
-            ++a.other_object;
-          } else if (l.id >= 0) {
-            a.max_rel_t = std::max(a.max_rel_t, double(std::abs(e.t - l.t) / l.t));
-          }
-        }
-  return a;
-}
+using testing::Agreement;
+using testing::compare_camera_rays;
 
 std::vector<int> widths() { return peer::embree_widths({1, 4, 8, 16}); }
 

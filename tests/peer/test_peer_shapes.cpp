@@ -26,53 +26,13 @@
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/shapes.hpp"
+#include "peer_compare.hpp"
 
 namespace lancer {
 namespace {
 
-// Hits of lancer's camera rays: rays whose hit or miss differ, whose object differs, and the
-// largest |dt| / t where both hit the same object. `checked` picks the rays compared (all when
-// empty): from lancer's hit object, the ray and its t.
-struct Agreement {
-  std::size_t rays = 0, hit_miss = 0, other_object = 0;
-  std::size_t other_cylinder = 0;  // of other_object, those where Embree hit a cylinder
-  double max_rel_t = 0;
-};
-bool is_cylinder(const PreparedScene<float>& s, int id) {
-  return s.shapes && std::find(s.shapes->cyl_object.begin(), s.shapes->cyl_object.end(), id) !=
-                         s.shapes->cyl_object.end();
-}
-
-using Checked = bool (*)(const PreparedScene<float>&, int id, const Vec3<float>& o,
-                         const Vec3<float>& d, float t);
-
-Agreement compare_camera_rays(const Scene& scene, const peer::EmbreeScene& embree, int width,
-                              Checked checked = nullptr) {
-  const PreparedScene<float> s = prepare<float>(scene);
-  const PreparedCamera<float>& cam = s.camera;
-  const std::vector<peer::PeerHit> hits = embree.camera_hits(width);
-  Agreement a;
-  for (int b = 0; b < cam.samples; ++b)
-    for (int aa = 0; aa < cam.samples; ++aa)
-      for (int j = 0; j < cam.ny; ++j)
-        for (int i = 0; i < cam.nx; ++i) {
-          Vec3<float> o, d;
-          camera_ray(cam, cam.screen_x[std::size_t(aa) * cam.nx + i],
-                     cam.screen_y[std::size_t(b) * cam.ny + j], o, d);
-          const reference::Hit<float> l = reference::closest_hit(s, o, d);
-          if (checked && !checked(s, l.id, o, d, l.t)) continue;
-          const peer::PeerHit& e =
-              hits[(std::size_t(b * cam.samples + aa) * cam.ny + j) * cam.nx + i];
-          ++a.rays;
-          if ((l.id >= 0) != (e.id >= 0))
-            ++a.hit_miss;
-          else if (l.id != e.id)
-            ++a.other_object, a.other_cylinder += is_cylinder(s, e.id);
-          else if (l.id >= 0)
-            a.max_rel_t = std::max(a.max_rel_t, double(std::abs(e.t - l.t) / l.t));
-        }
-  return a;
-}
+using testing::Agreement;
+using testing::compare_camera_rays;
 
 // lancer's ray enters a capped cylinder through its side (not an end disc, nor an open
 // cylinder's inside): there the capsule of a round linear curve has the same surface in front of
