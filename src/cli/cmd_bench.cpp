@@ -43,8 +43,11 @@ struct BenchArgs {
 
 // The flop model (peak.hpp) counts the plain loop's tests, every camera ray against every object:
 // through a hierarchy, which tests a few of them, it would report several times the peak (and
-// take hours to count at a million spheres). Such rows get no GFLOP/s.
-bool flops_counted(const StructureInfo& structure) { return structure.kind != "bvh"; }
+// take hours to count at a million spheres). It knows spheres and planes only: triangles, meshes
+// and cylinders walk a hierarchy of their own. Such rows get no GFLOP/s.
+bool flops_counted(const StructureInfo& structure) {
+  return structure.kind != "bvh" && structure.shape_primitives == 0;
+}
 
 // Fills gflops, lane_gflops and peak_fraction of lancer's exact primary and kernel rows.
 void add_flops(const Scene& scene, const StructureInfo& structure,
@@ -177,8 +180,8 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
   if (peak && !flops_counted(structure))
     std::printf(
         "  GFLOP/s: not counted through a hierarchy: the flop model (include/lancer/peak.hpp) is "
-        "the plain loop's,\n  every camera ray against every object; --accel none times the "
-        "plain loop against the peak.\n");
+        "the plain loop's,\n  every camera ray against every sphere and plane; --accel none times "
+        "the plain loop of a\n  scene without triangles, meshes or cylinders against the peak.\n");
   else if (peak)
     std::printf(
         "  GFLOP/s: flops of lancer's ray-sphere and ray-plane tests per camera ray (counts in "
@@ -212,6 +215,12 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
                       {"bytes", st.bytes},
                       {"objects", st.spheres},
                       {"nodes", st.nodes}};
+  // Triangles, meshes and cylinders have their own hierarchy beside the spheres'.
+  if (st.shape_primitives > 0)
+    out["structure"]["shapes"] = {{"primitives", st.shape_primitives},
+                                  {"nodes", st.shape_nodes},
+                                  {"bytes", st.shape_bytes},
+                                  {"build_seconds", st.shape_build_seconds}};
   out["results"] = nlohmann::json::array();
   for (const BenchRow& r : rows) {
     nlohmann::json row{
