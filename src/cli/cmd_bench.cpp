@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -120,6 +121,35 @@ void print_csv(const std::vector<std::string>& scenes, const std::vector<BenchRe
                   (unsigned long long)r.rays, r.seconds, r.mrays_per_s(), sp.min, sp.max, sp.cv(),
                   r.samples.size(), csv_cell(r.config).c_str());
     }
+}
+
+// The ao and diffuse sets as made, and how every row's answers compared with the reference's.
+void print_ray_sets(const BenchResult& result) {
+  for (const RaySetInfo& r : result.ray_sets)
+    std::printf(
+        "  %s rays: %llu (%d cosine-weighted per camera hit, %llu hits, seed %llu), origins %.3g "
+        "off the surface, tfar %.6g (extent %.6g)\n",
+        r.mode.c_str(), (unsigned long long)r.rays, r.per_hit, (unsigned long long)r.camera_hits,
+        (unsigned long long)r.seed, r.offset, r.tfar, r.extent);
+  // lancer's rows one by one; the peer's setups in one line per mode (all are in --json).
+  std::map<std::string, std::pair<std::uint64_t, std::uint64_t>> peer;  // rows, most differing
+  for (const RaySetCheck& c : result.checks) {
+    if (c.engine != "lancer") {
+      auto& p = peer[c.mode];
+      p.first += 1, p.second = std::max(p.second, c.differ);
+      continue;
+    }
+    char how[48] = "bitwise";
+    if (c.tolerance > 0) std::snprintf(how, sizeof how, "t within %g", c.tolerance);
+    std::printf("  %s lancer %s w%d: %llu of %llu rays differ from the reference (%s)\n",
+                c.mode.c_str(), c.precision.c_str(), c.width, (unsigned long long)c.differ,
+                (unsigned long long)c.rays, how);
+  }
+  for (const auto& [mode, p] : peer)
+    std::printf(
+        "  %s embree: at most %llu rays of a setup differ from the reference (t within 1e-4; "
+        "%llu setups and widths)\n",
+        mode.c_str(), (unsigned long long)p.second, (unsigned long long)p.first);
 }
 
 void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
@@ -245,6 +275,24 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
                                     {"build_seconds", r.build_seconds},
                                     {"mrays_per_s", r.mrays_per_s()}});
   }
+  for (const RaySetInfo& r : result.ray_sets)
+    out["ray_sets"].push_back({{"mode", r.mode},
+                               {"seed", r.seed},
+                               {"per_hit", r.per_hit},
+                               {"camera_hits", r.camera_hits},
+                               {"rays", r.rays},
+                               {"extent", r.extent},
+                               {"offset", r.offset},
+                               {"tfar", r.tfar}});
+  for (const RaySetCheck& c : result.checks)
+    out["agreement"].push_back({{"mode", c.mode},
+                                {"engine", c.engine},
+                                {"precision", c.precision},
+                                {"width", c.width},
+                                {"config", c.config},
+                                {"tolerance", c.tolerance},
+                                {"rays", c.rays},
+                                {"differ", c.differ}});
   if (peaks) out["peak"] = peaks_json(*peaks);
   return out;
 }
@@ -353,8 +401,8 @@ void run_bench_cmd(const BenchArgs& a) {
     throw InputError("--time-unit: must be auto, ns, us, ms or s, not '" + a.time_unit + "'");
   opt.modes.clear();
   for (const std::string& m : split_list(a.modes)) {
-    if (m != "primary" && m != "full" && m != "kernel")
-      throw InputError("--mode: must be primary, full or kernel, not '" + m + "'");
+    if (m != "primary" && m != "full" && m != "kernel" && m != "ao" && m != "diffuse")
+      throw InputError("--mode: must be primary, full, kernel, ao or diffuse, not '" + m + "'");
     opt.modes.push_back(m);
   }
   if (opt.modes.empty()) throw InputError("--mode: no mode given");
@@ -415,9 +463,11 @@ void run_bench_cmd(const BenchArgs& a) {
     out["side_by_side"] = side_by_side_json(a.scenes, results, ratios);
     std::printf("%s\n", out.dump(2).c_str());
   } else {
-    for (std::size_t i = 0; i < scenes.size(); ++i)
+    for (std::size_t i = 0; i < scenes.size(); ++i) {
       print_table(a.scenes[i], results[i].rows, results[i].structure, {opt.warmup, opt.min_time},
                   a.peak);
+      print_ray_sets(results[i]);
+    }
     if (scenes.size() > 1) print_side_by_side(a.scenes, results, ratios);
     if (a.peak) print_peaks(results[0].peaks);
   }
@@ -444,8 +494,10 @@ void add_bench(CLI::App& app) {
                   "Thread counts, e.g. 1,2 (default 1; 0 = all cores; more than the cores is "
                   "capped at the cores)");
   cmd->add_option("--mode", args->modes,
-                  "primary, full and/or kernel (the primary intersection kernel alone, packets "
-                  "only; default primary,full)");
+                  "primary, full, kernel (the primary intersection kernel alone, packets only), "
+                  "ao and/or diffuse (4 cosine-weighted rays per camera hit: occlusion within 5% "
+                  "of the scene's extent, closest hit; through the library API); default "
+                  "primary,full");
   cmd->add_option("--precision", args->precisions,
                   "exact, fast and/or double, e.g. exact,fast (default exact)");
   CLI::Option* repeat =
