@@ -151,7 +151,9 @@ void expect_widths_agree(const api::Scene& scene, const std::string& name) {
     std::size_t yes = 0;
     for (std::size_t k = 0; k < set.size(); ++k)
       yes += set.occlusion() ? ref.occluded[k] != 0 : ref.id[k] >= 0;
-    if (kind == rays::Kind::diffuse) EXPECT_GT(yes, 0u) << name << ": no diffuse ray hits";
+    if (kind == rays::Kind::diffuse) {
+      EXPECT_GT(yes, 0u) << name << ": no diffuse ray hits";
+    }
     EXPECT_LT(yes, set.size()) << name << " " << rays::to_string(kind) << ": every ray answered";
     for (int width : {4, 8, 16}) {
       rays::Answers got;
