@@ -155,11 +155,20 @@ void expect_widths_agree(const api::Scene& scene, const std::string& name) {
       EXPECT_GT(yes, 0u) << name << ": no diffuse ray hits";
     }
     EXPECT_LT(yes, set.size()) << name << " " << rays::to_string(kind) << ": every ray answered";
-    for (int width : {4, 8, 16}) {
+    const bool kernels = scene.description().shapes.empty();
+    const auto prepared =
+        kernels ? rays::KernelPackets::prepare(scene.description(), Precision::exact) : nullptr;
+    for (int width : testing::packet_widths()) {
       rays::Answers got;
       rays::ApiPackets(set, width).trace(scene, width == 8 ? 2 : 1, &got);
       const rays::Agreement a = rays::compare(set, ref, got, 0);
       EXPECT_EQ(a.differ, 0u) << name << " " << rays::to_string(kind) << " width " << width;
+      if (!kernels) continue;
+      // The kernels without the API: the same answers from the same floats.
+      rays::Answers direct;
+      rays::KernelPackets(prepared, set, width).trace(width == 4 ? 2 : 1, &direct);
+      EXPECT_EQ(rays::compare(set, ref, direct, 0).differ, 0u)
+          << name << " " << rays::to_string(kind) << " kernels, width " << width;
     }
   }
 }
@@ -234,12 +243,24 @@ TEST(RaySets, BenchModesRunAndNameTheirRows) {
     EXPECT_GT(row["rays"].get<double>(), 0);
     EXPECT_GT(row["mrays_per_s"].get<double>(), 0);
   }
-  EXPECT_EQ(ao, 2);
-  EXPECT_EQ(diffuse, 2);
+  // Widths 1 and 4 through the API, and width 4 straight into the kernels.
+  EXPECT_EQ(ao, 3);
+  EXPECT_EQ(diffuse, 3);
   ASSERT_EQ(j["ray_sets"].size(), 2u);
   EXPECT_EQ(j["ray_sets"][0]["per_hit"], 4);
-  ASSERT_EQ(j["agreement"].size(), 4u);
+  ASSERT_EQ(j["agreement"].size(), 6u);
   for (const json& c : j["agreement"]) EXPECT_EQ(c["differ"], 0) << c.dump();
+  // The library API reports no structure: none is shown rather than an empty one.
+  EXPECT_FALSE(j.contains("structure"));
+}
+
+TEST(RaySets, AccelIsRefusedForTheApiModes) {
+  const testing::CommandResult r =
+      run_command(cli() + " bench " + std::string(LANCER_SOURCE_DIR) +
+                  "/scenes/lorenzi-reflections.json --mode ao --accel none");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.out.find('\n'), r.out.size() - 1) << r.out;  // one line
+  EXPECT_NE(r.out.find("--accel"), std::string::npos);
 }
 
 TEST(RaySets, BadModeIsOneLine) {

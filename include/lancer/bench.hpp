@@ -20,7 +20,8 @@ struct BenchRow {
   // "primary": camera rays, closest hit only; "full": the whole render; "kernel": the primary
   // intersection kernel alone, over camera rays made beforehand (PrimaryKernelRun; packets
   // only); "ao" and "diffuse": incoherent ray sets made from the camera hits beforehand
-  // (lancer/ray_sets.hpp), traced through the library API (occluded<N>, intersect<N>) or by the
+  // (lancer/ray_sets.hpp), traced through the library API (occluded<N>, intersect<N>), by the
+  // packet kernels directly (config "kernels, prepared frame"; rays::KernelPackets) or by the
   // peer (rtcOccluded, rtcIntersect). For the embree peer, "full" is every ray lancer's render
   // traces (camera, shadow, mirror) without the shading.
   std::string mode;

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "lancer/lancer.hpp"
+#include "lancer/precision.hpp"
 #include "lancer/vec3.hpp"
 
 namespace lancer::rays {
@@ -89,6 +90,30 @@ class ApiPackets {
   // Traces every ray on `threads` threads (1: the calling thread) through scene.occluded<N> or
   // scene.intersect<N>, as the set's kind asks; with `answers`, fills it. Returns the seconds.
   double trace(const api::Scene& scene, int threads, Answers* answers = nullptr) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The set straight into the packet kernels, without the library API: the rays moved into the
+// prepared frame once (as the API moves each ray on every call: in double, rounded once to
+// float) and laid out as the kernels take them, so that only the kernels are timed, as the
+// Embree peer's calls are. Float packets (exact or fast, width 4, 8 or 16) of scenes without
+// triangles, meshes or cylinders (the library answers those on the reference); InputError
+// otherwise.
+class KernelPackets {
+ public:
+  // The scene prepared once in float (the structure --accel auto builds), for every width.
+  struct Prepared;
+  static std::shared_ptr<const Prepared> prepare(const Scene& scene, Precision precision);
+  KernelPackets(std::shared_ptr<const Prepared> scene, const RaySet& set, int width);
+  ~KernelPackets();
+  KernelPackets(const KernelPackets&) = delete;
+  KernelPackets& operator=(const KernelPackets&) = delete;
+  std::size_t rays() const;
+  // As ApiPackets::trace: occluded_packet or closest_hit_packet over every packet.
+  double trace(int threads, Answers* answers = nullptr) const;
 
  private:
   struct Impl;

@@ -141,9 +141,10 @@ void print_ray_sets(const BenchResult& result) {
     }
     char how[48] = "bitwise";
     if (c.tolerance > 0) std::snprintf(how, sizeof how, "t within %g", c.tolerance);
-    std::printf("  %s lancer %s w%d: %llu of %llu rays differ from the reference (%s)\n",
-                c.mode.c_str(), c.precision.c_str(), c.width, (unsigned long long)c.differ,
-                (unsigned long long)c.rays, how);
+    std::printf("  %s lancer %s w%d%s: %llu of %llu rays differ from the reference (%s)\n",
+                c.mode.c_str(), c.precision.c_str(), c.width,
+                c.config.empty() ? "" : (" (" + c.config + ")").c_str(),
+                (unsigned long long)c.differ, (unsigned long long)c.rays, how);
   }
   for (const auto& [mode, p] : peer)
     std::printf(
@@ -237,11 +238,16 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
   out["scene"] = scene;
   out["repeats"] = rows.empty() ? 0 : rows[0].samples.size();
   if (result.peer_build_seconds >= 0) out["peer_build_seconds"] = result.peer_build_seconds;
-  out["structure"] = {{"kind", st.kind},
-                      {"build_seconds", st.build_seconds},
-                      {"bytes", st.bytes},
-                      {"objects", st.spheres},
-                      {"nodes", st.nodes}};
+  // lancer's own structure, as its renders built it; the ao and diffuse rows run through the
+  // library API, which does not report one, so with only those there is none to show.
+  if (std::any_of(rows.begin(), rows.end(), [](const BenchRow& r) {
+        return r.engine == "lancer" && r.mode != "ao" && r.mode != "diffuse";
+      }))
+    out["structure"] = {{"kind", st.kind},
+                        {"build_seconds", st.build_seconds},
+                        {"bytes", st.bytes},
+                        {"objects", st.spheres},
+                        {"nodes", st.nodes}};
   out["results"] = nlohmann::json::array();
   for (const BenchRow& r : rows) {
     nlohmann::json row{
@@ -418,6 +424,13 @@ void run_bench_cmd(const BenchArgs& a) {
   }
   opt.peak = a.peak;
   opt.accel = parse_accel(a.accel, "--accel");
+  const bool ray_sets = std::any_of(opt.modes.begin(), opt.modes.end(), [](const std::string& m) {
+    return m == "ao" || m == "diffuse";
+  });
+  if (opt.accel != Accel::automatic && ray_sets)
+    throw InputError(
+        "--accel: the ao and diffuse modes trace through the library API, which chooses its own "
+        "structure (as --accel auto); run them without --accel");
   if (!a.format.empty() && a.format != "table" && a.format != "json" && a.format != "gbench" &&
       a.format != "csv")
     throw InputError("--format: must be table, json, csv or gbench, not '" + a.format + "'");

@@ -47,15 +47,20 @@ struct SceneRun {
   std::map<Precision, std::unique_ptr<api::Scene>> api_scenes;
   std::map<std::string, rays::RaySet> sets;
   std::vector<std::unique_ptr<rays::ApiPackets>> packets;
+  std::map<Precision, std::shared_ptr<const rays::KernelPackets::Prepared>> kernel_scenes;
+  std::vector<std::unique_ptr<rays::KernelPackets>> kernel_packets;
   std::map<std::string, std::shared_ptr<const peer::EmbreeScene::Rays>> peer_rays;
 };
 
 bool ray_set_mode(const std::string& mode) { return mode == "ao" || mode == "diffuse"; }
 
+// The config of lancer's ao and diffuse rows that skip the library API (rays::KernelPackets).
+constexpr const char* kKernelsConfig = "kernels, prepared frame";
+
 // The rows: every precision, mode, width and thread count, each peer setup's rows right after
 // lancer's of the same mode, width and threads. They depend on the options only.
-void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
-               const BenchOptions& opt) {
+void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups, const BenchOptions& opt,
+               bool ray_kernels) {
   std::vector<BenchRow>& rows = s.out.rows;
   bool peer_rows_added = false;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k) {
@@ -80,6 +85,14 @@ void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
           rows.push_back(r);
           s.row_precision.push_back(precision);
           s.row_setup.push_back(-1);
+          // The same rays straight into the float packet kernels, beside the API's row.
+          if (ray_set_mode(mode) && ray_kernels && width > 1 && precision != Precision::dbl) {
+            r.config = kKernelsConfig;
+            rows.push_back(r);
+            s.row_precision.push_back(precision);
+            s.row_setup.push_back(-1);
+            r.config.clear();
+          }
           // The peer's rows of the same mode, width and threads right after lancer's.
           if (!kernel &&
               std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
@@ -187,6 +200,7 @@ const rays::RaySet& ray_set(SceneRun& s, const std::string& mode,
 void prepare_ray_sets(SceneRun& s) {
   std::vector<BenchRow>& rows = s.out.rows;
   s.packets.resize(rows.size());
+  s.kernel_packets.resize(rows.size());
   std::map<std::string, rays::Answers> reference;
   for (std::size_t k = 0; k < rows.size(); ++k) {
     BenchRow& row = rows[k];
@@ -196,7 +210,14 @@ void prepare_ray_sets(SceneRun& s) {
     c.mode = row.mode, c.engine = row.engine, c.precision = row.precision, c.config = row.config;
     c.width = row.width;
     rays::Answers got;
-    if (row.engine == "lancer") {
+    if (row.engine == "lancer" && row.config == kKernelsConfig) {
+      const Precision p = s.row_precision[k];
+      auto& prepared = s.kernel_scenes[p];
+      if (!prepared) prepared = rays::KernelPackets::prepare(*s.scene, p);
+      s.kernel_packets[k] = std::make_unique<rays::KernelPackets>(prepared, set, row.width);
+      s.kernel_packets[k]->trace(row.threads, &got);
+      c.tolerance = p == Precision::exact ? 0 : 1e-4;
+    } else if (row.engine == "lancer") {
       const Precision p = s.row_precision[k];
       const api::Scene& a = api_scene(s, p);
       // What runs: the widest kernel up to the packet's width (the reference for shapes).
@@ -228,10 +249,12 @@ std::function<double()> row_run(SceneRun& s, std::size_t k) {
       s.row_setup[k] >= 0 ? s.embrees[std::size_t(s.row_setup[k])].get() : nullptr;
   if (ray_set_mode(row.mode)) {
     const rays::ApiPackets* packets = s.packets[k].get();
+    const rays::KernelPackets* kernels = s.kernel_packets[k].get();
     const api::Scene* api = packets ? s.api_scenes.at(s.row_precision[k]).get() : nullptr;
     const peer::EmbreeScene::Rays* peer_rays = embree ? s.peer_rays.at(row.mode).get() : nullptr;
-    return [&row, packets, api, embree, peer_rays]() -> double {
+    return [&row, packets, kernels, api, embree, peer_rays]() -> double {
       if (packets) return packets->trace(*api, row.threads);
+      if (kernels) return kernels->trace(row.threads);
       return embree->trace_rays(*peer_rays, row.width, row.threads, nullptr);
     };
   }
@@ -307,9 +330,12 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
     throw std::logic_error("run_bench: one list of widths per precision");
   if (scenes.empty()) throw std::logic_error("run_bench: no scene");
   std::vector<SceneRun> runs(scenes.size());
+  // The ao and diffuse modes' kernel rows need float packets: none when a scene has shapes.
+  const bool ray_kernels =
+      std::none_of(scenes.begin(), scenes.end(), [](const Scene* s) { return !s->shapes.empty(); });
   for (std::size_t i = 0; i < scenes.size(); ++i) {
     runs[i].scene = scenes[i];
-    plan_rows(runs[i], setups, opt);
+    plan_rows(runs[i], setups, opt, ray_kernels);
   }
   const std::size_t n_rows = runs[0].out.rows.size();
   if (n_rows == 0)
