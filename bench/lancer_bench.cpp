@@ -21,7 +21,6 @@
 
 #include "lancer/lancer.hpp"
 #include "lancer/packet/api.hpp"
-#include "lancer/prepared.hpp"
 #include "lancer/profile.hpp"
 #include "lancer/ray_sets.hpp"
 #include "lancer/render.hpp"
@@ -164,62 +163,29 @@ void ray_set(benchmark::State& state, RaySetCase* c) {
   state.SetLabel(packet::isa_name(std::min(c->width, c->api->info().width)));
 }
 
-// The same sets straight into the packet kernels (KernelTable::occluded_packet and
-// closest_hit_packet) over rays moved into the prepared frame beforehand, as the Embree peer
-// gets them: what the library API's per-call work (checks, the move into the frame in double,
-// the chunks) costs on top, read against ao/<scene>/w<N>. Packet widths only.
+// The same sets straight into the packet kernels (rays::KernelPackets: the rays moved into the
+// prepared frame beforehand, as the Embree peer gets them): what the library API's per-call work
+// costs on top, read against ao/<scene>/w<N>. Packet widths only.
 struct RaySetKernelCase {
   const Scene* scene;
   rays::Kind kind;
   int width;
-  PreparedScene<float> prepared;
-  std::vector<float> rays, tfar;  // per packet: 6 x width, width
-  std::unique_ptr<bool[]> valid;  // per packet: width
-  std::size_t count = 0;
+  std::unique_ptr<rays::KernelPackets> packets;
 };
 
 void ray_set_kernel(benchmark::State& state, RaySetKernelCase* c) {
-  const int w = c->width;
-  if (c->rays.empty()) {
+  if (!c->packets) {
     api::Options opt;
     opt.precision = Precision::exact;
     opt.threads = 1;
     const api::Scene s = api::Scene::from_description(*c->scene, opt);
-    const rays::RaySet set = rays::make_set(s, c->kind);
-    c->prepared = prepare<float>(*c->scene);
-    c->count = set.size();
-    const std::size_t packets = (set.size() + w - 1) / w;
-    c->rays.assign(packets * 6 * w, 0.0f);
-    c->tfar.assign(packets * w, set.tfar);
-    c->valid = std::make_unique<bool[]>(packets * w);  // false
-    for (std::size_t k = 0; k < set.size(); ++k) {
-      const Frame& f = c->prepared.frame;
-      const Vec3<double> o = f.point({set.ox[k], set.oy[k], set.oz[k]});
-      const Vec3<double> d = f.direction({set.dx[k], set.dy[k], set.dz[k]});
-      float* r = &c->rays[(k / w) * 6 * w] + k % w;
-      const double v[6] = {o.x, o.y, o.z, d.x, d.y, d.z};
-      for (int a = 0; a < 6; ++a) r[a * w] = float(v[a]);
-      c->valid[k] = true;
-    }
+    c->packets = std::make_unique<rays::KernelPackets>(
+        rays::KernelPackets::prepare(*c->scene, Precision::exact), rays::make_set(s, c->kind),
+        c->width);
   }
-  const packet::KernelTable<float>* kt = packet::float_kernels(w, Precision::exact);
-  alignas(64) float t[16];
-  alignas(64) std::int32_t id[16];
-  bool out[16];
-  const bool* valid = c->valid.get();
-  const std::size_t packets = c->tfar.size() / w;
-  for (auto _ : state)
-    for (std::size_t p = 0; p < packets; ++p) {
-      if (c->kind == rays::Kind::ao) {
-        kt->occluded_packet(c->prepared, valid + p * w, &c->rays[p * 6 * w], &c->tfar[p * w], out);
-      } else {
-        std::copy_n(&c->tfar[p * w], w, t);
-        kt->closest_hit_packet(c->prepared, valid + p * w, &c->rays[p * 6 * w], t, id, out);
-      }
-      benchmark::DoNotOptimize(out);
-    }
-  state.SetItemsProcessed(static_cast<int64_t>(c->count * state.iterations()));
-  state.SetLabel(packet::isa_name(w) + " kernel, prepared frame");
+  for (auto _ : state) c->packets->trace(1);
+  state.SetItemsProcessed(static_cast<int64_t>(c->packets->rays() * state.iterations()));
+  state.SetLabel(packet::isa_name(c->width) + " kernels, prepared frame");
 }
 
 }  // namespace
