@@ -216,7 +216,8 @@ TEST(RaySets, EmbreeAgrees) {
         const auto loaded = e.load_rays(set);
         for (int width : {1, 4, 16}) {
           rays::Answers got;
-          e.trace_rays(*loaded, width, 1, &got);
+          // Two threads at width 4: the answers do not depend on the split.
+          e.trace_rays(*loaded, width, width == 4 ? 2 : 1, &got);
           const rays::Agreement a = rays::compare(set, ref, got, 1e-4);
           // Embree's own sphere test in float: a handful of grazing rays may differ.
           std::printf("embree %s, %lld spheres, width %d%s: %zu of %zu rays differ\n",
