@@ -3,7 +3,8 @@
 // so that every engine traces the very same rays.
 //
 // The camera hits: sub-sample (0, 0) of every pixel, row-major from the top, traced through the
-// library API (lancer.hpp) in exact precision. Each hit gives `per_hit` rays (4), in pixel order:
+// library API (lancer.hpp; bench prepares it in exact precision, so the set is the same for every
+// row). Each hit gives `per_hit` rays (4), in pixel order:
 //   direction: cosine-weighted about the hit's geometric normal turned towards the camera's side
 //     (Malley's method: a point uniform in the unit disc, lifted onto the hemisphere);
 //   origin:    the hit point (o + t d, in double) moved `offset` along that normal, where offset =
