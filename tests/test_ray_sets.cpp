@@ -269,6 +269,21 @@ TEST(RaySets, BenchModesRunAndNameTheirRows) {
   EXPECT_FALSE(j.contains("structure"));
 }
 
+TEST(RaySets, DoubleRowsHeldToDoublesReference) {
+  const testing::CommandResult r = run_command(
+      cli() + " bench " + std::string(LANCER_SOURCE_DIR) +
+      "/scenes/lorenzi-reflections.json --mode diffuse --precision double --width 1,4 --repeat 1 "
+      "--warmup 0 --resolution 48x32 --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const json j = json::parse(r.out);
+  ASSERT_EQ(j["agreement"].size(), 2u);
+  for (const json& c : j["agreement"]) {
+    EXPECT_EQ(c["precision"], "double");
+    EXPECT_EQ(c["tolerance"], 0.0);
+    EXPECT_EQ(c["differ"], 0);
+  }
+}
+
 TEST(RaySets, AccelIsRefusedForTheApiModes) {
   const testing::CommandResult r =
       run_command(cli() + " bench " + std::string(LANCER_SOURCE_DIR) +

@@ -89,8 +89,9 @@ struct RaySetInfo {
 };
 
 // Before the timing, each ao or diffuse row's answers on every ray of its set against the
-// reference's (the library API's width 1, exact): lancer's exact rows bitwise (occluded flags,
-// object ids, t), the other rows within `tolerance` of t (relative beyond 1).
+// reference's (the library API's width 1): lancer's exact and double rows against their own
+// precision's, bitwise (occluded flags, object ids, t); fast rows and the peer's against exact's,
+// within `tolerance` of t (relative beyond 1).
 struct RaySetCheck {
   std::string mode, engine, precision, config;
   int width = 1;

@@ -139,8 +139,11 @@ void print_ray_sets(const BenchResult& result) {
       p.first += 1, p.second = std::max(p.second, c.differ);
       continue;
     }
-    char how[48] = "bitwise";
-    if (c.tolerance > 0) std::snprintf(how, sizeof how, "t within %g", c.tolerance);
+    char how[64];
+    if (c.tolerance > 0)
+      std::snprintf(how, sizeof how, "exact's width 1, t within %g", c.tolerance);
+    else
+      std::snprintf(how, sizeof how, "%s's width 1, bit for bit", c.precision.c_str());
     std::printf("  %s lancer %s w%d%s: %llu of %llu rays differ from the reference (%s)\n",
                 c.mode.c_str(), c.precision.c_str(), c.width,
                 c.config.empty() ? "" : (" (" + c.config + ")").c_str(),
@@ -148,8 +151,8 @@ void print_ray_sets(const BenchResult& result) {
   }
   for (const auto& [mode, p] : peer)
     std::printf(
-        "  %s embree: at most %llu rays of a setup differ from the reference (t within 1e-4; "
-        "%llu setups and widths)\n",
+        "  %s embree: at most %llu rays of a setup differ from the reference (exact's width 1, t "
+        "within 1e-4; %llu setups and widths)\n",
         mode.c_str(), (unsigned long long)p.second, (unsigned long long)p.first);
 }
 
