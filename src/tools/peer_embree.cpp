@@ -11,6 +11,7 @@
 #ifdef LANCER_HAVE_EMBREE
 
 #include "peer_embree_impl.hpp"
+#include "peer_embree_rays.hpp"
 
 namespace lancer::peer {
 
@@ -156,6 +157,11 @@ const EmbreeConfig& EmbreeScene::config() const { return how_; }
 PrimaryResult EmbreeScene::primary(int, int) const { return {}; }
 EmbreeScene::RaysResult EmbreeScene::trace_all(int, int) const { return {}; }
 std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
+struct EmbreeScene::Rays {};
+std::shared_ptr<const EmbreeScene::Rays> EmbreeScene::load_rays(const rays::RaySet&) const {
+  return {};
+}
+double EmbreeScene::trace_rays(const Rays&, int, int, rays::Answers*) const { return 0; }
 
 }  // namespace lancer::peer
 
