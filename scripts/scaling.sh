@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Mrays/s against the number of spheres (or triangles), lancer and Embree on the same rays.
 #
-#   scripts/scaling.sh [--triangles] [--million] [--sizes "N ..."] [--repeat R] [--out DIR]
-#                      [--lancer PATH] [--readme]
+#   scripts/scaling.sh [--triangles] [--incoherent] [--million] [--sizes "N ..."] [--repeat R]
+#                      [--out DIR] [--lancer PATH] [--readme]
 #
 # For N in 4 64 1024 16384 65536 (and 1048576 with --million): `lancer generate --spheres N
 # --seed 1` (spheres in a box on a ground plane, the same file on any machine), then
@@ -10,6 +10,10 @@
 # W the widest width this CPU runs. --triangles: a tessellated sphere of at least N triangles
 # on the ground plane instead (`lancer generate --spheres 0 --mesh-triangles N`), N in 1024
 # 16384 65536 (and 1048576 with --million); Embree traces them as its native triangles.
+# --incoherent: also the two incoherent ray kinds, `bench --mode ao,diffuse` (4 cosine-weighted
+# rays from each camera hit; ambient occlusion to 5% of the scene's extent, diffuse closest
+# hits), lancer through the library API and its kernels alone beside Embree's best, lancer's
+# rate over Embree's per round (median, range): a second table, and both kinds in the figure.
 # --readme copies the figure and table into docs/.
 # Writes DIR/scaling.csv, DIR/scaling.md and the log-log figure DIR/scaling.{png,svg} (default
 # DIR: out/scaling, out/scaling-triangles with --triangles), and prints the table and the
@@ -27,6 +31,7 @@ readme=0
 kind=spheres
 sizes=()
 million=0
+incoherent=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --triangles) kind=triangles ;;
@@ -36,7 +41,8 @@ while [ $# -gt 0 ]; do
     --out) out="$2"; shift ;;
     --lancer) lancer="$2"; shift ;;
     --readme) readme=1 ;;
-    -h|--help) sed -n 2,18p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --incoherent) incoherent=1 ;;
+    -h|--help) sed -n 2,22p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "scaling.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
   shift
@@ -149,23 +155,84 @@ if [ -f "$out/$what-1024.json" ] && [ -f "$out/$what-65536.json" ] &&
     "(\(.ratio_min * 100 | round / 100)x to \(.ratio_max * 100 | round / 100)x)"' \
     "$out/side-by-side.json" >>"$md"
 fi
-# The figure: Mrays/s against spheres (triangles), log-log, lancer and Embree's best as two series.
+# The incoherent kinds: one bench run per size, lancer's widest width, then a table of the
+# per-round ratios (the rounds interleave lancer's rows and Embree's, seconds apart).
+inc="$out/incoherent.csv"
+if [ "$incoherent" -eq 1 ]; then
+  for n in "${sizes[@]}"; do
+    "$lancer" bench "$out/$what-$n.json" --mode ao,diffuse --width "$width" --threads 1 \
+      --peer embree --json --repeat "$repeat" >"$out/rays-$n.json"
+  done
+  python3 - "$out" "$what" "$inc" "${sizes[@]}" >>"$md" <<'PY'
+import csv, json, statistics, sys
+out, what, inc, sizes = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]
+def rate_ratios(a, b):  # a's rate over b's, per round (same rays: b's seconds over a's)
+    return [sb / sa for sa, sb in zip(a["samples_seconds"], b["samples_seconds"])]
+rows = []
+for n in sizes:
+    res = json.load(open(f"{out}/rays-{n}.json"))["results"]
+    for mode in ("ao", "diffuse"):
+        api = [r for r in res if r["mode"] == mode and r["engine"] == "lancer" and not r.get("config")]
+        ker = [r for r in res if r["mode"] == mode and r["engine"] == "lancer" and r.get("config")]
+        emb = [r for r in res if r["mode"] == mode and r["engine"] == "embree"]
+        if not (api and emb):
+            continue
+        a, e = api[0], max(emb, key=lambda r: r["mrays_per_s"])
+        k = ker[0] if ker else None
+        ra = rate_ratios(a, e)
+        rk = rate_ratios(k, e) if k else []
+        rows.append({what: n, "kind": mode, "path": f"{a['precision']} w{a['width']} {a['isa']}",
+                     "api_mrays_per_s": round(a["mrays_per_s"], 3),
+                     "kernels_mrays_per_s": round(k["mrays_per_s"], 3) if k else "",
+                     "embree_mrays_per_s": round(e["mrays_per_s"], 3),
+                     "embree_config": e.get("config", ""),
+                     "api_over_embree": round(statistics.median(ra), 3),
+                     "api_over_embree_min": round(min(ra), 3), "api_over_embree_max": round(max(ra), 3),
+                     "kernels_over_embree": round(statistics.median(rk), 3) if rk else ""})
+with open(inc, "w", newline="") as f:
+    w = csv.DictWriter(f, fieldnames=list(rows[0].keys()) if rows else [what])
+    w.writeheader()
+    w.writerows(rows)
+print()
+print("Incoherent rays (4 cosine-weighted rays per camera hit; ao: occlusion to 5% of the extent, "
+      "diffuse: closest hit), lancer through the library API and its kernels alone, Embree's best "
+      "setup per kind; lancer / Embree per round, median (min..max):")
+print()
+print(f"| {what} | ray kind | lancer path | lancer API Mrays/s | lancer kernels Mrays/s | Embree Mrays/s "
+      "| Embree configuration | API / Embree | kernels / Embree |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+for r in rows:
+    print(f"| {r[what]} | {r['kind']} | {r['path']} | {r['api_mrays_per_s']} | {r['kernels_mrays_per_s']} "
+          f"| {r['embree_mrays_per_s']} | {r['embree_config']} | {r['api_over_embree']}x "
+          f"({r['api_over_embree_min']}..{r['api_over_embree_max']}) | {r['kernels_over_embree']}x |")
+PY
+fi
+# The figure: Mrays/s against spheres (triangles), log-log, lancer and Embree's best as series
+# (with --incoherent, each ray kind's too).
 long="$out/scaling-long.csv"
 {
   echo "$what,engine,mrays_per_s"
-  python3 - "$csv" "$what" <<'PY'
+  python3 - "$csv" "$what" "$inc" "$incoherent" <<'PY'
 import csv, sys
 what = sys.argv[2]
+kinds = sys.argv[4] == "1"
+primary = " primary" if kinds else ""
 for r in csv.DictReader(open(sys.argv[1])):
     if r["mrays_per_s"]:
-        print(f"{r[what]},lancer {r['path']},{r['mrays_per_s']}")
+        print(f"{r[what]},lancer {r['path']}{primary},{r['mrays_per_s']}")
     if r["embree_mrays_per_s"]:
-        print(f"{r[what]},Embree best setup,{r['embree_mrays_per_s']}")
+        print(f"{r[what]},Embree best setup{primary},{r['embree_mrays_per_s']}")
+if kinds:
+    for r in csv.DictReader(open(sys.argv[3])):
+        print(f"{r[what]},lancer {r['path']} {r['kind']} (API),{r['api_mrays_per_s']}")
+        print(f"{r[what]},Embree best setup {r['kind']},{r['embree_mrays_per_s']}")
 PY
 } >"$long"
+title="Primary rays"
+[ "$incoherent" -eq 1 ] && title="Primary, ambient occlusion and diffuse rays"
 for ext in png svg; do
   "$lancer" plot "$long" -o "$out/scaling.$ext" --x "$what" --y mrays_per_s --group engine \
-    --log xy --title "Primary rays against scene size, 1 thread ($cpu)" \
+    --log xy --title "$title against scene size, 1 thread ($cpu)" \
     --x-label "$what ($scene_words)" \
     --y-label "Mrays/s (median of $repeat)" >/dev/null
 done

@@ -12,6 +12,7 @@
 #include "lancer/formulas.hpp"
 #include "lancer/image.hpp"
 #include "lancer/lancer.hpp"
+#include "lancer/packet/api_rays.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
@@ -86,11 +87,12 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
   if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
 }
 
-// Whether some lane k < N with on[k] != 0 fails check_ray's checks: one pass of bitwise
-// operations without a branch (the compiler vectorises it).
-template <int N>
-bool any_bad_ray(const RayPacket<N>& r, const int* __restrict on) {
-  int bad = 0;
+// Whether some lane k < N with on[k] != 0 fails check_ray's checks (bit 0), and whether every
+// lane is on, sees every object and starts at epsilon (bit 1: the common case, whose lanes
+// all go to the kernel). One pass of bitwise operations without a branch (vectorised).
+template <class T, int N>
+int scan_rays(const RayPacket<N>& r, const int* __restrict on, T eps) {
+  int bad = 0, plain = 1;
   for (int k = 0; k < N; ++k) {
     const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
                       double(r.dir_z[k]) * r.dir_z[k];
@@ -100,14 +102,16 @@ bool any_bad_ray(const RayPacket<N>& r, const int* __restrict on) {
     const int ok = int(o == 0.0f) & int(std::fabs(d2 - 1.0) <= 1e-5) &
                    int(r.tnear[k] == r.tnear[k]) & int(r.tfar[k] == r.tfar[k]);
     bad |= (ok ^ 1) & int(on[k] != 0);
+    plain &= int(on[k] != 0) & int((r.mask[k] & kAllObjects) != 0) & int(T(r.tnear[k]) <= eps);
   }
-  return bad != 0;
+  return bad | plain << 1;
 }
 
 // Every active lane, before any is traced: on an error nothing has been written. Only where
-// some lane fails does check_ray find the first and say what.
-template <int N>
-void check_rays(const char* what, const int* valid, const RayPacket<N>& r) {
+// some lane fails does check_ray find the first and say what. Returns whether the packet is
+// plain (scan_rays' bit 1).
+template <class T, int N>
+bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps) {
   static constexpr auto kAll = [] {
     std::array<int, N> a{};
     for (int& x : a) x = 1;
@@ -119,9 +123,11 @@ void check_rays(const char* what, const int* valid, const RayPacket<N>& r) {
     for (int k = 0; k < N; ++k) live += int(valid[k] != 0);
   }
   // A few active lanes: those alone; else every lane in one pass, the failing one found after.
-  if (4 * live < N || any_bad_ray(r, valid ? valid : kAll.data()))
+  const int scan = 4 * live < N ? 1 : scan_rays(r, valid ? valid : kAll.data(), eps);
+  if (scan & 1)
     for (int k = 0; k < N; ++k)
       if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
+  return (scan & 2) != 0;
 }
 
 // One chunk of a caller's packet at the kernel's width W, in the prepared frame. Each active
@@ -142,69 +148,64 @@ struct Chunk {
   ShapeHit<T> shape[kMaxLanes];
 };
 
-// n rays moved into the frame: Frame::point and Frame::direction written out (dot's order: x,
-// y, then z) in double, rounded once to T. A loop without a branch over arrays that alias
-// nothing (restrict parameters: GCC honours them there), which the compiler vectorises.
-template <class T>
-void frame_lanes(const Frame& frame, int n, const float* __restrict ox, const float* __restrict oy,
-                 const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
-                 const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
-                 T* __restrict o3, T* __restrict o4, T* __restrict o5) {
-  const double ex = frame.origin.x, ey = frame.origin.y, ez = frame.origin.z;
-  const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
-  const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
-  const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z, depth = frame.depth;
-  for (int l = 0; l < n; ++l) {
-    const double px = double(ox[l]) - ex, py = double(oy[l]) - ey, pz = double(oz[l]) - ez;
-    const double qx = dx[l], qy = dy[l], qz = dz[l];
-    o0[l] = T(px * ux + py * uy + pz * uz);
-    o1[l] = T(px * vx + py * vy + pz * vz);
-    o2[l] = T((px * wx + py * wy + pz * wz) + depth);
-    o3[l] = T(qx * ux + qy * uy + qz * uz);
-    o4[l] = T(qx * vx + qy * vy + qz * vz);
-    o5[l] = T(qx * wx + qy * wy + qz * wz);
-  }
-}
-
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
 // prepared frame in double and rounded once to T; inactive lanes get a harmless ray. With
 // `kernel` false every active lane goes to the reference. At a few objects, moving the rays
-// cost the API more than tracing them: frame_lanes does it in vectors.
+// cost the API more than tracing them: frame_rays does it in vectors, with the kernel's ISA.
 template <class T, int N>
 int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
-         bool kernel, Chunk<T>& ch) {
+         const packet::KernelTable<T>* k, bool plain, Chunk<T>& ch) {
+  const bool kernel = k != nullptr;
+  // n lanes from lane c of the caller's packet into the chunk's six arrays, from its lane l.
+  const auto move = [&](int l, int n) {
+    const auto f = k ? k->frame_rays : &packet::frame_rays<void, T>;
+    const int i = c + l;
+    f(s.frame, n, r.org_x + i, r.org_y + i, r.org_z + i, r.dir_x + i, r.dir_y + i, r.dir_z + i,
+      ch.rays + l, ch.rays + w + l, ch.rays + 2 * w + l, ch.rays + 3 * w + l, ch.rays + 4 * w + l,
+      ch.rays + 5 * w + l);
+  };
   T* rays = ch.rays;
   const int n = std::min(w, N - c);  // fast mode's narrowest kernel is wider than N = 1
+  if (plain && kernel && n == w) {
+    // Every lane active, seeing every object, from epsilon: all to the kernel.
+    for (int l = 0; l < w; ++l) ch.t[l] = T(r.tfar[c + l]);
+    std::fill(ch.tmin, ch.tmin + w, s.epsilon);
+    std::fill(ch.active, ch.active + w, true);
+    std::fill(ch.valid, ch.valid + w, true);
+    std::fill(ch.alone, ch.alone + w, false);
+    std::fill(ch.out, ch.out + w, false);
+    std::fill(ch.id, ch.id + w, -1);
+    move(0, n);
+    if (s.shapes) std::fill(ch.shape, ch.shape + w, ShapeHit<T>{});
+    return w;
+  }
   int active = 0;
   for (int l = 0; l < w; ++l) {
-    const int k = c + l;
-    const bool on = k < N && (valid == nullptr || valid[k] != 0);
-    const bool sees = on && (r.mask[k] & kAllObjects) != 0;
-    const T tmin = on ? std::max(T(r.tnear[k]), s.epsilon) : s.epsilon;
+    const int i = c + l;
+    const bool on = i < N && (valid == nullptr || valid[i] != 0);
+    const bool sees = on && (r.mask[i] & kAllObjects) != 0;
+    const T tmin = on ? std::max(T(r.tnear[i]), s.epsilon) : s.epsilon;
     ch.active[l] = on;
     ch.tmin[l] = tmin;
     ch.alone[l] = sees && (!kernel || tmin > s.epsilon);
     ch.valid[l] = sees && !ch.alone[l];
     active += on;
-    ch.t[l] = on ? T(r.tfar[k]) : std::numeric_limits<T>::infinity();
+    ch.t[l] = on ? T(r.tfar[i]) : std::numeric_limits<T>::infinity();
     ch.id[l] = -1;
     ch.out[l] = false;
   }
   // Mostly active: every lane at once, in vectors; a few: those lanes alone (Frame's own
   // functions, the same arithmetic). Inactive lanes get a harmless ray.
   const bool dense = 4 * active >= n;
-  if (dense)
-    frame_lanes(s.frame, n, r.org_x + c, r.org_y + c, r.org_z + c, r.dir_x + c, r.dir_y + c,
-                r.dir_z + c, rays, rays + w, rays + 2 * w, rays + 3 * w, rays + 4 * w,
-                rays + 5 * w);
+  if (dense) move(0, n);
   if (!dense || active < w)
     for (int l = 0; l < w; ++l) {
       if (dense && ch.active[l]) continue;
       T o[3] = {0, 0, 0}, d[3] = {0, 0, 1};
       if (ch.active[l]) {
-        const int k = c + l;
-        const Vec3<double> po = s.frame.point({r.org_x[k], r.org_y[k], r.org_z[k]});
-        const Vec3<double> pd = s.frame.direction({r.dir_x[k], r.dir_y[k], r.dir_z[k]});
+        const int i = c + l;
+        const Vec3<double> po = s.frame.point({r.org_x[i], r.org_y[i], r.org_z[i]});
+        const Vec3<double> pd = s.frame.direction({r.dir_x[i], r.dir_y[i], r.dir_z[i]});
         o[0] = T(po.x), o[1] = T(po.y), o[2] = T(po.z);
         d[0] = T(pd.x), d[1] = T(pd.y), d[2] = T(pd.z);
       }
@@ -262,10 +263,10 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
-  check_rays("intersect", valid, r);
+  const bool plain = check_rays("intersect", valid, r, s.epsilon);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill(s, valid, r, c, w, k != nullptr, ch) == 0) continue;
+    if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
     trace_alone(s, w, ch);
@@ -299,10 +300,10 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
-  check_rays("occluded", valid, r);
+  const bool plain = check_rays("occluded", valid, r, s.epsilon);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill(s, valid, r, c, w, k != nullptr, ch) == 0) continue;
+    if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);  // false where not valid
     // The reference answers by its closest hit: something lies in (tmin, tfar) exactly when

@@ -57,6 +57,11 @@ struct KernelTable {
   // epsilon < t < tfar[k]; false elsewhere.
   void (*occluded_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                           const Real* tfar, bool* blocked_out);
+  // n world-space rays (float origin x, y, z, direction x, y, z) moved into the prepared frame,
+  // into six arrays (packet/api_rays.hpp): the library API's packets, in this ISA's vectors.
+  void (*frame_rays)(const Frame&, int n, const float* ox, const float* oy, const float* oz,
+                     const float* dx, const float* dy, const float* dz, Real* o0, Real* o1,
+                     Real* o2, Real* o3, Real* o4, Real* o5);
 };
 
 // camera_packets' where[] for a lane that holds no camera ray.

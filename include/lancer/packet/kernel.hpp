@@ -18,6 +18,7 @@
 // same order, so every lane computes the reference's bits.
 #pragma once
 
+#include "lancer/packet/api_rays.hpp"
 #include "lancer/packet/rows.hpp"
 
 namespace lancer::packet {
@@ -84,7 +85,8 @@ const KernelTable<Real>* table() {
                                    &K::camera_packets,
                                    &K::intersect_camera_packets,
                                    &K::closest_hit_packet,
-                                   &K::occluded_packet};
+                                   &K::occluded_packet,
+                                   &frame_rays<Arch, Real>};
   return &t;
 }
 
