@@ -159,6 +159,12 @@ class EmbreeScene {
   // grouped as in primary(). For tests.
   std::vector<PeerHit> camera_hits(int width) const;
 
+  // Rays one at a time through rtcIntersect1 (occluded false: `found` counts the hits) or
+  // rtcOccluded1 (the blocked rays), single-threaded: the peer of the library API's one-ray
+  // queries. Rays in the scene's prepared frame (PreparedScene::frame), 8 floats each: origin,
+  // unit direction, tnear, tfar. Returns the seconds the calls took.
+  double one_rays(const float* rays, std::size_t n, bool occluded, std::size_t& found) const;
+
   // How the planes are modelled.
   PlaneMode plane_mode() const;
 

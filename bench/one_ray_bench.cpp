@@ -1,0 +1,213 @@
+// The library API's one-ray queries against Embree's: api::Scene::intersect<1> / occluded<1>
+// on the one-ray kernels (packet/one_ray.hpp) and on the reference (Options::width 1), beside
+// rtcIntersect1 / rtcOccluded1 (sphere points and user spheres), on the same seeded incoherent
+// rays, one thread, the sides interleaved round by round. Prints per side the median Mrays/s
+// and the spread (min .. max) over the rounds.
+//
+//   build/bench/lancer_one_ray_bench --spheres 65536 [--seed 1] [--rays 200000] [--rounds 9]
+//   build/bench/lancer_one_ray_bench --scene scenes/lorenzi-shadows.json
+//
+// Rays: closest hit, from uniform points in the spheres' bounding box along uniform random
+// directions (tnear 0, tfar infinity); occlusion, segments between two such points (tfar their
+// distance). LANCER_MAX_WIDTH=8 runs the AVX2 one-ray kernels on an AVX-512 machine.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "lancer/generate.hpp"
+#include "lancer/lancer.hpp"
+#include "lancer/peer.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/scene.hpp"
+
+namespace {
+
+using namespace lancer;
+using Clock = std::chrono::steady_clock;
+
+struct WorldRay {
+  Vec3<double> o, d;
+  float tfar;
+};
+
+std::vector<WorldRay> make_rays(const Scene& s, std::size_t n, bool segments, std::uint64_t seed) {
+  Vec3<double> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const Sphere& sp : s.spheres) {
+    lo = {std::min(lo.x, sp.center.x - sp.radius), std::min(lo.y, sp.center.y - sp.radius),
+          std::min(lo.z, sp.center.z - sp.radius)};
+    hi = {std::max(hi.x, sp.center.x + sp.radius), std::max(hi.y, sp.center.y + sp.radius),
+          std::max(hi.z, sp.center.z + sp.radius)};
+  }
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto point = [&] {
+    return Vec3<double>{lo.x + (hi.x - lo.x) * u(g), lo.y + (hi.y - lo.y) * u(g),
+                        lo.z + (hi.z - lo.z) * u(g)};
+  };
+  std::normal_distribution<double> nd;
+  std::vector<WorldRay> rays(n);
+  for (WorldRay& r : rays) {
+    // Rounded to float first: the direction sent is then unit within float's rounding.
+    const Vec3<double> o = point();
+    r.o = {double(float(o.x)), double(float(o.y)), double(float(o.z))};
+    Vec3<double> d;
+    if (segments) {
+      d = point() - r.o;
+      r.tfar = float(length(d));
+    } else {
+      do d = {nd(g), nd(g), nd(g)};
+      while (length(d) < 1e-3);
+      r.tfar = std::numeric_limits<float>::infinity();
+    }
+    d = normalize(d);
+    r.d = {double(float(d.x)), double(float(d.y)), double(float(d.z))};
+  }
+  return rays;
+}
+
+// One round of api queries: seconds and what was found (hits or blocked rays).
+double api_round(const api::Scene& s, const std::vector<WorldRay>& rays, bool occluded,
+                 std::size_t& found) {
+  api::Ray1 r;
+  api::Hit1 h;
+  std::size_t count = 0;
+  const auto start = Clock::now();
+  for (const WorldRay& w : rays) {
+    r.org_x[0] = float(w.o.x), r.org_y[0] = float(w.o.y), r.org_z[0] = float(w.o.z);
+    r.dir_x[0] = float(w.d.x), r.dir_y[0] = float(w.d.y), r.dir_z[0] = float(w.d.z);
+    r.tnear[0] = 0, r.tfar[0] = w.tfar, r.mask[0] = api::kAllObjects;
+    if (occluded) {
+      int blocked;
+      s.occluded(nullptr, r, &blocked);
+      count += blocked != 0;
+    } else {
+      s.intersect(nullptr, r, h);
+      count += h.id[0] >= 0;
+    }
+  }
+  found = count;
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+struct Side {
+  std::string name;
+  std::vector<double> mrays;
+  std::size_t found = 0;
+};
+
+void report(const char* query, std::vector<Side>& sides) {
+  std::printf("%s\n", query);
+  for (Side& s : sides) {
+    if (s.mrays.empty()) continue;
+    std::sort(s.mrays.begin(), s.mrays.end());
+    const double med = s.mrays[s.mrays.size() / 2];
+    std::printf("  %-34s median %7.2f Mrays/s  (%.2f .. %.2f)  found %zu\n", s.name.c_str(), med,
+                s.mrays.front(), s.mrays.back(), s.found);
+  }
+}
+
+int run(int argc, char** argv) {
+  long long spheres = 0;
+  std::uint64_t seed = 1;
+  std::size_t n = 200000;
+  int rounds = 9;
+  std::string scene_path, only;
+  for (int k = 1; k + 1 < argc; k += 2) {
+    const std::string a = argv[k], v = argv[k + 1];
+    if (a == "--spheres")
+      spheres = std::atoll(v.c_str());
+    else if (a == "--seed")
+      seed = std::strtoull(v.c_str(), nullptr, 10);
+    else if (a == "--rays")
+      n = std::size_t(std::atoll(v.c_str()));
+    else if (a == "--rounds")
+      rounds = std::atoi(v.c_str());
+    else if (a == "--scene")
+      scene_path = v;
+    else if (a == "--only")  // one side alone (for a profiler): one-ray, reference or embree
+      only = v;
+    else
+      throw InputError("one_ray_bench: unknown option " + a);
+  }
+  if (argc % 2 == 0) throw InputError("one_ray_bench: an option without its value");
+  Scene scene;
+  if (!scene_path.empty()) {
+    scene = load_scene(scene_path);
+  } else {
+    generate::Options g;
+    g.spheres = spheres > 0 ? spheres : 1024;
+    g.seed = seed;
+    scene = parse_scene(generate::scene_json(g), "generated");
+  }
+  auto make = [&](int width) {
+    api::Options o;
+    o.precision = Precision::exact;
+    o.width = width;
+    o.threads = 1;
+    return api::Scene::from_description(scene, o);
+  };
+  const api::Scene fast = make(0), ref = make(1);
+  std::printf("%zu spheres, %zu planes; one-ray path: %s (reference side: %s); %zu rays a round\n",
+              scene.spheres.size(), scene.planes.size(), fast.info().one_ray.c_str(),
+              ref.info().one_ray.c_str(), n);
+  const Frame frame = prepare<float>(scene).frame;
+  std::vector<std::unique_ptr<peer::EmbreeScene>> embree;
+  std::vector<std::string> embree_names;
+  // Embree on the ISA lancer's kernels are held to (LANCER_MAX_WIDTH=8: AVX2).
+  const char* cap = std::getenv("LANCER_MAX_WIDTH");
+  const std::string config = cap && std::string(cap) == "8" ? "isa=avx2,threads=1" : "threads=1";
+  if (peer::embree_available())
+    for (const bool user : {false, true}) {
+      peer::EmbreeConfig how;
+      how.user_spheres = user;
+      embree.push_back(
+          std::make_unique<peer::EmbreeScene>(scene, peer::PlaneMode::user, config, how));
+      embree_names.push_back("embree " + how.name() + " (" + config + ")");
+    }
+  for (const bool occluded : {false, true}) {
+    const std::vector<WorldRay> rays = make_rays(scene, n, occluded, seed * 7 + occluded);
+    // Embree's rays in the prepared frame, where its scene lies (peer.hpp).
+    std::vector<float> prepared(8 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3<double> o = frame.point(rays[i].o), d = frame.direction(rays[i].d);
+      const float v[8] = {float(o.x), float(o.y), float(o.z), float(d.x),
+                          float(d.y), float(d.z), 0.0f,       rays[i].tfar};
+      std::copy(v, v + 8, prepared.begin() + std::ptrdiff_t(8 * i));
+    }
+    std::vector<Side> sides{{"lancer one-ray (" + fast.info().one_ray + ")", {}, 0},
+                            {"lancer reference (width 1)", {}, 0}};
+    for (const std::string& e : embree_names) sides.push_back({e, {}, 0});
+    auto runs = [&](const char* side) { return only.empty() || only == side; };
+    for (int round = 0; round < rounds; ++round) {
+      if (runs("one-ray"))
+        sides[0].mrays.push_back(1e-6 * double(n) /
+                                 api_round(fast, rays, occluded, sides[0].found));
+      if (runs("reference"))
+        sides[1].mrays.push_back(1e-6 * double(n) / api_round(ref, rays, occluded, sides[1].found));
+      for (std::size_t e = 0; e < embree.size() && runs("embree"); ++e)
+        sides[2 + e].mrays.push_back(
+            1e-6 * double(n) /
+            embree[e]->one_rays(prepared.data(), n, occluded, sides[2 + e].found));
+    }
+    report(occluded ? "occluded<1> / rtcOccluded1" : "intersect<1> / rtcIntersect1", sides);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  }
+}

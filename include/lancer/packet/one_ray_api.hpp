@@ -1,0 +1,39 @@
+// The one-ray kernels' entry points (packet/one_ray.hpp), declared without any SIMD type so that
+// code built for the baseline ISA (the library API) can call them. Instantiated only in
+// src/isa/one_ray_<isa>.cpp, which alone are built with that ISA's flags; dispatch.cpp hands
+// them out after the CPU check.
+#pragma once
+
+#include <cstdint>
+
+#include "lancer/prepared.hpp"
+
+namespace lancer::packet {
+
+// One ray in the prepared frame (origin o, unit direction d), its hits counted at
+// tmin < t < tfar (tmin at least the scene's epsilon). Scenes of spheres and planes only: the
+// triangles, meshes and cylinders stay with the reference.
+template <class Real>
+struct OneRayTable {
+  const char* isa;  // "avx2", "avx512f"
+  // The reference's closest hit (reference::closest_hit from tmin), bit for bit, where it lies
+  // before tfar: returns true and sets t and id (the object id, ties to the lower id); else
+  // leaves them.
+  bool (*closest)(const PreparedScene<Real>&, const Real* o, const Real* d, Real tmin, Real tfar,
+                  Real& t, std::int32_t& id);
+  // Whether some object lies at tmin < t < tfar: exactly where closest would return true.
+  // Stops at the first such object.
+  bool (*occluded)(const PreparedScene<Real>&, const Real* o, const Real* d, Real tmin, Real tfar);
+};
+
+// Defined in packet/one_ray.hpp; instantiated per ISA in src/isa/one_ray_*.cpp. Call only after
+// the CPU check (dispatch.cpp): it runs that ISA's instructions.
+template <class Arch, class Real>
+const OneRayTable<Real>* one_ray_table();
+
+// The one-ray kernels on the widest ISA this CPU and OS run (within LANCER_MAX_WIDTH), or
+// nullptr where there is none (SSE4.2 only, a cap of 1 or 4, aarch64): the reference then.
+const OneRayTable<float>* one_ray_float();
+const OneRayTable<double>* one_ray_double();
+
+}  // namespace lancer::packet
