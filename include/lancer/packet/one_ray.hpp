@@ -96,9 +96,11 @@ struct OneRayKernel {
       return walk_sorted<kPadded>(h, r, tmax, leaf);
   }
 
-  // Float: a node's met children pushed as three vectors (references, counts, entry
-  // distances), shuffled into the node's order for the ray's direction code (the binary splits'
-  // near side first) and compacted (PushTables), the nearest on top: no branch per child.
+  // Float: a node's met children but the first in its order for the ray's direction code (the
+  // binary splits' near side first) pushed as three vectors (references, counts, entry
+  // distances), shuffled into that order and compacted (PushTables), the nearest on top; the
+  // first visited at once, from the node itself. No branch per child, no stack round trip for
+  // the way down.
   template <bool kPadded, class Leaf>
   static bool walk_float(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
     constexpr int kSize = Bvh<T>::kStack + Bvh<T>::kWidth;
@@ -110,15 +112,19 @@ struct OneRayKernel {
       const Node& n = h.nodes[std::size_t(node)];
       B tn;
       const unsigned met = meet<kPadded>(n, r, tmax, tn);
-      if (met && (met & (met - 1)) == 0) {  // one child met: straight on, nothing pushed
-        const int k = __builtin_ctz(met);
+      if (met) {
+        const unsigned order_byte = n.order[r.code];
+        const int m = kPush.reorder[order_byte][met];
+        // Lane i of m holds the slot visited (3 - i)th: the highest set lane is the first.
+        const int first = 3 - (31 - __builtin_clz(unsigned(m)));
+        const int k = int(order_byte >> (2 * first)) & 3;
+        push_rest(n, order_byte, m, tn, ref + sp, cnt + sp, tnear + sp);
+        sp += kPush.count[m] - 1;
         if (n.count[k] < 0) {
           node = n.child[k];
           continue;
         }
         if (leaf(n.child[k], n.count[k])) return true;
-      } else {
-        push_met(n, r, met, tn, ref, cnt, tnear, sp);
       }
       for (;;) {
         if (sp == 0) return false;
@@ -132,25 +138,22 @@ struct OneRayKernel {
       }
     }
   }
-  static void push_met(const Node& n, const Slab& r, unsigned met, const B& tn, std::int32_t* ref,
-                       std::int32_t* cnt, float* tnear, int& sp) noexcept {
-    {
-      const unsigned order_byte = n.order[r.code];
-      const __m128i order =
-          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
-      const int m = kPush.reorder[order_byte][met];
-      const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
-      auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
-      std::int32_t counts;
-      std::memcpy(&counts, n.count, sizeof counts);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(ref + sp),
-                       push(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child))));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(cnt + sp),
-                       push(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(counts))));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear + sp),
-                       push(_mm_castps_si128(static_cast<__m128>(tn))));
-      sp += kPush.count[m];
-    }
+  // Writes the met children (m: PushTables::reorder's mask) at ref, cnt, tnear in reverse
+  // visiting order; the caller keeps all but the last (the first visited).
+  static void push_rest(const Node& n, unsigned order_byte, int m, const B& tn, std::int32_t* ref,
+                        std::int32_t* cnt, float* tnear) noexcept {
+    const __m128i order =
+        _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
+    const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
+    auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
+    std::int32_t counts;
+    std::memcpy(&counts, n.count, sizeof counts);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(ref),
+                     push(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cnt),
+                     push(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(counts))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear),
+                     push(_mm_castps_si128(static_cast<__m128>(tn))));
   }
 
   // Double: the met children sorted on the stack by entry distance, the nearest on top (as
