@@ -80,6 +80,7 @@ struct Engine {
   // The lanes answered one ray at a time (Chunk::alone): the one-ray kernels, or null: the
   // reference.
   const packet::OneRayTable<T>* one = nullptr;
+  std::vector<T> one_spheres;  // packet::one_ray_spheres(scene.bvh), where `one` is set
 };
 
 std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
@@ -166,17 +167,19 @@ Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
 // before tfar (ch.t), which it then replaces. With `one`, the one-ray kernels give the same
 // answer (any: whether something lies before tfar, ch.t then unchanged).
 template <class T>
-void trace_alone(const PreparedScene<T>& s, const packet::OneRayTable<T>* one, bool any, int w,
-                 Chunk<T>& ch) {
+void trace_alone(const Engine<T>& e, bool any, int w, Chunk<T>& ch) {
+  const PreparedScene<T>& s = e.scene;
+  const packet::OneRayTable<T>* one = e.one;
+  const T* spheres = e.one_spheres.data();
   for (int l = 0; l < w; ++l) {
     if (!ch.alone[l]) continue;
     if (one) {
       const T o[3] = {ch.rays[l], ch.rays[w + l], ch.rays[2 * w + l]};
       const T d[3] = {ch.rays[3 * w + l], ch.rays[4 * w + l], ch.rays[5 * w + l]};
       if (any)
-        ch.out[l] = one->occluded(s, o, d, ch.tmin[l], ch.t[l]);
+        ch.out[l] = one->occluded(s, spheres, o, d, ch.tmin[l], ch.t[l]);
       else
-        ch.out[l] = one->closest(s, o, d, ch.tmin[l], ch.t[l], ch.t[l], ch.id[l]);
+        ch.out[l] = one->closest(s, spheres, o, d, ch.tmin[l], ch.t[l], ch.t[l], ch.id[l]);
       continue;
     }
     const reference::Hit<T> hit = reference::closest_hit(
@@ -253,12 +256,12 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
   const T ov[3] = {o.x, o.y, o.z}, dv[3] = {d.x, d.y, d.z};
   const bool sees = (r.mask[0] & kAllObjects) != 0;
   if (!hit) {
-    *blocked = sees && e.one->occluded(s, ov, dv, tmin, tfar) ? 1 : 0;
+    *blocked = sees && e.one->occluded(s, e.one_spheres.data(), ov, dv, tmin, tfar) ? 1 : 0;
     return;
   }
   T t = tfar;
   std::int32_t id = -1;
-  if (!sees || !e.one->closest(s, ov, dv, tmin, tfar, t, id)) id = -1;
+  if (!sees || !e.one->closest(s, e.one_spheres.data(), ov, dv, tmin, tfar, t, id)) id = -1;
   store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
@@ -274,7 +277,7 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     if (fill(s, valid, r, c, w, k != nullptr, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
-    trace_alone(s, e.one, false, w, ch);
+    trace_alone(e, false, w, ch);
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l])
         store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l], ch.shape[l],
@@ -296,7 +299,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
       k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);  // false where not valid
     // The reference answers by its closest hit: something lies in (tmin, tfar) exactly when
     // the nearest hit does, since both take each object's same nearest root.
-    trace_alone(s, e.one, true, w, ch);
+    trace_alone(e, true, w, ch);
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l]) out[c + l] = ch.out[l] ? 1 : 0;
   }
@@ -342,6 +345,7 @@ void choose_widths(Engine<T>& e, const Info& info) {
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1;
   // scenes with triangles, meshes or cylinders run there too). Fast mode has no lone lanes.
   if (info.width > 1 && info.precision != Precision::fast) e.one = one_ray_of<T>();
+  if (e.one) e.one_spheres = packet::one_ray_spheres(e.scene.bvh);
 }
 
 // Options a scene cannot be made with, refused before anything is read: an enumerator outside

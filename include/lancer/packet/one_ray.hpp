@@ -197,15 +197,15 @@ struct OneRayKernel {
   }
 
   // Spheres [first, first + n) of arrays of `total` entries, four at a time, for one ray:
-  // hit(j, t) for each sphere j met at t > eps, in index order within each four; true from
-  // hit stops.
+  // hit(j, t) for each sphere j met at eps < t <= tmax, in index order within each four; true
+  // from hit stops.
   struct SphereArrays {
     const T *cx, *cy, *cz, *r2;
     int total;
   };
   template <class Hit>
   static bool spheres(const SphereArrays& sp, int first, int n, const Vec3<B>& o, const Vec3<B>& d,
-                      const B& eps, Hit&& hit) noexcept {
+                      const B& eps, const T& tmax, Hit&& hit) noexcept {
     alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
     const B lane = B::load_aligned(kLane);
     for (int j = first; j < first + n; j += 4) {
@@ -224,10 +224,50 @@ struct OneRayKernel {
       }
       const Vec3<B> f = o - Vec3<B>{cx, cy, cz};
       const SphereDisc<B> sd = sphere_disc(f, d, r2);
+      // No branch on the discriminant: the roots of four spheres cost less than its mispredictions.
       const auto live = (sd.disc >= B(T(0))) & (lane < B(T(m)));
-      if (!xsimd::any(live)) continue;
       const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      unsigned met = lane_bits(live & (t > eps));
+      unsigned met = lane_bits(live & (t > eps) & (t <= B(tmax)));
+      if (!met) continue;
+      alignas(32) T tt[4];
+      t.store_aligned(tt);
+      for (; met; met &= met - 1) {
+        const int q = __builtin_ctz(met);
+        if (hit(j + q, tt[q])) return true;
+      }
+    }
+    return false;
+  }
+
+  // Leaf-order spheres [first, first + n) from one_ray_spheres' array, four at a time (each
+  // four loaded as rows and transposed), as spheres() does.
+  template <class Hit>
+  static bool leaf_spheres(const T* aos, int first, int n, const Vec3<B>& o, const Vec3<B>& d,
+                           const B& eps, const T& tmax, Hit&& hit) noexcept {
+    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
+    const B lane = B::load_aligned(kLane);
+    for (int j = first; j < first + n; j += 4) {
+      const int m = std::min(4, first + n - j);
+      const T* p = aos + 4 * std::size_t(j);
+      B cx, cy, cz, r2;
+      if constexpr (std::is_same_v<T, float>) {
+        __m128 r0 = _mm_loadu_ps(p), r1 = _mm_loadu_ps(p + 4), r2v = _mm_loadu_ps(p + 8),
+               r3 = _mm_loadu_ps(p + 12);
+        _MM_TRANSPOSE4_PS(r0, r1, r2v, r3);
+        cx = B(r0), cy = B(r1), cz = B(r2v), r2 = B(r3);
+      } else {
+        const __m256d r0 = _mm256_loadu_pd(p), r1 = _mm256_loadu_pd(p + 4),
+                      r2v = _mm256_loadu_pd(p + 8), r3 = _mm256_loadu_pd(p + 12);
+        const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+        const __m256d t2 = _mm256_unpacklo_pd(r2v, r3), t3 = _mm256_unpackhi_pd(r2v, r3);
+        cx = B(_mm256_permute2f128_pd(t0, t2, 0x20)), cy = B(_mm256_permute2f128_pd(t1, t3, 0x20));
+        cz = B(_mm256_permute2f128_pd(t0, t2, 0x31)), r2 = B(_mm256_permute2f128_pd(t1, t3, 0x31));
+      }
+      const Vec3<B> f = o - Vec3<B>{cx, cy, cz};
+      const SphereDisc<B> sd = sphere_disc(f, d, r2);
+      const auto live = (sd.disc >= B(T(0))) & (lane < B(T(m)));
+      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = lane_bits(live & (t > eps) & (t <= B(tmax)));
       if (!met) continue;
       alignas(32) T tt[4];
       t.store_aligned(tt);
@@ -242,8 +282,8 @@ struct OneRayKernel {
   // Over the hierarchy, or every sphere in id order where there is none or the ray starts
   // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin.
   template <class Hit>
-  static bool all_spheres(const PreparedScene<T>& s, const T* o, const T* d, T tmin, const T& tmax,
-                          Hit&& hit) noexcept {
+  static bool all_spheres(const PreparedScene<T>& s, const T* aos, const T* o, const T* d, T tmin,
+                          const T& tmax, Hit&& hit) noexcept {
     const Vec3<B> ov{B(o[0]), B(o[1]), B(o[2])}, dv{B(d[0]), B(d[1]), B(d[2])};
     const B eps(tmin);
     const Bvh<T>& h = s.bvh;
@@ -251,12 +291,12 @@ struct OneRayKernel {
     if (!h.active() || m > T(Bvh<T>::kFarLimit)) {
       const SphereArrays sp{s.spheres.cx.data(), s.spheres.cy.data(), s.spheres.cz.data(),
                             s.spheres.r2.data(), s.num_spheres};
-      return spheres(sp, 0, s.num_spheres, ov, dv, eps, [&](int j, T t) { return hit(j, t); });
+      return spheres(sp, 0, s.num_spheres, ov, dv, eps, tmax,
+                     [&](int j, T t) { return hit(j, t); });
     }
-    const SphereArrays sp{h.cx.data(), h.cy.data(), h.cz.data(), h.r2.data(), int(h.cx.size())};
     auto leaf = [&](std::int32_t first, std::int32_t count) {
-      return spheres(sp, first, count, ov, dv, eps,
-                     [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
+      return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
+                          [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
     };
     const Slab r = slab(h, o, d);
     return r.padded ? walk<true>(h, r, tmax, leaf) : walk<false>(h, r, tmax, leaf);
@@ -277,8 +317,8 @@ struct OneRayKernel {
     return false;
   }
 
-  static bool closest(const PreparedScene<T>& s, const T* o, const T* d, T tmin, T tfar, T& t_out,
-                      std::int32_t& id_out) noexcept {
+  static bool closest(const PreparedScene<T>& s, const T* aos, const T* o, const T* d, T tmin,
+                      T tfar, T& t_out, std::int32_t& id_out) noexcept {
     // Only hits before tfar count: starting from it, nothing at or beyond it is taken (an equal
     // t would need an id below -1), and what is nearer is the reference's minimum.
     T best_t = tfar;
@@ -289,7 +329,7 @@ struct OneRayKernel {
       if (t < best_t) best_t = t, best_id = id;
       return false;
     });
-    all_spheres(s, o, d, tmin, best_t, [&](std::int32_t id, T t) {
+    all_spheres(s, aos, o, d, tmin, best_t, [&](std::int32_t id, T t) {
       if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
       return false;
     });
@@ -298,10 +338,11 @@ struct OneRayKernel {
     return true;
   }
 
-  static bool occluded(const PreparedScene<T>& s, const T* o, const T* d, T tmin, T tfar) noexcept {
+  static bool occluded(const PreparedScene<T>& s, const T* aos, const T* o, const T* d, T tmin,
+                       T tfar) noexcept {
     auto before = [&](std::int32_t, T t) { return t < tfar; };
     // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
-    return planes(s, o, d, tmin, before) || all_spheres(s, o, d, tmin, tfar, before);
+    return planes(s, o, d, tmin, before) || all_spheres(s, aos, o, d, tmin, tfar, before);
   }
 };
 

@@ -4,11 +4,29 @@
 // them out after the CPU check.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "lancer/prepared.hpp"
 
 namespace lancer::packet {
+
+// The hierarchy's spheres in leaf order as x, y, z, r^2 each (array of structures: a leaf's
+// spheres in one or two cache lines, where the hierarchy's four arrays take four or more), and
+// four zero spheres after them (a leaf's last four-sphere load reads no further). Empty without
+// a hierarchy.
+template <class Real>
+std::vector<Real> one_ray_spheres(const Bvh<Real>& h) {
+  std::vector<Real> out;
+  if (!h.active()) return out;
+  const std::size_t n = h.cx.size();
+  out.assign(4 * (n + 4), Real(0));
+  for (std::size_t j = 0; j < n; ++j)
+    out[4 * j] = h.cx[j], out[4 * j + 1] = h.cy[j], out[4 * j + 2] = h.cz[j],
+            out[4 * j + 3] = h.r2[j];
+  return out;
+}
 
 // One ray in the prepared frame (origin o, unit direction d), its hits counted at
 // tmin < t < tfar (tmin at least the scene's epsilon). Scenes of spheres and planes only: the
@@ -19,11 +37,13 @@ struct OneRayTable {
   // The reference's closest hit (reference::closest_hit from tmin), bit for bit, where it lies
   // before tfar: returns true and sets t and id (the object id, ties to the lower id); else
   // leaves them.
-  bool (*closest)(const PreparedScene<Real>&, const Real* o, const Real* d, Real tmin, Real tfar,
-                  Real& t, std::int32_t& id);
+  // `spheres`: one_ray_spheres(scene.bvh).
+  bool (*closest)(const PreparedScene<Real>&, const Real* spheres, const Real* o, const Real* d,
+                  Real tmin, Real tfar, Real& t, std::int32_t& id);
   // Whether some object lies at tmin < t < tfar: exactly where closest would return true.
   // Stops at the first such object.
-  bool (*occluded)(const PreparedScene<Real>&, const Real* o, const Real* d, Real tmin, Real tfar);
+  bool (*occluded)(const PreparedScene<Real>&, const Real* spheres, const Real* o, const Real* d,
+                   Real tmin, Real tfar);
 };
 
 // Defined in packet/one_ray.hpp; instantiated per ISA in src/isa/one_ray_*.cpp. Call only after
