@@ -80,7 +80,7 @@ struct Engine {
   // The lanes answered one ray at a time (Chunk::alone): the one-ray kernels, or null: the
   // reference.
   const packet::OneRayTable<T>* one = nullptr;
-  std::vector<T> one_spheres;  // packet::one_ray_spheres(scene.bvh), where `one` is set
+  packet::OneRayScene<T> one_scene;  // packet::one_ray_scene(scene.bvh), where `one` is set
 };
 
 std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
@@ -170,7 +170,7 @@ template <class T>
 void trace_alone(const Engine<T>& e, bool any, int w, Chunk<T>& ch) {
   const PreparedScene<T>& s = e.scene;
   const packet::OneRayTable<T>* one = e.one;
-  const T* spheres = e.one_spheres.data();
+  const packet::OneRayScene<T>& spheres = e.one_scene;
   for (int l = 0; l < w; ++l) {
     if (!ch.alone[l]) continue;
     if (one) {
@@ -256,12 +256,12 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
   const T ov[3] = {o.x, o.y, o.z}, dv[3] = {d.x, d.y, d.z};
   const bool sees = (r.mask[0] & kAllObjects) != 0;
   if (!hit) {
-    *blocked = sees && e.one->occluded(s, e.one_spheres.data(), ov, dv, tmin, tfar) ? 1 : 0;
+    *blocked = sees && e.one->occluded(s, e.one_scene, ov, dv, tmin, tfar) ? 1 : 0;
     return;
   }
   T t = tfar;
   std::int32_t id = -1;
-  if (!sees || !e.one->closest(s, e.one_spheres.data(), ov, dv, tmin, tfar, t, id)) id = -1;
+  if (!sees || !e.one->closest(s, e.one_scene, ov, dv, tmin, tfar, t, id)) id = -1;
   store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
@@ -345,7 +345,7 @@ void choose_widths(Engine<T>& e, const Info& info) {
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1;
   // scenes with triangles, meshes or cylinders run there too). Fast mode has no lone lanes.
   if (info.width > 1 && info.precision != Precision::fast) e.one = one_ray_of<T>();
-  if (e.one) e.one_spheres = packet::one_ray_spheres(e.scene.bvh);
+  if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
 }
 
 // Options a scene cannot be made with, refused before anything is read: an enumerator outside

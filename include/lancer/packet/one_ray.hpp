@@ -1,20 +1,21 @@
 // The one-ray kernels (one_ray_api.hpp): a single ray's closest hit and occlusion over the
 // sphere hierarchy and the planes, for the library API's one-ray queries. Kept apart from the
 // reference (traverse.hpp, reference.cpp), which stays the definition and which they equal bit
-// for bit. As Embree's single-ray BVH traversal: a wide node's four children tested against
-// the ray in one SIMD operation per plane (float: one xmm, double: one ymm), the met ones
-// visited nearest first (the node's order for the ray's direction code), a popped subtree
-// culled where it starts beyond the best t; a leaf's spheres four at a time with the
+// for bit. As Embree's single-ray BVH traversal: a wide node's children tested against the ray
+// in one SIMD operation per plane (float: the 4-wide hierarchy collapsed into 8-wide nodes, one
+// ymm; double: the 4-wide nodes, one ymm), the met ones visited nearest entry first, a popped
+// subtree culled where it starts beyond the best t; a leaf's spheres four at a time with the
 // reference's sphere formulas (formulas.hpp). The closest hit keeps the lexicographic minimum
 // of (t, object id), so the visiting order cannot change it; occlusion stops at the first
-// object met within (tmin, tfar). Include only from src/isa/one_ray_*.cpp.
+// object met within (tmin, tfar). The boxes are the hierarchy's, padded for the sphere test's
+// rounding and, beyond origin_limit, for the origin's, as the reference pads them. Include only
+// from src/isa/one_ray_*.cpp.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <type_traits>
 
 #include "lancer/bvh.hpp"
@@ -22,7 +23,6 @@
 #include "lancer/packet/intrin.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/packet/one_ray_api.hpp"
-#include "lancer/packet/push_tables.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/vec3.hpp"
 
@@ -85,81 +85,13 @@ struct OneRayKernel {
     return lane_bits(tn <= tf) & ((1u << n.arity) - 1u);
   }
 
-  // The depth-first walk. leaf(first, count) -> true to stop; returns whether a leaf stopped
-  // it. A popped entry is skipped where it starts beyond tmax (read afresh: a closest-hit leaf
-  // lowers it).
+  // The depth-first walk over the 4-wide nodes (double): the met children sorted on the stack by
+  // entry distance, the nearest on top (as Embree's single-ray traversal sorts them), the
+  // nearest taken at once; a popped entry is skipped where it starts beyond tmax (read afresh: a
+  // closest-hit leaf lowers it). leaf(first, count) -> true to stop; returns whether a leaf
+  // stopped it.
   template <bool kPadded, class Leaf>
   static bool walk(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
-    if constexpr (std::is_same_v<T, float>)
-      return walk_float<kPadded>(h, r, tmax, leaf);
-    else
-      return walk_sorted<kPadded>(h, r, tmax, leaf);
-  }
-
-  // Float: a node's met children but the first in its order for the ray's direction code (the
-  // binary splits' near side first) pushed as three vectors (references, counts, entry
-  // distances), shuffled into that order and compacted (PushTables), the nearest on top; the
-  // first visited at once, from the node itself. No branch per child, no stack round trip for
-  // the way down.
-  template <bool kPadded, class Leaf>
-  static bool walk_float(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
-    constexpr int kSize = Bvh<T>::kStack + Bvh<T>::kWidth;
-    alignas(16) std::int32_t ref[kSize], cnt[kSize];
-    alignas(16) float tnear[kSize];
-    int sp = 0;
-    std::int32_t node = 0;
-    for (;;) {
-      const Node& n = h.nodes[std::size_t(node)];
-      B tn;
-      const unsigned met = meet<kPadded>(n, r, tmax, tn);
-      if (met) {
-        const unsigned order_byte = n.order[r.code];
-        const int m = kPush.reorder[order_byte][met];
-        // Lane i of m holds the slot visited (3 - i)th: the highest set lane is the first.
-        const int first = 3 - (31 - __builtin_clz(unsigned(m)));
-        const int k = int(order_byte >> (2 * first)) & 3;
-        push_rest(n, order_byte, m, tn, ref + sp, cnt + sp, tnear + sp);
-        sp += kPush.count[m] - 1;
-        if (n.count[k] < 0) {
-          node = n.child[k];
-          continue;
-        }
-        if (leaf(n.child[k], n.count[k])) return true;
-      }
-      for (;;) {
-        if (sp == 0) return false;
-        const int q = --sp;
-        if (tnear[q] > tmax) continue;
-        if (cnt[q] < 0) {
-          node = ref[q];
-          break;
-        }
-        if (leaf(ref[q], cnt[q])) return true;
-      }
-    }
-  }
-  // Writes the met children (m: PushTables::reorder's mask) at ref, cnt, tnear in reverse
-  // visiting order; the caller keeps all but the last (the first visited).
-  static void push_rest(const Node& n, unsigned order_byte, int m, const B& tn, std::int32_t* ref,
-                        std::int32_t* cnt, float* tnear) noexcept {
-    const __m128i order =
-        _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
-    const __m128i pack = _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.compress[m]));
-    auto push = [&](__m128i v) { return _mm_shuffle_epi8(_mm_shuffle_epi8(v, order), pack); };
-    std::int32_t counts;
-    std::memcpy(&counts, n.count, sizeof counts);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(ref),
-                     push(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child))));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(cnt),
-                     push(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(counts))));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(tnear),
-                     push(_mm_castps_si128(static_cast<__m128>(tn))));
-  }
-
-  // Double: the met children sorted on the stack by entry distance, the nearest on top (as
-  // Embree's single-ray traversal sorts them), the nearest taken at once.
-  template <bool kPadded, class Leaf>
-  static bool walk_sorted(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
     struct Entry {
       std::int32_t child, count;
       T tnear;
@@ -193,6 +125,98 @@ struct OneRayKernel {
         if (sp == 0) return false;
         next = stack[--sp];
       } while (next.tnear > tmax);
+    }
+  }
+
+  // Float over the 8-wide nodes (OneRayNode8): a node's eight children tested against the ray
+  // in one ymm per plane, the met ones visited nearest entry first (sorted on the stack, the
+  // nearest taken at once), as Embree's BVH8 single-ray traversal.
+  struct Slab8 {
+    __m256 inv[3], oi[3], pad[3];
+    std::size_t near[3], far[3];
+  };
+  static Slab8 slab8(const T* o, const T* d, bool padded) noexcept {
+    using N8 = OneRayNode8;
+    const std::size_t lo[3] = {offsetof(N8, lo_x), offsetof(N8, lo_y), offsetof(N8, lo_z)};
+    const std::size_t hi[3] = {offsetof(N8, hi_x), offsetof(N8, hi_y), offsetof(N8, hi_z)};
+    Slab8 r;
+    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+    const T far = padded ? m * T(Bvh<T>::kOriginPad) : T(0);
+    for (int a = 0; a < 3; ++a) {
+      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
+      r.inv[a] = _mm256_set1_ps(inv);
+      r.oi[a] = _mm256_set1_ps(o[a] * inv);
+      r.pad[a] = _mm256_set1_ps(far * std::fabs(inv));
+      r.near[a] = inv < T(0) ? hi[a] : lo[a];
+      r.far[a] = inv < T(0) ? lo[a] : hi[a];
+    }
+    return r;
+  }
+  template <bool kPadded, class Leaf>
+  static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf) noexcept {
+    struct Entry {
+      std::int32_t child, count;
+      float tnear;
+    };
+    // Every 8-wide level stands for one 4-wide level or more: at most seven entries each.
+    Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2];
+    int sp = 0;
+    std::int32_t node = 0;
+    for (;;) {
+      const OneRayNode8& n = nodes[std::size_t(node)];
+      const char* base = reinterpret_cast<const char*>(&n);
+      auto plane = [&](std::size_t off) {
+        return _mm256_load_ps(reinterpret_cast<const float*>(base + off));
+      };
+      __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax);
+      for (int a = 0; a < 3; ++a) {
+        __m256 t0 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
+        __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        if constexpr (kPadded) t0 = _mm256_sub_ps(t0, r.pad[a]), t1 = _mm256_add_ps(t1, r.pad[a]);
+        tn = _mm256_max_ps(tn, t0);
+        tf = _mm256_min_ps(tf, t1);
+      }
+      unsigned met = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ)));
+      if (met) {
+        Entry e;
+        if ((met & (met - 1)) == 0) {  // one child met: straight on
+          const int k = __builtin_ctz(met);
+          e = {n.child[k], n.count[k], 0.0f};
+        } else {
+          alignas(32) float dist[8];
+          _mm256_store_ps(dist, tn);
+          const int bottom = sp;
+          for (; met; met &= met - 1) {  // insertion: the nearest on top
+            const int k = __builtin_ctz(met);
+            const Entry x{n.child[k], n.count[k], dist[k]};
+            // A node the walk may come back to: its lines on their way meanwhile.
+            if (x.count < 0) {
+              const char* p = reinterpret_cast<const char*>(nodes + x.child);
+              for (int line = 0; line < int(sizeof(OneRayNode8)); line += 64)
+                _mm_prefetch(p + line, _MM_HINT_T0);
+            }
+            int q = sp++;
+            for (; q > bottom && stack[q - 1].tnear < x.tnear; --q) stack[q] = stack[q - 1];
+            stack[q] = x;
+          }
+          e = stack[--sp];
+        }
+        if (e.count < 0) {
+          node = e.child;
+          continue;
+        }
+        if (leaf(e.child, e.count)) return true;
+      }
+      for (;;) {
+        if (sp == 0) return false;
+        const Entry e = stack[--sp];
+        if (e.tnear > tmax) continue;
+        if (e.count < 0) {
+          node = e.child;
+          break;
+        }
+        if (leaf(e.child, e.count)) return true;
+      }
     }
   }
 
@@ -282,8 +306,9 @@ struct OneRayKernel {
   // Over the hierarchy, or every sphere in id order where there is none or the ray starts
   // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin.
   template <class Hit>
-  static bool all_spheres(const PreparedScene<T>& s, const T* aos, const T* o, const T* d, T tmin,
-                          const T& tmax, Hit&& hit) noexcept {
+  static bool all_spheres(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o,
+                          const T* d, T tmin, const T& tmax, Hit&& hit) noexcept {
+    const T* aos = one.spheres.data();
     const Vec3<B> ov{B(o[0]), B(o[1]), B(o[2])}, dv{B(d[0]), B(d[1]), B(d[2])};
     const B eps(tmin);
     const Bvh<T>& h = s.bvh;
@@ -298,6 +323,14 @@ struct OneRayKernel {
       return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
                           [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
     };
+    if constexpr (std::is_same_v<T, float>) {
+      if (!one.nodes8.empty()) {
+        const bool padded = m > h.origin_limit;
+        const Slab8 r = slab8(o, d, padded);
+        return padded ? walk8<true>(one.nodes8.data(), r, tmax, leaf)
+                      : walk8<false>(one.nodes8.data(), r, tmax, leaf);
+      }
+    }
     const Slab r = slab(h, o, d);
     return r.padded ? walk<true>(h, r, tmax, leaf) : walk<false>(h, r, tmax, leaf);
   }
@@ -317,8 +350,8 @@ struct OneRayKernel {
     return false;
   }
 
-  static bool closest(const PreparedScene<T>& s, const T* aos, const T* o, const T* d, T tmin,
-                      T tfar, T& t_out, std::int32_t& id_out) noexcept {
+  static bool closest(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
+                      T tmin, T tfar, T& t_out, std::int32_t& id_out) noexcept {
     // Only hits before tfar count: starting from it, nothing at or beyond it is taken (an equal
     // t would need an id below -1), and what is nearer is the reference's minimum.
     T best_t = tfar;
@@ -329,7 +362,7 @@ struct OneRayKernel {
       if (t < best_t) best_t = t, best_id = id;
       return false;
     });
-    all_spheres(s, aos, o, d, tmin, best_t, [&](std::int32_t id, T t) {
+    all_spheres(s, one, o, d, tmin, best_t, [&](std::int32_t id, T t) {
       if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
       return false;
     });
@@ -338,11 +371,11 @@ struct OneRayKernel {
     return true;
   }
 
-  static bool occluded(const PreparedScene<T>& s, const T* aos, const T* o, const T* d, T tmin,
-                       T tfar) noexcept {
+  static bool occluded(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
+                       T tmin, T tfar) noexcept {
     auto before = [&](std::int32_t, T t) { return t < tfar; };
     // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
-    return planes(s, o, d, tmin, before) || all_spheres(s, aos, o, d, tmin, tfar, before);
+    return planes(s, o, d, tmin, before) || all_spheres(s, one, o, d, tmin, tfar, before);
   }
 };
 

@@ -12,6 +12,25 @@
 
 namespace lancer::packet {
 
+// An 8-wide node for float rays, the 4-wide hierarchy's nodes collapsed (one_ray_scene): its
+// children's boxes (those of the 4-wide nodes, padded alike) structure-of-arrays, eight in one
+// ymm per plane. Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres from
+// leaf-order index child[k]. Unused slots have empty boxes (lo +inf, hi -inf): never met.
+struct alignas(64) OneRayNode8 {
+  float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
+  std::int32_t child[8], count[8];
+};
+
+// What the one-ray kernels read beside the prepared scene: the spheres as rows (below) and,
+// for float, the 8-wide nodes (nodes8[0] the root; empty without a hierarchy).
+template <class Real>
+struct OneRayScene {
+  std::vector<Real> spheres;
+  std::vector<OneRayNode8> nodes8;
+};
+OneRayScene<float> one_ray_scene(const Bvh<float>& h);
+OneRayScene<double> one_ray_scene(const Bvh<double>& h);
+
 // The hierarchy's spheres in leaf order as x, y, z, r^2 each (array of structures: a leaf's
 // spheres in one or two cache lines, where the hierarchy's four arrays take four or more), and
 // four zero spheres after them (a leaf's last four-sphere load reads no further). Empty without
@@ -37,13 +56,13 @@ struct OneRayTable {
   // The reference's closest hit (reference::closest_hit from tmin), bit for bit, where it lies
   // before tfar: returns true and sets t and id (the object id, ties to the lower id); else
   // leaves them.
-  // `spheres`: one_ray_spheres(scene.bvh).
-  bool (*closest)(const PreparedScene<Real>&, const Real* spheres, const Real* o, const Real* d,
-                  Real tmin, Real tfar, Real& t, std::int32_t& id);
+  // `one`: one_ray_scene(scene.bvh).
+  bool (*closest)(const PreparedScene<Real>&, const OneRayScene<Real>& one, const Real* o,
+                  const Real* d, Real tmin, Real tfar, Real& t, std::int32_t& id);
   // Whether some object lies at tmin < t < tfar: exactly where closest would return true.
   // Stops at the first such object.
-  bool (*occluded)(const PreparedScene<Real>&, const Real* spheres, const Real* o, const Real* d,
-                   Real tmin, Real tfar);
+  bool (*occluded)(const PreparedScene<Real>&, const OneRayScene<Real>& one, const Real* o,
+                   const Real* d, Real tmin, Real tfar);
 };
 
 // Defined in packet/one_ray.hpp; instantiated per ISA in src/isa/one_ray_*.cpp. Call only after
