@@ -5,6 +5,7 @@
 // and the spread (min .. max) over the rounds, timed by the thread's CPU clock.
 //
 //   build/bench/lancer_one_ray_bench --spheres 65536 [--seed 1] [--rays 200000] [--rounds 9]
+//                                    [--precision double] [--only one-ray|reference|embree]
 //   build/bench/lancer_one_ray_bench --scene scenes/lorenzi-shadows.json
 //
 // Rays: closest hit, from uniform points in the spheres' bounding box along uniform random
@@ -127,6 +128,7 @@ int run(int argc, char** argv) {
   std::size_t n = 200000;
   int rounds = 9;
   std::string scene_path, only;
+  Precision precision = Precision::exact;
   for (int k = 1; k + 1 < argc; k += 2) {
     const std::string a = argv[k], v = argv[k + 1];
     if (a == "--spheres")
@@ -139,6 +141,8 @@ int run(int argc, char** argv) {
       rounds = std::atoi(v.c_str());
     else if (a == "--scene")
       scene_path = v;
+    else if (a == "--precision")  // exact (float, the default) or double
+      precision = parse_precision(v, "--precision");
     else if (a == "--only")  // one side alone (for a profiler): one-ray, reference or embree
       only = v;
     else
@@ -156,15 +160,16 @@ int run(int argc, char** argv) {
   }
   auto make = [&](int width) {
     api::Options o;
-    o.precision = Precision::exact;
+    o.precision = precision;
     o.width = width;
     o.threads = 1;
     return api::Scene::from_description(scene, o);
   };
   const api::Scene fast = make(0), ref = make(1);
-  std::printf("%zu spheres, %zu planes; one-ray path: %s (reference side: %s); %zu rays a round\n",
-              scene.spheres.size(), scene.planes.size(), fast.info().one_ray.c_str(),
-              ref.info().one_ray.c_str(), n);
+  std::printf(
+      "%zu spheres, %zu planes, %s; one-ray path: %s (reference side: %s); %zu rays a round\n",
+      scene.spheres.size(), scene.planes.size(), to_string(precision), fast.info().one_ray.c_str(),
+      ref.info().one_ray.c_str(), n);
   const Frame frame = prepare<float>(scene).frame;
   std::vector<std::unique_ptr<peer::EmbreeScene>> embree;
   std::vector<std::string> embree_names;
