@@ -6,11 +6,14 @@
 //
 //   build/bench/lancer_one_ray_bench --spheres 65536 [--seed 1] [--rays 200000] [--rounds 9]
 //                                    [--precision double] [--only one-ray|reference|embree]
+//                                    [--rays-from box|hits]
 //   build/bench/lancer_one_ray_bench --scene scenes/lorenzi-shadows.json
 //
 // Rays: closest hit, from uniform points in the spheres' bounding box along uniform random
 // directions (tnear 0, tfar infinity); occlusion, segments between two such points (tfar their
-// distance). LANCER_MAX_WIDTH=8 runs the AVX2 one-ray kernels on an AVX-512 machine.
+// distance). --rays-from hits: 4 cosine directions from each camera hit (every 4th pixel, then
+// the others), occlusion out to a tenth of the scene's size. LANCER_MAX_WIDTH=8 runs the AVX2
+// one-ray kernels on an AVX-512 machine.
 #include <time.h>
 
 #include <algorithm>
@@ -81,6 +84,59 @@ std::vector<WorldRay> make_rays(const Scene& s, std::size_t n, bool segments, st
   return rays;
 }
 
+// Rays leaving the camera's hits (every 4th pixel, one sample), 4 cosine-distributed
+// directions about each hit's normal on the side the camera sees, from the hit point moved
+// 1e-3 off the surface: incoherent secondary rays. Occlusion: the same rays, as ambient
+// occlusion's, out to a tenth of the scene's size.
+std::vector<WorldRay> hit_rays(const api::Scene& s, std::size_t n, bool occlusion,
+                               std::uint64_t seed) {
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  const api::Info& in = s.info();
+  std::vector<WorldRay> rays;
+  Vec3<double> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const Sphere& sp : s.description().spheres) {
+    lo = {std::min(lo.x, sp.center.x - sp.radius), std::min(lo.y, sp.center.y - sp.radius),
+          std::min(lo.z, sp.center.z - sp.radius)};
+    hi = {std::max(hi.x, sp.center.x + sp.radius), std::max(hi.y, sp.center.y + sp.radius),
+          std::max(hi.z, sp.center.z + sp.radius)};
+  }
+  const double reach = length(hi - lo);
+  for (int pass = 0; rays.size() < n && pass < 16; ++pass)
+    for (int j = pass % 4; j < in.ny && rays.size() < n; j += 4)
+      for (int i = pass / 4; i < in.nx && rays.size() < n; i += 4) {
+        api::Ray1 r;
+        api::Hit1 h;
+        float co[3], cd[3];
+        s.camera_ray(i, j, 0, 0, co, cd);
+        r.org_x[0] = co[0], r.org_y[0] = co[1], r.org_z[0] = co[2];
+        r.dir_x[0] = cd[0], r.dir_y[0] = cd[1], r.dir_z[0] = cd[2];
+        r.tnear[0] = 0, r.tfar[0] = std::numeric_limits<float>::infinity();
+        r.mask[0] = api::kAllObjects;
+        s.intersect(nullptr, r, h);
+        if (h.id[0] < 0) continue;
+        const Vec3<double> d{r.dir_x[0], r.dir_y[0], r.dir_z[0]};
+        Vec3<double> nrm{h.ng_x[0], h.ng_y[0], h.ng_z[0]};
+        if (dot(d, nrm) > 0) nrm = -nrm;
+        const Vec3<double> p =
+            Vec3<double>{r.org_x[0], r.org_y[0], r.org_z[0]} + d * double(h.t[0]) + nrm * 1e-3;
+        const Vec3<double> a =
+            std::fabs(nrm.x) > 0.5 ? Vec3<double>{0, 1, 0} : Vec3<double>{1, 0, 0};
+        const Vec3<double> t1 = normalize(cross(nrm, a)), t2 = cross(nrm, t1);
+        for (int k = 0; k < 4 && rays.size() < n; ++k) {
+          const double r2 = u(g), phi = 2 * 3.141592653589793 * u(g), rr = std::sqrt(r2);
+          const Vec3<double> dir = normalize(t1 * (rr * std::cos(phi)) + t2 * (rr * std::sin(phi)) +
+                                             nrm * std::sqrt(1 - r2));
+          WorldRay w;
+          w.o = {double(float(p.x)), double(float(p.y)), double(float(p.z))};
+          w.d = {double(float(dir.x)), double(float(dir.y)), double(float(dir.z))};
+          w.tfar = occlusion ? float(0.1 * reach) : std::numeric_limits<float>::infinity();
+          rays.push_back(w);
+        }
+      }
+  return rays;
+}
+
 // One round of api queries: seconds and what was found (hits or blocked rays).
 double api_round(const api::Scene& s, const std::vector<WorldRay>& rays, bool occluded,
                  std::size_t& found) {
@@ -127,7 +183,7 @@ int run(int argc, char** argv) {
   std::uint64_t seed = 1;
   std::size_t n = 200000;
   int rounds = 9;
-  std::string scene_path, only;
+  std::string scene_path, only, kind = "box";
   Precision precision = Precision::exact;
   for (int k = 1; k + 1 < argc; k += 2) {
     const std::string a = argv[k], v = argv[k + 1];
@@ -143,12 +199,16 @@ int run(int argc, char** argv) {
       scene_path = v;
     else if (a == "--precision")  // exact (float, the default) or double
       precision = parse_precision(v, "--precision");
+    else if (a == "--rays-from")  // box (the default) or hits (the camera's hits)
+      kind = v;
     else if (a == "--only")  // one side alone (for a profiler): one-ray, reference or embree
       only = v;
     else
       throw InputError("one_ray_bench: unknown option " + a);
   }
   if (argc % 2 == 0) throw InputError("one_ray_bench: an option without its value");
+  if (kind != "box" && kind != "hits")
+    throw InputError("one_ray_bench: --rays-from must be box or hits, not '" + kind + "'");
   Scene scene;
   if (!scene_path.empty()) {
     scene = load_scene(scene_path);
@@ -185,7 +245,10 @@ int run(int argc, char** argv) {
       embree_names.push_back("embree " + how.name() + " (" + config + ")");
     }
   for (const bool occluded : {false, true}) {
-    const std::vector<WorldRay> rays = make_rays(scene, n, occluded, seed * 7 + occluded);
+    const std::vector<WorldRay> rays = kind == "hits"
+                                           ? hit_rays(ref, n, occluded, seed * 7 + occluded)
+                                           : make_rays(scene, n, occluded, seed * 7 + occluded);
+    n = rays.size();
     // Embree's rays in the prepared frame, where its scene lies (peer.hpp).
     std::vector<float> prepared(8 * n);
     for (std::size_t i = 0; i < n; ++i) {

@@ -123,6 +123,14 @@ struct Chunk {
   ShapeHit<T> shape[kMaxLanes];
 };
 
+// Lane k of the caller's packet in the prepared frame: moved there in double, rounded once to T.
+template <class T, int N>
+void to_frame(const PreparedScene<T>& s, const RayPacket<N>& r, int k, Vec3<T>& o, Vec3<T>& d) {
+  const Vec3<double> po = s.frame.point({r.org_x[k], r.org_y[k], r.org_z[k]});
+  const Vec3<double> pd = s.frame.direction({r.dir_x[k], r.dir_y[k], r.dir_z[k]});
+  o = {T(po.x), T(po.y), T(po.z)}, d = {T(pd.x), T(pd.y), T(pd.z)};
+}
+
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
 // prepared frame in double and rounded once to T; inactive lanes get a harmless ray. With
 // `kernel` false every active lane goes to the reference.
@@ -130,7 +138,6 @@ template <class T, int N>
 int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
          bool kernel, Chunk<T>& ch) {
   int active = 0;
-  const Frame& frame = s.frame;
   for (int l = 0; l < w; ++l) {
     const int k = c + l;
     const bool on = k < N && (valid == nullptr || valid[k] != 0);
@@ -143,10 +150,10 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     T o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, tfar = std::numeric_limits<T>::infinity();
     if (on) {
       ++active;
-      const Vec3<double> po = frame.point({r.org_x[k], r.org_y[k], r.org_z[k]});
-      const Vec3<double> pd = frame.direction({r.dir_x[k], r.dir_y[k], r.dir_z[k]});
-      o[0] = T(po.x), o[1] = T(po.y), o[2] = T(po.z);
-      d[0] = T(pd.x), d[1] = T(pd.y), d[2] = T(pd.z);
+      Vec3<T> po, pd;
+      to_frame(s, r, k, po, pd);
+      o[0] = po.x, o[1] = po.y, o[2] = po.z;
+      d[0] = pd.x, d[1] = pd.y, d[2] = pd.z;
       tfar = T(r.tfar[k]);
     }
     for (int a = 0; a < 3; ++a) ch.rays[a * w + l] = o[a], ch.rays[(3 + a) * w + l] = d[a];
@@ -232,14 +239,6 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
   h.u[k] = static_cast<float>(at.u), h.v[k] = static_cast<float>(at.v);
   const Vec3<double> ng = world_normal(s, o, d, t, id, shape);
   h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
-}
-
-// One ray (lane 0 of a packet of 1) in the prepared frame, as fill() moves it.
-template <class T, int N>
-void to_frame(const PreparedScene<T>& s, const RayPacket<N>& r, int k, Vec3<T>& o, Vec3<T>& d) {
-  const Vec3<double> po = s.frame.point({r.org_x[k], r.org_y[k], r.org_z[k]});
-  const Vec3<double> pd = s.frame.direction({r.dir_x[k], r.dir_y[k], r.dir_z[k]});
-  o = {T(po.x), T(po.y), T(po.z)}, d = {T(pd.x), T(pd.y), T(pd.z)};
 }
 
 // A query of one ray on the one-ray kernels, without a chunk: closest hit (hit non-null) or
