@@ -85,17 +85,26 @@ struct Engine {
 
 std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
 
+// The error of a ray check_ray refused, out of the way of the rays it lets through.
+template <int N>
+[[noreturn, gnu::cold, gnu::noinline]] void refuse_ray(const char* what, const RayPacket<N>& r,
+                                                       int k, double d2) {
+  const std::string at = std::string(what) + ": " + lane(k);
+  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
+    throw InputError(at + "org must be finite");
+  if (!(std::fabs(d2 - 1.0) <= 1e-5))
+    throw InputError(at + "dir must be unit length, |dir|^2 = " + std::to_string(d2));
+  if (std::isnan(r.tnear[k])) throw InputError(at + "tnear is NaN");
+  throw InputError(at + "tfar is NaN");
+}
+
 template <int N>
 void check_ray(const char* what, const RayPacket<N>& r, int k) {
-  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
-    throw InputError(std::string(what) + ": " + lane(k) + "org must be finite");
   const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
                     double(r.dir_z[k]) * r.dir_z[k];
-  if (!(std::fabs(d2 - 1.0) <= 1e-5))
-    throw InputError(std::string(what) + ": " + lane(k) +
-                     "dir must be unit length, |dir|^2 = " + std::to_string(d2));
-  if (std::isnan(r.tnear[k])) throw InputError(std::string(what) + ": " + lane(k) + "tnear is NaN");
-  if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
+  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k]) &&
+        std::fabs(d2 - 1.0) <= 1e-5 && !std::isnan(r.tnear[k]) && !std::isnan(r.tfar[k])))
+    refuse_ray(what, r, k, d2);
 }
 
 // Every active lane, before any is traced: on an error nothing has been written.
