@@ -28,8 +28,9 @@
 
 namespace lancer::packet {
 
-// Arch names the translation unit (its flags); the four lanes run on 128-bit float vectors and
-// 256-bit double vectors, which every x86 ISA from AVX2 up has.
+// Arch names the translation unit (its flags). A leaf's four spheres and a 4-wide node's four
+// children run on 128-bit float or 256-bit double vectors, an 8-wide node's eight float children
+// on one ymm: all of it in every x86 ISA from AVX2 up.
 template <class Arch, class T>
 struct OneRayKernel {
   using A = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
@@ -42,7 +43,6 @@ struct OneRayKernel {
   struct Slab {
     B inv[3], oi[3], pad[3];
     std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
-    unsigned code;                // the direction code (Bvh::Node::order)
     bool padded;
   };
   static Slab slab(const Bvh<T>& h, const T* o, const T* d) noexcept {
@@ -62,7 +62,6 @@ struct OneRayKernel {
       r.near[a] = inv < T(0) ? hi[a] : lo[a];
       r.far[a] = inv < T(0) ? lo[a] : hi[a];
     }
-    r.code = unsigned(d[0] >= T(0)) | unsigned(d[1] >= T(0)) << 1 | unsigned(d[2] >= T(0)) << 2;
     return r;
   }
 
