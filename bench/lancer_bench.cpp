@@ -1,7 +1,8 @@
 // Google Benchmark cases: rays per second (items/s) for every scene in scenes/, every width this
 // CPU runs (1 = the scalar reference) and both modes, plus what modelling only what a scene
 // requires saves (the same renders with every term forced on), and the library API's closest
-// hits of 16-ray packets: camera rays in 4x4 tiles, and the mirror reflections of their hits.
+// hits of 16-ray packets: camera rays in 4x4 tiles, and the mirror reflections of their hits;
+// and bench's ao and diffuse ray sets through the library API at widths 1, 4, 8 and 16.
 //
 //   build/bench/lancer_bench --benchmark_filter=reflections --benchmark_repetitions=5
 //   build/bench/lancer_bench --scene=my.json      (or LANCER_BENCH_SCENE=a.json:b.json): your
@@ -21,6 +22,7 @@
 #include "lancer/lancer.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/profile.hpp"
+#include "lancer/ray_sets.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/vec3.hpp"
@@ -137,6 +139,55 @@ void api_intersect(benchmark::State& state, const ApiPackets* packets) {
   state.SetLabel(s.info().isa);
 }
 
+// bench's ao and diffuse modes (lancer/ray_sets.hpp) through the library API: the set and its
+// packets of `width` made on the case's first run, outside the timed loop; each iteration
+// traces the whole set with occluded<width> or intersect<width>, as a user calls them.
+struct RaySetCase {
+  const Scene* scene;
+  rays::Kind kind;
+  int width;
+  std::unique_ptr<api::Scene> api;
+  std::unique_ptr<rays::ApiPackets> packets;
+};
+
+void ray_set(benchmark::State& state, RaySetCase* c) {
+  if (!c->packets) {
+    api::Options opt;
+    opt.precision = Precision::exact;
+    opt.threads = 1;
+    c->api = std::make_unique<api::Scene>(api::Scene::from_description(*c->scene, opt));
+    c->packets = std::make_unique<rays::ApiPackets>(rays::make_set(*c->api, c->kind), c->width);
+  }
+  for (auto _ : state) c->packets->trace(*c->api, 1);
+  state.SetItemsProcessed(static_cast<int64_t>(c->packets->rays() * state.iterations()));
+  state.SetLabel(packet::isa_name(std::min(c->width, c->api->info().width)));
+}
+
+// The same sets straight into the packet kernels (rays::KernelPackets: the rays moved into the
+// prepared frame beforehand, as the Embree peer gets them): what the library API's per-call work
+// costs on top, read against ao/<scene>/w<N>. Packet widths only.
+struct RaySetKernelCase {
+  const Scene* scene;
+  rays::Kind kind;
+  int width;
+  std::unique_ptr<rays::KernelPackets> packets;
+};
+
+void ray_set_kernel(benchmark::State& state, RaySetKernelCase* c) {
+  if (!c->packets) {
+    api::Options opt;
+    opt.precision = Precision::exact;
+    opt.threads = 1;
+    const api::Scene s = api::Scene::from_description(*c->scene, opt);
+    c->packets = std::make_unique<rays::KernelPackets>(
+        rays::KernelPackets::prepare(*c->scene, Precision::exact), rays::make_set(s, c->kind),
+        c->width);
+  }
+  for (auto _ : state) c->packets->trace(1);
+  state.SetItemsProcessed(static_cast<int64_t>(c->packets->rays() * state.iterations()));
+  state.SetLabel(packet::isa_name(c->width) + " kernels, prepared frame");
+}
+
 }  // namespace
 
 #ifdef LANCER_WITH_EMBREE_BENCH
@@ -183,6 +234,8 @@ benchmark::internal::Benchmark* timed(benchmark::internal::Benchmark* b) {
 int main(int argc, char** argv) {
   static std::vector<std::unique_ptr<Scene>> scenes;
   static std::vector<std::unique_ptr<ApiPackets>> packets;
+  static std::vector<std::unique_ptr<RaySetCase>> ray_sets;
+  static std::vector<std::unique_ptr<RaySetKernelCase>> ray_kernels;
   const std::vector<std::string> paths = scene_paths(argc, argv);
   for (const std::string& path : paths) {
     try {
@@ -216,6 +269,25 @@ int main(int argc, char** argv) {
           ("api_intersect16/" + name + (reflections ? "/reflections" : "/camera_tiles")).c_str(),
           api_intersect, packets.back().get()));
     }
+    for (const rays::Kind kind : {rays::Kind::ao, rays::Kind::diffuse})
+      for (const int width : {1, 4, 8, 16}) {
+        if (width > 1 && std::find(widths.begin(), widths.end(), width) == widths.end()) continue;
+        ray_sets.push_back(
+            std::make_unique<RaySetCase>(RaySetCase{s, kind, width, nullptr, nullptr}));
+        timed(benchmark::RegisterBenchmark(
+            (std::string(rays::to_string(kind)) + "/" + name + "/w" + std::to_string(width))
+                .c_str(),
+            ray_set, ray_sets.back().get()));
+        // The kernels alone: float packets of spheres and planes (shapes run on the reference).
+        if (width == 1 || !s->shapes.empty()) continue;
+        ray_kernels.push_back(std::make_unique<RaySetKernelCase>());
+        RaySetKernelCase* k = ray_kernels.back().get();
+        k->scene = s, k->kind = kind, k->width = width;
+        timed(benchmark::RegisterBenchmark(
+            (std::string(rays::to_string(kind)) + "_kernel/" + name + "/w" + std::to_string(width))
+                .c_str(),
+            ray_set_kernel, k));
+      }
 #ifdef LANCER_WITH_EMBREE_BENCH
     register_embree_benchmarks(path);
 #endif

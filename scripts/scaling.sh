@@ -1,40 +1,57 @@
 #!/usr/bin/env bash
-# Mrays/s against the number of spheres, lancer and Embree on the same rays (issue 12).
+# Mrays/s against the number of spheres (or triangles), lancer and Embree on the same rays.
 #
-#   scripts/scaling.sh [--million] [--sizes "N ..."] [--repeat R] [--out DIR] [--lancer PATH]
-#                      [--readme]
+#   scripts/scaling.sh [--triangles] [--million] [--sizes "N ..."] [--repeat R] [--out DIR]
+#                      [--lancer PATH] [--readme]
 #
 # For N in 4 64 1024 16384 65536 (and 1048576 with --million): `lancer generate --spheres N
 # --seed 1` (spheres in a box on a ground plane, the same file on any machine), then
 # `lancer bench SCENE --mode primary --width W --threads 1 --peer embree --json --repeat R`,
-# W the widest width this CPU runs. --readme copies the figure and table into docs/.
+# W the widest width this CPU runs. --triangles: a tessellated sphere of at least N triangles
+# on the ground plane instead (`lancer generate --spheres 0 --mesh-triangles N`), N in 1024
+# 16384 65536 (and 1048576 with --million); Embree traces them as its native triangles.
+# --readme copies the figure and table into docs/.
 # Writes DIR/scaling.csv, DIR/scaling.md and the log-log figure DIR/scaling.{png,svg} (default
-# DIR: out/scaling), and prints the table and
-# the ratios issue 12 sets targets for (lancer / Embree, build time / Embree's, time per ray of
-# the largest size over the smallest, and at 65536 over 1024 side by side in one bench run).
+# DIR: out/scaling, out/scaling-triangles with --triangles), and prints the table and the
+# ratios (lancer / Embree, build time / Embree's, time per ray of the largest size over the
+# smallest, and at 65536 over 1024 side by side in one bench run).
 # Needs jq and python3.
 set -euo pipefail
 
 # cd prints the directory when CDPATH is set (and the path relative): keep it out of $root.
 root="$(cd -- "$(dirname -- "$0")/.." >/dev/null && pwd)"
 lancer="$root/build/lancer"
-out="$root/out/scaling"
+out=""
 repeat=5
 readme=0
-sizes=(4 64 1024 16384 65536)
+kind=spheres
+sizes=()
+million=0
 while [ $# -gt 0 ]; do
   case "$1" in
-    --million) sizes+=(1048576) ;;
+    --triangles) kind=triangles ;;
+    --million) million=1 ;;
     --sizes) read -r -a sizes <<<"$2"; shift ;;
     --repeat) repeat="$2"; shift ;;
     --out) out="$2"; shift ;;
     --lancer) lancer="$2"; shift ;;
     --readme) readme=1 ;;
-    -h|--help) sed -n 2,14p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n 2,18p "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "scaling.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
   shift
 done
+if [ ${#sizes[@]} -eq 0 ]; then
+  if [ "$kind" = triangles ]; then sizes=(1024 16384 65536); else sizes=(4 64 1024 16384 65536); fi
+  [ "$million" -eq 1 ] && sizes+=(1048576)
+fi
+[ -n "$out" ] || { [ "$kind" = triangles ] && out="$root/out/scaling-triangles" || out="$root/out/scaling"; }
+# What a size means: the generator's option and the table's words.
+if [ "$kind" = triangles ]; then
+  what="triangles" scene_words="a tessellated sphere on a ground plane, 600x400"
+else
+  what="spheres" scene_words="random cloud on a ground plane, 600x400"
+fi
 command -v jq >/dev/null || { echo "scaling.sh: needs jq (scripts/deps.sh installs it)" >&2; exit 2; }
 [ -x "$lancer" ] || {
   echo "scaling.sh: no lancer at $lancer: run scripts/setup.sh (it builds build/lancer), or pass --lancer PATH" >&2
@@ -51,11 +68,11 @@ cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')"
 cpu="$cpu (family $(awk -F'\t*: ' '$1 == "cpu family" {print $2; exit}' /proc/cpuinfo), model $(awk -F'\t*: ' '$1 == "model" {print $2; exit}' /proc/cpuinfo))"
 csv="$out/scaling.csv"
 md="$out/scaling.md"
-echo "spheres,path,mrays_per_s,embree_mrays_per_s,embree_config,embree_build_s,structure,build_s,bytes_per_sphere" >"$csv"
+echo "$what,path,mrays_per_s,embree_mrays_per_s,embree_config,embree_build_s,structure,build_s,bytes_per_object" >"$csv"
 {
   echo "Primary rays, 1 thread, $cpu, medians of $repeat (scripts/scaling.sh):"
   echo
-  echo "| spheres | lancer path | lancer Mrays/s | Embree Mrays/s | Embree configuration | Embree build s | structure | build s | bytes/sphere |"
+  echo "| $what | lancer path | lancer Mrays/s | Embree Mrays/s | Embree configuration | Embree build s | structure | build s | bytes/${what%s} |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 } >"$md"
 
@@ -63,24 +80,31 @@ echo "spheres,path,mrays_per_s,embree_mrays_per_s,embree_config,embree_build_s,s
 # 100 MB, the next process's first build (lancer's) took 0.31 s instead of 0.21 on a VM, while
 # the system caught up (a sync alone did not help, seconds later it was gone).
 for n in "${sizes[@]}"; do
-  "$lancer" generate --spheres "$n" --seed 1 -o "$out/spheres-$n.json" >/dev/null
+  if [ "$kind" = triangles ]; then
+    "$lancer" generate --spheres 0 --mesh-triangles "$n" --seed 1 -o "$out/$what-$n.json" >/dev/null
+  else
+    "$lancer" generate --spheres "$n" --seed 1 -o "$out/$what-$n.json" >/dev/null
+  fi
 done
 sync
 sleep 5
 for n in "${sizes[@]}"; do
-  scene="$out/spheres-$n.json"
+  scene="$out/$what-$n.json"
   json="$out/bench-$n.json"
   "$lancer" bench "$scene" --mode primary --width "$width" --threads 1 --peer embree --json \
     --repeat "$repeat" >"$json"
   # One row per lancer configuration; Embree's best row (and its setup, when the bench names it).
-  rows="$(jq -c --arg n "$n" '
+  # Triangles: the count the mesh has (at least n), and the shapes' own hierarchy.
+  rows="$(jq -c --arg n "$n" --arg kind "$kind" '
     def num(x): if x == null then "" else (x * 1000 | round / 1000 | tostring) end;
     def sec(x): if x == null then "" else (x * 100000 | round / 100000 | tostring) end;
     .peer_build_seconds as $pb
     | (.results | map(select(.engine == "embree")) | max_by(.mrays_per_s)) as $e
-    | (.structure // {}) as $s
+    | (if $kind == "triangles" then (.structure.shapes // {}) | {kind: "shapes", objects:
+         .primitives, bytes, build_seconds} else (.structure // {}) end) as $s
     | .results[] | select(.engine != "embree")
-    | [$n, "\(.precision) w\(.width) \(.isa)", num(.mrays_per_s), num($e.mrays_per_s),
+    | [(if $kind == "triangles" then ($s.objects // $n | tostring) else $n end),
+       "\(.precision) w\(.width) \(.isa)", num(.mrays_per_s), num($e.mrays_per_s),
        ($e.config // ""), sec($e.build_seconds // $pb),
        ($s.kind // ""), sec($s.build_seconds),
        (if $s.bytes != null and ($s.objects // 0) > 0 then num($s.bytes / $s.objects) else "" end)]
@@ -90,64 +114,70 @@ for n in "${sizes[@]}"; do
 done
 # Issue 12's ratios, from this run's rows: lancer / Embree per size, and the time per ray of
 # the largest size against the smallest (the rows are one per size: one lancer configuration).
-python3 - "$csv" >>"$md" <<'PY'
+python3 - "$csv" "$what" >>"$md" <<'PY'
 import csv, sys
+what = sys.argv[2]
 rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["mrays_per_s"]]
 if rows:
     print()
     for r in rows:
         e = r["embree_mrays_per_s"]
         b, eb = r["build_s"], r["embree_build_s"]
-        print(f"- {r['spheres']} spheres: lancer / Embree {float(r['mrays_per_s']) / float(e):.2f}x"
-              if e else f"- {r['spheres']} spheres: no Embree figure", end="")
+        print(f"- {r[what]} {what}: lancer / Embree {float(r['mrays_per_s']) / float(e):.2f}x"
+              if e else f"- {r[what]} {what}: no Embree figure", end="")
         print(f"; build {float(b) / float(eb):.2f}x Embree's" if b and eb and float(b) > 0 else "")
-    by_n = {int(r["spheres"]): r for r in rows}
+    by_n = {int(r[what]): r for r in rows}
     # Issue 12's pair when the run has it, else the smallest and largest sizes.
     lo, hi = (by_n[1024], by_n[65536]) if 1024 in by_n and 65536 in by_n else (
         by_n[min(by_n)], by_n[max(by_n)])
     if lo is not hi:
         ratio = float(lo["mrays_per_s"]) / float(hi["mrays_per_s"])
-        print(f"- time per ray at {hi['spheres']} spheres / at {lo['spheres']} (the rows above: "
+        print(f"- time per ray at {hi[what]} {what} / at {lo[what]} (the rows above: "
               f"separate runs): {ratio:.2f}x")
 PY
-# Time per ray at 65536 spheres over 1024, measured side by side: the two sizes' runs above
+# Time per ray at 65536 spheres (triangles) over 1024, measured side by side: the two sizes' runs above
 # are minutes apart, and this VM's speed moves in between, so the ratio of their rows spreads
 # widely. Here both scenes in one bench run (3 x repeat rounds, each scene's run right after
 # the other's in every round) and the median of the rounds' ratios (bench's side_by_side).
-if [ -f "$out/spheres-1024.json" ] && [ -f "$out/spheres-65536.json" ] &&
+if [ -f "$out/$what-1024.json" ] && [ -f "$out/$what-65536.json" ] &&
   [[ " ${sizes[*]} " == *" 1024 "* && " ${sizes[*]} " == *" 65536 "* ]]; then
-  "$lancer" bench "$out/spheres-1024.json" "$out/spheres-65536.json" --mode primary \
+  "$lancer" bench "$out/$what-1024.json" "$out/$what-65536.json" --mode primary \
     --width "$width" --threads 1 --json --repeat $((3 * repeat)) >"$out/side-by-side.json"
-  jq -r '.side_by_side[] | select(.engine == "lancer") |
-    "- time per ray at 65536 spheres / at 1024, side by side in one run (\(.ratios | length) rounds): " +
+  jq -r --arg what "$what" '.side_by_side[] | select(.engine == "lancer") |
+    "- time per ray at 65536 \($what) / at 1024, side by side in one run (\(.ratios | length) rounds): " +
     "median \(.time_per_ray_ratio * 100 | round / 100)x " +
     "(\(.ratio_min * 100 | round / 100)x to \(.ratio_max * 100 | round / 100)x)"' \
     "$out/side-by-side.json" >>"$md"
 fi
-# The figure: Mrays/s against spheres, log-log, lancer and Embree's best as two series.
+# The figure: Mrays/s against spheres (triangles), log-log, lancer and Embree's best as two series.
 long="$out/scaling-long.csv"
 {
-  echo "spheres,engine,mrays_per_s"
-  python3 - "$csv" <<'PY'
+  echo "$what,engine,mrays_per_s"
+  python3 - "$csv" "$what" <<'PY'
 import csv, sys
+what = sys.argv[2]
 for r in csv.DictReader(open(sys.argv[1])):
     if r["mrays_per_s"]:
-        print(f"{r['spheres']},lancer {r['path']},{r['mrays_per_s']}")
+        print(f"{r[what]},lancer {r['path']},{r['mrays_per_s']}")
     if r["embree_mrays_per_s"]:
-        print(f"{r['spheres']},Embree best setup,{r['embree_mrays_per_s']}")
+        print(f"{r[what]},Embree best setup,{r['embree_mrays_per_s']}")
 PY
 } >"$long"
 for ext in png svg; do
-  "$lancer" plot "$long" -o "$out/scaling.$ext" --x spheres --y mrays_per_s --group engine \
+  "$lancer" plot "$long" -o "$out/scaling.$ext" --x "$what" --y mrays_per_s --group engine \
     --log xy --title "Primary rays against scene size, 1 thread ($cpu)" \
-    --x-label "spheres (random cloud on a ground plane, 600x400)" \
+    --x-label "$what ($scene_words)" \
     --y-label "Mrays/s (median of $repeat)" >/dev/null
 done
 if [ "$readme" -eq 1 ]; then
   mkdir -p "$root/docs/images"
-  cp "$out/scaling.png" "$out/scaling.svg" "$root/docs/images/"
-  cp "$md" "$root/docs/scaling-table.md"
-  echo "scaling.sh: copied the figure to docs/images/scaling.{png,svg} and the table to docs/scaling-table.md"
+  # Spheres keep their historic names; triangles get their own.
+  name=scaling
+  [ "$kind" = triangles ] && name=scaling-triangles
+  cp "$out/scaling.png" "$root/docs/images/$name.png"
+  cp "$out/scaling.svg" "$root/docs/images/$name.svg"
+  cp "$md" "$root/docs/$name-table.md"
+  echo "scaling.sh: copied the figure to docs/images/$name.{png,svg} and the table to docs/$name-table.md"
 fi
 cat "$md"
 echo "scaling.sh: wrote $csv, $md and $out/scaling.{png,svg}"

@@ -208,6 +208,14 @@ TEST(Prims, CliRunsShapesOnThePackets) {
     r = testing::run_command(testing::cli() + command + dir.file("s.json"));
     EXPECT_EQ(r.status, 0) << command << r.out;
   }
+  // bench names the shapes' hierarchy, and counts no flops: its model knows spheres and planes.
+  r = testing::run_command(testing::cli() + " bench " + dir.file("s.json") +
+                           " --mode primary --width 4 --repeat 1 --peak --json 2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json b = nlohmann::json::parse(r.out.substr(r.out.find('{')));
+  const nlohmann::json& result = b.contains("scenes") ? b["scenes"][0] : b;
+  EXPECT_EQ(result["structure"]["shapes"]["primitives"], 12) << result["structure"].dump();
+  for (const auto& row : result["results"]) EXPECT_FALSE(row.contains("gflops")) << row.dump();
 }
 
 // Spheres in a hierarchy (so camera blocks), a plane, a mesh and cylinders in one scene, opaque

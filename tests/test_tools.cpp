@@ -362,6 +362,15 @@ TEST(JsonSummaries, RenderValidateProfile) {
     } else if (st["lane_occupancy"].is_number()) {
       EXPECT_GT(st["lane_occupancy"].get<double>(), 0) << st.dump();
     }
+    // Rays per second of the stage's own time, where it counted packets: rays / seconds.
+    if (st["lane_occupancy"].is_null()) {
+      EXPECT_TRUE(st["mrays_per_s"].is_null()) << st.dump();
+    } else if (st["rays"].get<double>() > 0 && st["seconds"].get<double>() > 0) {
+      EXPECT_NEAR(st["mrays_per_s"].get<double>(),
+                  st["rays"].get<double>() / st["seconds"].get<double>() * 1e-6,
+                  1e-9 * st["mrays_per_s"].get<double>())
+          << st.dump();
+    }
     // Leaf occupancy is measured only where leaves were visited: never a 0 standing for none.
     if (st["leaf_visits"] == 0)
       EXPECT_TRUE(st["leaf_occupancy"].is_null()) << st.dump();

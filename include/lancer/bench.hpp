@@ -19,8 +19,11 @@ struct BenchRow {
   std::string engine = "lancer";  // or a peer: "embree"
   // "primary": camera rays, closest hit only; "full": the whole render; "kernel": the primary
   // intersection kernel alone, over camera rays made beforehand (PrimaryKernelRun; packets
-  // only). For the embree peer, "full" is every ray lancer's render traces (camera, shadow,
-  // mirror) without the shading.
+  // only); "ao" and "diffuse": incoherent ray sets made from the camera hits beforehand
+  // (lancer/ray_sets.hpp), traced through the library API (occluded<N>, intersect<N>), by the
+  // packet kernels directly (config "kernels, prepared frame"; rays::KernelPackets) or by the
+  // peer (rtcOccluded, rtcIntersect). For the embree peer, "full" is every ray lancer's render
+  // traces (camera, shadow, mirror) without the shading.
   std::string mode;
   int width = 1;    // lanes; for embree the packet call rtcIntersect1/4/8/16
   std::string isa;  // "embree" for the peer (Embree picks its own ISA inside)
@@ -56,7 +59,7 @@ struct BenchOptions {
   std::vector<Precision> precisions{Precision::exact};
   std::vector<std::vector<int>> widths;
   std::vector<int> threads;                           // e.g. {1}
-  std::vector<std::string> modes{"primary", "full"};  // and/or "kernel"
+  std::vector<std::string> modes{"primary", "full"};  // and/or "kernel", "ao", "diffuse"
   int repeat = 5;
   // Untimed runs of every configuration before the first round.
   int warmup = 1;
@@ -76,6 +79,26 @@ struct BenchOptions {
   Accel accel = Accel::automatic;  // lancer's structure over the spheres
 };
 
+// A ray set of the ao or diffuse mode (lancer/ray_sets.hpp), as made for the rows.
+struct RaySetInfo {
+  std::string mode;
+  std::uint64_t seed = 1;
+  int per_hit = 4;
+  double extent = 0, offset = 0, tfar = 0;
+  std::uint64_t camera_hits = 0, rays = 0;
+};
+
+// Before the timing, each ao or diffuse row's answers on every ray of its set against the
+// reference's (the library API's width 1): lancer's exact and double rows against their own
+// precision's, bitwise (occluded flags, object ids, t); fast rows and the peer's against exact's,
+// within `tolerance` of t (relative beyond 1).
+struct RaySetCheck {
+  std::string mode, engine, precision, config;
+  int width = 1;
+  double tolerance = 0;
+  std::uint64_t rays = 0, differ = 0;
+};
+
 struct BenchResult {
   std::vector<BenchRow> rows;
   std::vector<PeakRow> peaks;  // with options.peak, by width
@@ -83,7 +106,9 @@ struct BenchResult {
   double peer_build_seconds = -1;
   // Every setup the peer ran, each row of it, before the fastest per row was kept.
   std::vector<BenchRow> peer_setups;
-  StructureInfo structure;  // as lancer's renders built it
+  StructureInfo structure;           // as lancer's renders built it
+  std::vector<RaySetInfo> ray_sets;  // with the ao and diffuse modes
+  std::vector<RaySetCheck> checks;   // of every ao and diffuse row, peer setups included
 };
 
 BenchResult run_bench(const Scene& scene, const BenchOptions& options);

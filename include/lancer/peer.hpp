@@ -45,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "lancer/ray_sets.hpp"
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/stats.hpp"
@@ -164,6 +165,18 @@ class EmbreeScene {
   // queries. Rays in the scene's prepared frame (PreparedScene::frame), 8 floats each: origin,
   // unit direction, tnear, tfar. Returns the seconds the calls took.
   double one_rays(const float* rays, std::size_t n, bool occluded, std::size_t& found) const;
+
+  // A ray set (lancer/ray_sets.hpp) moved into the peer's frame, as the library API moves a
+  // world-space ray (in double, rounded once to float), before anything is timed: both engines
+  // then trace the same floats. tnear is the scene's epsilon, as for the camera rays.
+  struct Rays;
+  std::shared_ptr<const Rays> load_rays(const rays::RaySet& set) const;
+  // Traces every ray of `rays` on `threads` threads (tiles of 256 rays, in set order):
+  // rtcOccluded (AO sets) or rtcIntersect (diffuse) with the incoherent flag, in packets of
+  // `width` consecutive rays (1: rtcIntersect1), or, with the streams setup, rtcIntersect1M /
+  // rtcOccluded1M over 64 rays at a time. With `answers`, fills it (lancer's object ids).
+  // Returns the seconds.
+  double trace_rays(const Rays& rays, int width, int threads, rays::Answers* answers) const;
 
   // How the planes are modelled.
   PlaneMode plane_mode() const;

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -43,8 +44,11 @@ struct BenchArgs {
 
 // The flop model (peak.hpp) counts the plain loop's tests, every camera ray against every object:
 // through a hierarchy, which tests a few of them, it would report several times the peak (and
-// take hours to count at a million spheres). Such rows get no GFLOP/s.
-bool flops_counted(const StructureInfo& structure) { return structure.kind != "bvh"; }
+// take hours to count at a million spheres). It knows spheres and planes only: triangles, meshes
+// and cylinders walk a hierarchy of their own. Such rows get no GFLOP/s.
+bool flops_counted(const StructureInfo& structure) {
+  return structure.kind != "bvh" && structure.shape_primitives == 0;
+}
 
 // Fills gflops, lane_gflops and peak_fraction of lancer's exact primary and kernel rows.
 void add_flops(const Scene& scene, const StructureInfo& structure,
@@ -122,6 +126,39 @@ void print_csv(const std::vector<std::string>& scenes, const std::vector<BenchRe
     }
 }
 
+// The ao and diffuse sets as made, and how every row's answers compared with the reference's.
+void print_ray_sets(const BenchResult& result) {
+  for (const RaySetInfo& r : result.ray_sets)
+    std::printf(
+        "  %s rays: %llu (%d cosine-weighted per camera hit, %llu hits, seed %llu), origins %.3g "
+        "off the surface, tfar %.6g (extent %.6g)\n",
+        r.mode.c_str(), (unsigned long long)r.rays, r.per_hit, (unsigned long long)r.camera_hits,
+        (unsigned long long)r.seed, r.offset, r.tfar, r.extent);
+  // lancer's rows one by one; the peer's setups in one line per mode (all are in --json).
+  std::map<std::string, std::pair<std::uint64_t, std::uint64_t>> peer;  // rows, most differing
+  for (const RaySetCheck& c : result.checks) {
+    if (c.engine != "lancer") {
+      auto& p = peer[c.mode];
+      p.first += 1, p.second = std::max(p.second, c.differ);
+      continue;
+    }
+    char how[64];
+    if (c.tolerance > 0)
+      std::snprintf(how, sizeof how, "exact's width 1, t within %g", c.tolerance);
+    else
+      std::snprintf(how, sizeof how, "%s's width 1, bit for bit", c.precision.c_str());
+    std::printf("  %s lancer %s w%d%s: %llu of %llu rays differ from the reference (%s)\n",
+                c.mode.c_str(), c.precision.c_str(), c.width,
+                c.config.empty() ? "" : (" (" + c.config + ")").c_str(),
+                (unsigned long long)c.differ, (unsigned long long)c.rays, how);
+  }
+  for (const auto& [mode, p] : peer)
+    std::printf(
+        "  %s embree: at most %llu rays of a setup differ from the reference (exact's width 1, t "
+        "within 1e-4; %llu setups and widths)\n",
+        mode.c_str(), (unsigned long long)p.second, (unsigned long long)p.first);
+}
+
 void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
                  const StructureInfo& structure, const Timing& timing, bool peak) {
   const int rounds = rows.empty() ? 0 : int(rows[0].samples.size());
@@ -177,8 +214,8 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
   if (peak && !flops_counted(structure))
     std::printf(
         "  GFLOP/s: not counted through a hierarchy: the flop model (include/lancer/peak.hpp) is "
-        "the plain loop's,\n  every camera ray against every object; --accel none times the "
-        "plain loop against the peak.\n");
+        "the plain loop's,\n  every camera ray against every sphere and plane; --accel none times "
+        "the plain loop of a\n  scene without triangles, meshes or cylinders against the peak.\n");
   else if (peak)
     std::printf(
         "  GFLOP/s: flops of lancer's ray-sphere and ray-plane tests per camera ray (counts in "
@@ -207,11 +244,23 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
   out["scene"] = scene;
   out["repeats"] = rows.empty() ? 0 : rows[0].samples.size();
   if (result.peer_build_seconds >= 0) out["peer_build_seconds"] = result.peer_build_seconds;
-  out["structure"] = {{"kind", st.kind},
-                      {"build_seconds", st.build_seconds},
-                      {"bytes", st.bytes},
-                      {"objects", st.spheres},
-                      {"nodes", st.nodes}};
+  // lancer's own structure, as its renders built it; the ao and diffuse rows run through the
+  // library API, which does not report one, so with only those there is none to show.
+  if (std::any_of(rows.begin(), rows.end(), [](const BenchRow& r) {
+        return r.engine == "lancer" && r.mode != "ao" && r.mode != "diffuse";
+      })) {
+    out["structure"] = {{"kind", st.kind},
+                        {"build_seconds", st.build_seconds},
+                        {"bytes", st.bytes},
+                        {"objects", st.spheres},
+                        {"nodes", st.nodes}};
+    // Triangles, meshes and cylinders have their own hierarchy beside the spheres'.
+    if (st.shape_primitives > 0)
+      out["structure"]["shapes"] = {{"primitives", st.shape_primitives},
+                                    {"nodes", st.shape_nodes},
+                                    {"bytes", st.shape_bytes},
+                                    {"build_seconds", st.shape_build_seconds}};
+  }
   out["results"] = nlohmann::json::array();
   for (const BenchRow& r : rows) {
     nlohmann::json row{
@@ -245,6 +294,24 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
                                     {"build_seconds", r.build_seconds},
                                     {"mrays_per_s", r.mrays_per_s()}});
   }
+  for (const RaySetInfo& r : result.ray_sets)
+    out["ray_sets"].push_back({{"mode", r.mode},
+                               {"seed", r.seed},
+                               {"per_hit", r.per_hit},
+                               {"camera_hits", r.camera_hits},
+                               {"rays", r.rays},
+                               {"extent", r.extent},
+                               {"offset", r.offset},
+                               {"tfar", r.tfar}});
+  for (const RaySetCheck& c : result.checks)
+    out["agreement"].push_back({{"mode", c.mode},
+                                {"engine", c.engine},
+                                {"precision", c.precision},
+                                {"width", c.width},
+                                {"config", c.config},
+                                {"tolerance", c.tolerance},
+                                {"rays", c.rays},
+                                {"differ", c.differ}});
   if (peaks) out["peak"] = peaks_json(*peaks);
   return out;
 }
@@ -353,8 +420,8 @@ void run_bench_cmd(const BenchArgs& a) {
     throw InputError("--time-unit: must be auto, ns, us, ms or s, not '" + a.time_unit + "'");
   opt.modes.clear();
   for (const std::string& m : split_list(a.modes)) {
-    if (m != "primary" && m != "full" && m != "kernel")
-      throw InputError("--mode: must be primary, full or kernel, not '" + m + "'");
+    if (m != "primary" && m != "full" && m != "kernel" && m != "ao" && m != "diffuse")
+      throw InputError("--mode: must be primary, full, kernel, ao or diffuse, not '" + m + "'");
     opt.modes.push_back(m);
   }
   if (opt.modes.empty()) throw InputError("--mode: no mode given");
@@ -370,6 +437,13 @@ void run_bench_cmd(const BenchArgs& a) {
   }
   opt.peak = a.peak;
   opt.accel = parse_accel(a.accel, "--accel");
+  const bool ray_sets = std::any_of(opt.modes.begin(), opt.modes.end(), [](const std::string& m) {
+    return m == "ao" || m == "diffuse";
+  });
+  if (opt.accel != Accel::automatic && ray_sets)
+    throw InputError(
+        "--accel: the ao and diffuse modes trace through the library API, which chooses its own "
+        "structure (as --accel auto); run them without --accel");
   if (!a.format.empty() && a.format != "table" && a.format != "json" && a.format != "gbench" &&
       a.format != "csv")
     throw InputError("--format: must be table, json, csv or gbench, not '" + a.format + "'");
@@ -415,9 +489,11 @@ void run_bench_cmd(const BenchArgs& a) {
     out["side_by_side"] = side_by_side_json(a.scenes, results, ratios);
     std::printf("%s\n", out.dump(2).c_str());
   } else {
-    for (std::size_t i = 0; i < scenes.size(); ++i)
+    for (std::size_t i = 0; i < scenes.size(); ++i) {
       print_table(a.scenes[i], results[i].rows, results[i].structure, {opt.warmup, opt.min_time},
                   a.peak);
+      print_ray_sets(results[i]);
+    }
     if (scenes.size() > 1) print_side_by_side(a.scenes, results, ratios);
     if (a.peak) print_peaks(results[0].peaks);
   }
@@ -444,8 +520,10 @@ void add_bench(CLI::App& app) {
                   "Thread counts, e.g. 1,2 (default 1; 0 = all cores; more than the cores is "
                   "capped at the cores)");
   cmd->add_option("--mode", args->modes,
-                  "primary, full and/or kernel (the primary intersection kernel alone, packets "
-                  "only; default primary,full)");
+                  "primary, full, kernel (the primary intersection kernel alone, packets only), "
+                  "ao and/or diffuse (4 cosine-weighted rays per camera hit: occlusion within 5% "
+                  "of the scene's extent, closest hit; through the library API); default "
+                  "primary,full");
   cmd->add_option("--precision", args->precisions,
                   "exact, fast and/or double, e.g. exact,fast (default exact)");
   CLI::Option* repeat =

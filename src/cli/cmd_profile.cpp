@@ -39,6 +39,8 @@ void print_profile_json(const ProfileArgs& a, const ProfileResult& r) {
         {{"name", st.name},
          {"seconds", st.seconds},
          {"rays", st.rays},
+         // Rays through the stage per second of its own (profiled) time.
+         {"mrays_per_s", or_null(st.seconds > 0 ? double(st.rays) / st.seconds * 1e-6 : 0.0)},
          {"lane_occupancy", or_null(st.lane_occupancy)},
          {"leaf_visits", st.leaves},
          // No leaves visited (no hierarchy, or not this stage's): null.
@@ -116,19 +118,22 @@ void print_profile_table(const ProfileArgs& a, const ProfileResult& r) {
       "per ray\n",
       (unsigned long long)r.camera_rays, (unsigned long long)r.shadow_rays,
       (unsigned long long)r.reflected_rays, (unsigned long long)r.refracted_rays, r.tests_per_ray);
-  std::printf("  %-22s %10s %7s %12s %10s  %s\n", "stage", "seconds", "share", "rays", "occupancy",
-              "packets by active lanes (0..W)");
+  std::printf("  %-22s %10s %7s %12s %9s %10s  %s\n", "stage", "seconds", "share", "rays",
+              "Mrays/s", "occupancy", "packets by active lanes (0..W)");
   for (const auto& st : r.stages) {
     std::string hist;
     for (std::uint64_t h : st.histogram) hist += std::to_string(h) + " ";
-    char occ[16] = "-";
+    char occ[16] = "-", rate[24] = "-";
     if (!hist.empty() && st.lane_occupancy > 0)
       std::snprintf(occ, sizeof occ, "%.1f%%", 100 * st.lane_occupancy);
     else
       hist = "-";
-    std::printf("  %-22s %10.5f %6.1f%% %12llu %10s  %s\n", st.name.c_str(), st.seconds,
+    // Rays per second of the stage's own time; stages without packets (output) have none.
+    if (hist != "-" && st.seconds > 0 && st.rays > 0)
+      std::snprintf(rate, sizeof rate, "%.2f", double(st.rays) / st.seconds * 1e-6);
+    std::printf("  %-22s %10.5f %6.1f%% %12llu %9s %10s  %s\n", st.name.c_str(), st.seconds,
                 r.total_seconds > 0 ? 100 * st.seconds / r.total_seconds : 0.0,
-                (unsigned long long)st.rays, occ, hist.c_str());
+                (unsigned long long)st.rays, rate, occ, hist.c_str());
   }
   bool leaves = false;
   for (const auto& st : r.stages)

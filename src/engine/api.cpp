@@ -3,6 +3,7 @@
 #include "lancer/packet/api.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -107,11 +108,42 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
     refuse_ray(what, r, k, d2);
 }
 
-// Every active lane, before any is traced: on an error nothing has been written.
+// Whether some lane k < N with on[k] != 0 fails check_ray's checks: one pass of bitwise
+// operations without a branch (the compiler vectorises it).
+template <int N>
+bool any_bad_ray(const RayPacket<N>& r, const int* __restrict on) {
+  int bad = 0;
+  for (int k = 0; k < N; ++k) {
+    const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
+                      double(r.dir_z[k]) * r.dir_z[k];
+    // x - x is 0 for finite x, NaN for an infinity or a NaN.
+    const float o =
+        (r.org_x[k] - r.org_x[k]) + (r.org_y[k] - r.org_y[k]) + (r.org_z[k] - r.org_z[k]);
+    const int ok = int(o == 0.0f) & int(std::fabs(d2 - 1.0) <= 1e-5) &
+                   int(r.tnear[k] == r.tnear[k]) & int(r.tfar[k] == r.tfar[k]);
+    bad |= (ok ^ 1) & int(on[k] != 0);
+  }
+  return bad != 0;
+}
+
+// Every active lane, before any is traced: on an error nothing has been written. Only where
+// some lane fails does check_ray find the first and say what.
 template <int N>
 void check_rays(const char* what, const int* valid, const RayPacket<N>& r) {
-  for (int k = 0; k < N; ++k)
-    if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
+  static constexpr auto kAll = [] {
+    std::array<int, N> a{};
+    for (int& x : a) x = 1;
+    return a;
+  }();
+  int live = N;
+  if (valid) {
+    live = 0;
+    for (int k = 0; k < N; ++k) live += int(valid[k] != 0);
+  }
+  // A few active lanes: those alone; else every lane in one pass, the failing one found after.
+  if (4 * live < N || any_bad_ray(r, valid ? valid : kAll.data()))
+    for (int k = 0; k < N; ++k)
+      if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
 }
 
 // One chunk of a caller's packet at the kernel's width W, in the prepared frame. Each active
@@ -140,12 +172,39 @@ void to_frame(const PreparedScene<T>& s, const RayPacket<N>& r, int k, Vec3<T>& 
   o = {T(po.x), T(po.y), T(po.z)}, d = {T(pd.x), T(pd.y), T(pd.z)};
 }
 
+// n rays moved into the frame: Frame::point and Frame::direction written out (dot's order: x,
+// y, then z) in double, rounded once to T. A loop without a branch over arrays that alias
+// nothing (restrict parameters: GCC honours them there), which the compiler vectorises.
+template <class T>
+void frame_lanes(const Frame& frame, int n, const float* __restrict ox, const float* __restrict oy,
+                 const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
+                 const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
+                 T* __restrict o3, T* __restrict o4, T* __restrict o5) {
+  const double ex = frame.origin.x, ey = frame.origin.y, ez = frame.origin.z;
+  const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
+  const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
+  const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z, depth = frame.depth;
+  for (int l = 0; l < n; ++l) {
+    const double px = double(ox[l]) - ex, py = double(oy[l]) - ey, pz = double(oz[l]) - ez;
+    const double qx = dx[l], qy = dy[l], qz = dz[l];
+    o0[l] = T(px * ux + py * uy + pz * uz);
+    o1[l] = T(px * vx + py * vy + pz * vz);
+    o2[l] = T((px * wx + py * wy + pz * wz) + depth);
+    o3[l] = T(qx * ux + qy * uy + qz * uz);
+    o4[l] = T(qx * vx + qy * vy + qz * vz);
+    o5[l] = T(qx * wx + qy * wy + qz * wz);
+  }
+}
+
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
 // prepared frame in double and rounded once to T; inactive lanes get a harmless ray. With
-// `kernel` false every active lane goes to the reference.
+// `kernel` false every active lane goes to the reference. At a few objects, moving the rays
+// cost the API more than tracing them: frame_lanes does it in vectors.
 template <class T, int N>
 int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
          bool kernel, Chunk<T>& ch) {
+  T* rays = ch.rays;
+  const int n = std::min(w, N - c);  // fast mode's narrowest kernel is wider than N = 1
   int active = 0;
   for (int l = 0; l < w; ++l) {
     const int k = c + l;
@@ -156,21 +215,33 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     ch.tmin[l] = tmin;
     ch.alone[l] = sees && (!kernel || tmin > s.epsilon);
     ch.valid[l] = sees && !ch.alone[l];
-    T o[3] = {0, 0, 0}, d[3] = {0, 0, 1}, tfar = std::numeric_limits<T>::infinity();
-    if (on) {
-      ++active;
-      Vec3<T> po, pd;
-      to_frame(s, r, k, po, pd);
-      o[0] = po.x, o[1] = po.y, o[2] = po.z;
-      d[0] = pd.x, d[1] = pd.y, d[2] = pd.z;
-      tfar = T(r.tfar[k]);
-    }
-    for (int a = 0; a < 3; ++a) ch.rays[a * w + l] = o[a], ch.rays[(3 + a) * w + l] = d[a];
-    ch.t[l] = tfar;
+    active += on;
+    ch.t[l] = on ? T(r.tfar[k]) : std::numeric_limits<T>::infinity();
     ch.id[l] = -1;
     ch.out[l] = false;
-    ch.shape[l] = ShapeHit<T>{};
   }
+  // Mostly active: every lane at once, in vectors; a few: those lanes alone (Frame's own
+  // functions, the same arithmetic). Inactive lanes get a harmless ray.
+  const bool dense = 4 * active >= n;
+  if (dense)
+    frame_lanes(s.frame, n, r.org_x + c, r.org_y + c, r.org_z + c, r.dir_x + c, r.dir_y + c,
+                r.dir_z + c, rays, rays + w, rays + 2 * w, rays + 3 * w, rays + 4 * w,
+                rays + 5 * w);
+  if (!dense || active < w)
+    for (int l = 0; l < w; ++l) {
+      if (dense && ch.active[l]) continue;
+      T o[3] = {0, 0, 0}, d[3] = {0, 0, 1};
+      if (ch.active[l]) {
+        Vec3<T> po, pd;
+        to_frame(s, r, c + l, po, pd);
+        o[0] = po.x, o[1] = po.y, o[2] = po.z;
+        d[0] = pd.x, d[1] = pd.y, d[2] = pd.z;
+      }
+      for (int a = 0; a < 3; ++a) rays[a * w + l] = o[a], rays[(3 + a) * w + l] = d[a];
+    }
+  // Only the reference fills these (shape scenes' lone lanes).
+  if (s.shapes)
+    for (int l = 0; l < w; ++l) ch.shape[l] = ShapeHit<T>{};
   return active;
 }
 
@@ -243,7 +314,7 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
   h.t[k] = static_cast<float>(t);
   // A sphere or a plane is one primitive with no surface coordinates.
   ShapeSurface<T> at;
-  if (shape.object >= 0) at = shapes_surface(*s.shapes, shape, o, d);
+  if (s.shapes && shape.object >= 0) at = shapes_surface(*s.shapes, shape, o, d);
   h.prim_id[k] = at.prim_in_object;
   h.u[k] = static_cast<float>(at.u), h.v[k] = static_cast<float>(at.v);
   const Vec3<double> ng = world_normal(s, o, d, t, id, shape);

@@ -13,9 +13,11 @@
 #include <tuple>
 
 #include "lancer/error.hpp"
+#include "lancer/lancer.hpp"
 #include "lancer/packet/api.hpp"
 #include "lancer/peak.hpp"
 #include "lancer/peer.hpp"
+#include "lancer/ray_sets.hpp"
 #include "lancer/render.hpp"
 
 namespace lancer {
@@ -40,12 +42,25 @@ struct SceneRun {
   std::vector<const PreparedRun*> lancer_runs;
   std::vector<std::unique_ptr<peer::EmbreeScene>> embrees;
   double first_build = std::numeric_limits<double>::infinity();
+  // The ao and diffuse modes: the library API's scene per precision, the sets by mode, each
+  // lancer row's packets and each mode's rays in the peer's frame (the same for every setup).
+  std::map<Precision, std::unique_ptr<api::Scene>> api_scenes;
+  std::map<std::string, rays::RaySet> sets;
+  std::vector<std::unique_ptr<rays::ApiPackets>> packets;
+  std::map<Precision, std::shared_ptr<const rays::KernelPackets::Prepared>> kernel_scenes;
+  std::vector<std::unique_ptr<rays::KernelPackets>> kernel_packets;
+  std::map<std::string, std::shared_ptr<const peer::EmbreeScene::Rays>> peer_rays;
 };
+
+bool ray_set_mode(const std::string& mode) { return mode == "ao" || mode == "diffuse"; }
+
+// The config of lancer's ao and diffuse rows that skip the library API (rays::KernelPackets).
+constexpr const char* kKernelsConfig = "kernels, prepared frame";
 
 // The rows: every precision, mode, width and thread count, each peer setup's rows right after
 // lancer's of the same mode, width and threads. They depend on the options only.
-void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
-               const BenchOptions& opt) {
+void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups, const BenchOptions& opt,
+               bool ray_kernels) {
   std::vector<BenchRow>& rows = s.out.rows;
   bool peer_rows_added = false;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k) {
@@ -61,6 +76,8 @@ void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
           // The kernel alone runs float packets only.
           const bool kernel = mode == "kernel";
           if (kernel && (width == 1 || precision == Precision::dbl)) continue;
+          // The library API's packets are 1, 4, 8 or 16 rays (double's width 2 has none).
+          if (ray_set_mode(mode) && width != 1 && width != 4 && width != 8 && width != 16) continue;
           BenchRow r;
           r.mode = mode, r.width = width, r.threads = threads;
           r.precision = to_string(precision);
@@ -68,6 +85,14 @@ void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
           rows.push_back(r);
           s.row_precision.push_back(precision);
           s.row_setup.push_back(-1);
+          // The same rays straight into the float packet kernels, beside the API's row.
+          if (ray_set_mode(mode) && ray_kernels && width > 1 && precision != Precision::dbl) {
+            r.config = kKernelsConfig;
+            rows.push_back(r);
+            s.row_precision.push_back(precision);
+            s.row_setup.push_back(-1);
+            r.config.clear();
+          }
           // The peer's rows of the same mode, width and threads right after lancer's.
           if (!kernel &&
               std::find(embree_widths.begin(), embree_widths.end(), width) != embree_widths.end()) {
@@ -79,7 +104,7 @@ void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
               // Square packets and streams exist for camera rays only (square packets from width
               // 4 up): elsewhere they would run the rows of another setup under their name.
               const bool tiles_here = mode == "primary" && width > 1;
-              const bool streams_here = mode == "primary";
+              const bool streams_here = mode != "full";
               if (((how.tiles && !tiles_here) || (how.streams && !streams_here)) &&
                   setups.size() > 1)
                 continue;
@@ -109,7 +134,7 @@ void prepare_lancer(SceneRun& s, bool with_peer, const BenchOptions& opt) {
     ro.accel = opt.accel;
     if (row.mode == "kernel") {
       s.kernels[k] = std::make_unique<PrimaryKernelRun>(*s.scene, ro);
-    } else {
+    } else if (!ray_set_mode(row.mode)) {
       std::unique_ptr<PreparedRun>& p = s.prepared[ro.precision];
       if (!p) {
         // Beside a peer, lancer's build time is the faster of two as the peer's is (the first
@@ -140,6 +165,98 @@ void prepare_peer(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups) {
       s.out.rows[k].build_seconds = s.embrees[std::size_t(s.row_setup[k])]->build_seconds();
 }
 
+// The library API's scene of a precision, prepared once (the widest kernel this machine runs).
+const api::Scene& api_scene(SceneRun& s, Precision precision) {
+  std::unique_ptr<api::Scene>& a = s.api_scenes[precision];
+  if (!a) {
+    api::Options o;
+    o.precision = precision;
+    o.threads = 1;
+    a = std::make_unique<api::Scene>(api::Scene::from_description(*s.scene, o));
+  }
+  return *a;
+}
+
+// A mode's ray set, made once from the exact scene's camera hits.
+const rays::RaySet& ray_set(SceneRun& s, const std::string& mode) {
+  auto it = s.sets.find(mode);
+  if (it != s.sets.end()) return it->second;
+  const api::Scene& exact = api_scene(s, Precision::exact);
+  rays::RaySet set = rays::make_set(exact, mode == "ao" ? rays::Kind::ao : rays::Kind::diffuse);
+  RaySetInfo info;
+  info.mode = mode;
+  info.seed = set.options.seed, info.per_hit = set.options.per_hit;
+  info.extent = set.extent, info.offset = set.offset, info.tfar = set.tfar;
+  info.camera_hits = set.camera_hits, info.rays = set.size();
+  s.out.ray_sets.push_back(info);
+  return s.sets.emplace(mode, std::move(set)).first->second;
+}
+
+// The reference a row is held to, and how closely: the library API's width 1 (intersect<1>,
+// occluded<1>) of the row's own precision, bit for bit, for exact and double; of exact, within
+// 1e-4 of t, for fast (which has no width 1) and for the peer. Traced once per mode and precision.
+struct Reference {
+  const rays::Answers* answers;
+  double tolerance;
+};
+Reference reference_for(SceneRun& s, const std::string& mode, const rays::RaySet& set, bool lancer,
+                        Precision p,
+                        std::map<std::pair<std::string, Precision>, rays::Answers>& cache) {
+  const bool own = lancer && p != Precision::fast;
+  const Precision of = own ? p : Precision::exact;
+  auto it = cache.find({mode, of});
+  if (it == cache.end()) {
+    it = cache.emplace(std::make_pair(mode, of), rays::Answers{}).first;
+    rays::ApiPackets(set, 1).trace(api_scene(s, of), 1, &it->second);
+  }
+  return {&it->second, own ? 0.0 : 1e-4};
+}
+
+// The ao and diffuse rows, untimed: each lancer row's packets laid out, the peer's rays moved
+// into its frame, and every row's answers checked against the reference's (RaySetCheck).
+void prepare_ray_sets(SceneRun& s) {
+  std::vector<BenchRow>& rows = s.out.rows;
+  s.packets.resize(rows.size());
+  s.kernel_packets.resize(rows.size());
+  std::map<std::pair<std::string, Precision>, rays::Answers> references;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    BenchRow& row = rows[k];
+    if (!ray_set_mode(row.mode)) continue;
+    const rays::RaySet& set = ray_set(s, row.mode);
+    RaySetCheck c;
+    c.mode = row.mode, c.engine = row.engine, c.precision = row.precision, c.config = row.config;
+    c.width = row.width;
+    rays::Answers got;
+    if (row.engine == "lancer" && row.config == kKernelsConfig) {
+      const Precision p = s.row_precision[k];
+      auto& prepared = s.kernel_scenes[p];
+      if (!prepared) prepared = rays::KernelPackets::prepare(*s.scene, p);
+      s.kernel_packets[k] = std::make_unique<rays::KernelPackets>(prepared, set, row.width);
+      s.kernel_packets[k]->trace(row.threads, &got);
+    } else if (row.engine == "lancer") {
+      const Precision p = s.row_precision[k];
+      const api::Scene& a = api_scene(s, p);
+      // What runs: the widest kernel up to the packet's width (the reference for shapes).
+      row.isa = packet::isa_name(std::min(row.width, a.info().width), p);
+      s.packets[k] = std::make_unique<rays::ApiPackets>(set, row.width);
+      s.packets[k]->trace(a, row.threads, &got);
+    } else {
+      const peer::EmbreeScene& e = *s.embrees[std::size_t(s.row_setup[k])];
+      // Every setup's scene is made from the same prepared floats: one frame for all.
+      std::shared_ptr<const peer::EmbreeScene::Rays>& r = s.peer_rays[row.mode];
+      if (!r) r = e.load_rays(set);
+      e.trace_rays(*r, row.width, row.threads, &got);
+    }
+    const Reference ref =
+        reference_for(s, row.mode, set, row.engine == "lancer", s.row_precision[k], references);
+    c.tolerance = ref.tolerance;
+    const rays::Agreement a = rays::compare(set, *ref.answers, got, c.tolerance);
+    c.rays = a.rays, c.differ = a.differ;
+    row.rays = set.size();
+    s.out.checks.push_back(c);
+  }
+}
+
 // Row k's timed run: one render (or trace) of its configuration, returning its seconds.
 std::function<double()> row_run(SceneRun& s, std::size_t k) {
   BenchRow& row = s.out.rows[k];
@@ -147,6 +264,17 @@ std::function<double()> row_run(SceneRun& s, std::size_t k) {
   const PreparedRun* lancer_run = s.lancer_runs[k];
   const peer::EmbreeScene* embree =
       s.row_setup[k] >= 0 ? s.embrees[std::size_t(s.row_setup[k])].get() : nullptr;
+  if (ray_set_mode(row.mode)) {
+    const rays::ApiPackets* packets = s.packets[k].get();
+    const rays::KernelPackets* kernels = s.kernel_packets[k].get();
+    const api::Scene* api = packets ? s.api_scenes.at(s.row_precision[k]).get() : nullptr;
+    const peer::EmbreeScene::Rays* peer_rays = embree ? s.peer_rays.at(row.mode).get() : nullptr;
+    return [&row, packets, kernels, api, embree, peer_rays]() -> double {
+      if (packets) return packets->trace(*api, row.threads);
+      if (kernels) return kernels->trace(row.threads);
+      return embree->trace_rays(*peer_rays, row.width, row.threads, nullptr);
+    };
+  }
   return [embree, &row, &out, lancer_run, kernel = s.kernels[k].get()]() -> double {
     if (embree) {
       if (row.mode == "primary") {
@@ -219,9 +347,12 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
     throw std::logic_error("run_bench: one list of widths per precision");
   if (scenes.empty()) throw std::logic_error("run_bench: no scene");
   std::vector<SceneRun> runs(scenes.size());
+  // The ao and diffuse modes' kernel rows need float packets: none when a scene has shapes.
+  const bool ray_kernels =
+      std::none_of(scenes.begin(), scenes.end(), [](const Scene* s) { return !s->shapes.empty(); });
   for (std::size_t i = 0; i < scenes.size(); ++i) {
     runs[i].scene = scenes[i];
-    plan_rows(runs[i], setups, opt);
+    plan_rows(runs[i], setups, opt, ray_kernels);
   }
   const std::size_t n_rows = runs[0].out.rows.size();
   if (n_rows == 0)
@@ -236,6 +367,7 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
   tbb::parallel_for(0, 1024, [](int) {});
   for (SceneRun& s : runs) prepare_lancer(s, !setups.empty(), opt);
   for (SceneRun& s : runs) prepare_peer(s, setups);
+  for (SceneRun& s : runs) prepare_ray_sets(s);
 
   // Each configuration's scenes one after the other within a round, so that a ratio between
   // scenes (bench_side_by_side) compares runs seconds apart.

@@ -138,7 +138,11 @@ double per_second(const std::string& unit) {
 }  // namespace
 
 std::string bench_row_name(const BenchRow& r) {
-  return r.engine + "/" + r.mode + "/" + r.precision + "/w" + std::to_string(r.width) +
+  // lancer's rows of the same mode and width that differ in how they run (the ao and diffuse
+  // modes' kernel rows) take a last part of their own.
+  const std::string how =
+      r.engine == "lancer" && !r.config.empty() ? "/" + r.config.substr(0, r.config.find(',')) : "";
+  return r.engine + "/" + r.mode + how + "/" + r.precision + "/w" + std::to_string(r.width) +
          "/threads:" + std::to_string(r.threads);
 }
 

@@ -11,6 +11,7 @@
 #ifdef LANCER_HAVE_EMBREE
 
 #include "peer_embree_impl.hpp"
+#include "peer_embree_rays.hpp"
 
 namespace lancer::peer {
 
@@ -187,6 +188,11 @@ double EmbreeScene::one_rays(const float*, std::size_t, bool, std::size_t& found
   return 0;
 }
 std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
+struct EmbreeScene::Rays {};
+std::shared_ptr<const EmbreeScene::Rays> EmbreeScene::load_rays(const rays::RaySet&) const {
+  return {};
+}
+double EmbreeScene::trace_rays(const Rays&, int, int, rays::Answers*) const { return 0; }
 
 }  // namespace lancer::peer
 

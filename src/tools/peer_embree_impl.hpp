@@ -21,6 +21,7 @@
 #include "lancer/shapes.hpp"
 #include "lancer/tiles.hpp"
 #include "peer_embree_shapes.hpp"
+#include "peer_embree_spheres.hpp"
 
 namespace lancer::peer {
 
@@ -228,31 +229,8 @@ struct EmbreeScene::Impl {
     b->upper_x = s.spheres.cx[k] + r, b->upper_y = s.spheres.cy[k] + r;
     b->upper_z = s.spheres.cz[k] + r;
   }
-  // The nearest root of |o + t d - c| = r within (tnear, tfar), Embree's own formula family
-  // (b^2 - a (|oc|^2 - r^2)), not lancer's: the peer's arithmetic stays the peer's.
-  static bool sphere_t(const PreparedScene<float>& s, unsigned k, RTCRayN* ray, unsigned N,
-                       unsigned i, float& t) {
-    const float ox = RTCRayN_org_x(ray, N, i) - s.spheres.cx[k];
-    const float oy = RTCRayN_org_y(ray, N, i) - s.spheres.cy[k];
-    const float oz = RTCRayN_org_z(ray, N, i) - s.spheres.cz[k];
-    const float dx = RTCRayN_dir_x(ray, N, i), dy = RTCRayN_dir_y(ray, N, i),
-                dz = RTCRayN_dir_z(ray, N, i);
-    const float a = dx * dx + dy * dy + dz * dz;
-    const float b = ox * dx + oy * dy + oz * dz;
-    const float r = s.spheres.r[k];
-    const float c = ox * ox + oy * oy + oz * oz - r * r;
-    const float disc = b * b - a * c;
-    if (!(disc >= 0.0f)) return false;
-    const float q = std::sqrt(disc);
-    const float tnear = RTCRayN_tnear(ray, N, i), tfar = RTCRayN_tfar(ray, N, i);
-    const float t0 = (-b - q) / a, t1 = (-b + q) / a;
-    t = t0 > tnear ? t0 : t1;
-    return t > tnear && t < tfar;
-  }
-  // lancer computes its own normal from the hit point; Embree gets a placeholder.
-  static Vec3<float> sphere_normal(const PreparedScene<float>&, unsigned) { return {0, 0, 1}; }
 
-  // ---- the callbacks of both user geometries, over their hit test and normal ------------
+  // ---- the planes' user-geometry callbacks, over their hit test and normal -------------
   using HitTest = bool (*)(const PreparedScene<float>&, unsigned, RTCRayN*, unsigned, unsigned,
                            float&);
   using Normal = Vec3<float> (*)(const PreparedScene<float>&, unsigned);
@@ -288,14 +266,14 @@ struct EmbreeScene::Impl {
     }
   }
   // A user geometry of count primitives with the given callbacks, attached to the scene.
-  template <HitTest Test, Normal Ng>
-  unsigned attach_user(int count, RTCBoundsFunction bounds) {
+  unsigned attach_user(int count, RTCBoundsFunction bounds, RTCIntersectFunctionN intersect,
+                       RTCOccludedFunctionN occluded) {
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryUserPrimitiveCount(g, unsigned(count));
     rtcSetGeometryUserData(g, this);
     rtcSetGeometryBoundsFunction(g, bounds, this);
-    rtcSetGeometryIntersectFunction(g, &Impl::intersect_n<Test, Ng>);
-    rtcSetGeometryOccludedFunction(g, &Impl::occluded_n<Test>);
+    rtcSetGeometryIntersectFunction(g, intersect);
+    rtcSetGeometryOccludedFunction(g, occluded);
     if (config.high_quality) rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
     rtcCommitGeometry(g);
     const unsigned id = rtcAttachGeometry(scene, g);
@@ -339,8 +317,8 @@ struct EmbreeScene::Impl {
                                           (config.robust ? RTC_SCENE_FLAG_ROBUST : 0)));
 
     if (s.num_spheres > 0 && config.user_spheres) {
-      sphere_geom =
-          attach_user<&Impl::sphere_t, &Impl::sphere_normal>(s.num_spheres, &Impl::sphere_bounds);
+      sphere_geom = attach_user(s.num_spheres, &Impl::sphere_bounds, &UserSpheres<Impl>::intersect,
+                                &UserSpheres<Impl>::occluded);
       check("spheres");
     } else if (s.num_spheres > 0) {
       RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
@@ -365,8 +343,9 @@ struct EmbreeScene::Impl {
     }
     if (s.num_planes > 0) {
       if (mode == PlaneMode::user) {
-        plane_geom =
-            attach_user<&Impl::plane_t, &Impl::plane_normal>(s.num_planes, &Impl::plane_bounds);
+        plane_geom = attach_user(s.num_planes, &Impl::plane_bounds,
+                                 &Impl::intersect_n<&Impl::plane_t, &Impl::plane_normal>,
+                                 &Impl::occluded_n<&Impl::plane_t>);
       } else {
         // A square of half-size plane_half about the plane's point: rays from within the scene
         // miss it only when they run within about 1/kPlaneExtent radian of parallel to it.

@@ -26,6 +26,15 @@ struct GeomIds {
   int of(unsigned prim) const { return table ? table[prim] : first + step * int(prim); }
 };
 
+// A callback's lane loop in one clone per x86 level (AVX-512, AVX2 + FMA, baseline), chosen by
+// the loader from the CPU (GCC's target_clones).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define LANCER_PEER_CLONES \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define LANCER_PEER_CLONES
+#endif
+
 // User geometries' callbacks test lanes in chunks of at most this many (Embree's widest packet).
 inline constexpr unsigned kLaneChunk = 16;
 
@@ -190,6 +199,7 @@ class EmbreeShapes {
   // capped, of the two end discs, within (tnear, tfar). Out: t (tfar where none), hit (-1 or
   // 0, and valid), the (unnormalised) outward normal. One loop of selects and no branch, over
   // plain arrays: the compiler vectorises it.
+  LANCER_PEER_CLONES
   static void cylinder_lanes(const PreparedShapes<float>& c, unsigned k, const float* ray,
                              unsigned N, unsigned i0, unsigned n, const int* valid,
                              float* __restrict t, int* __restrict hit, float* __restrict nx,

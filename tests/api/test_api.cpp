@@ -153,6 +153,50 @@ TEST(Api, EveryPacketWidthGivesTheSameBits) {
   }
 }
 
+// A packet with most lanes active moves its rays into the scene's frame in vectors, one with a
+// few lanes active moves those alone with Frame's own functions: the same bits either way. Each
+// ray again alone in a packet of 16 whose other lanes hold garbage (NaN, infinities, zero
+// directions: inactive, so neither checked nor traced), against the packets of rays.trace.
+TEST(Api, FewActiveLanesGiveTheBitsOfFullPackets) {
+  for (Options opt : {with(Precision::exact), with(Precision::dbl)}) {
+    const api::Scene scene =
+        api::Scene::load(testing::source_path("scenes/many-spheres.json"), opt);
+    SCOPED_TRACE(to_string(opt.precision));
+    for (double spread : {3.0, 300.0}) {
+      Rays rays = random_rays(scene, 23, 400, spread);
+      std::fill(rays.valid.begin(), rays.valid.end(), -1);
+      const Results full = trace<16>(scene, rays);
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < rays.size(); ++i) {
+        api::Ray16 r;
+        api::Hit16 h;
+        int valid[16] = {}, occ[16];
+        for (int k = 0; k < 16; ++k) {
+          r.org_x[k] = std::numeric_limits<float>::quiet_NaN(), r.org_y[k] = kInf;
+          r.org_z[k] = 0, r.dir_x[k] = r.dir_y[k] = r.dir_z[k] = 0;
+          r.tnear[k] = r.tfar[k] = std::numeric_limits<float>::quiet_NaN();
+          r.mask[k] = api::kAllObjects;
+        }
+        const int k = int(i % 16);
+        valid[k] = 1;
+        r.org_x[k] = rays.org[3 * i], r.org_y[k] = rays.org[3 * i + 1];
+        r.org_z[k] = rays.org[3 * i + 2];
+        r.dir_x[k] = rays.dir[3 * i], r.dir_y[k] = rays.dir[3 * i + 1];
+        r.dir_z[k] = rays.dir[3 * i + 2];
+        r.tnear[k] = 0, r.tfar[k] = rays.tfar[i];
+        scene.intersect(valid, r, h);
+        scene.occluded(valid, r, occ);
+        bool same = h.id[k] == full.id[i] && same_bits(h.t[k], full.t[i]) &&
+                    occ[k] == full.occluded[i] && same_bits(h.ng_x[k], full.ng[3 * i]) &&
+                    same_bits(h.ng_y[k], full.ng[3 * i + 1]) &&
+                    same_bits(h.ng_z[k], full.ng[3 * i + 2]);
+        differ += !same;
+      }
+      EXPECT_EQ(differ, 0u) << "spread " << spread;
+    }
+  }
+}
+
 // Occluded before tfar exactly where the closest hit (with tfar infinite) lies before tfar.
 TEST(Api, OcclusionAgreesWithClosestHit) {
   for (Options opt : {with(Precision::exact), with(Precision::dbl)}) {
