@@ -44,9 +44,14 @@ struct Options {
 // What a scene chose, as resolved: never "auto".
 struct Info {
   Precision precision = Precision::exact;
-  std::string precision_reason;         // why, when Options::precision was automatic
-  int width = 1;                        // widest kernel, in lanes of `precision`
-  std::string isa;                      // "avx512f", "avx2", "sse4.2", "scalar", ...
+  std::string precision_reason;  // why, when Options::precision was automatic
+  int width = 1;                 // widest kernel, in lanes of `precision`
+  std::string isa;               // "avx512f", "avx2", "sse4.2", "scalar", ...
+  // What answers the one-ray queries (intersect<1>, occluded<1>, and a packet's lanes with a
+  // tnear beyond epsilon), exact and double precision: the one-ray kernels on "avx512f" or
+  // "avx2", equal to the reference bit for bit; or "scalar", the reference itself (width 1,
+  // triangles, meshes or cylinders in the scene, no AVX2). Fast mode answers them in packets.
+  std::string one_ray = "scalar";
   int threads = 1;                      // what render_rows and primary_hits run on
   int nx = 0, ny = 0, supersample = 1;  // the camera's image
   // Ids 0 .. objects-1: the spheres, then the planes, then the triangles, meshes and cylinders

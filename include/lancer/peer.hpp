@@ -160,6 +160,12 @@ class EmbreeScene {
   // grouped as in primary(). For tests.
   std::vector<PeerHit> camera_hits(int width) const;
 
+  // Rays one at a time through rtcIntersect1 (occluded false: `found` counts the hits) or
+  // rtcOccluded1 (the blocked rays), single-threaded: the peer of the library API's one-ray
+  // queries. Rays in the scene's prepared frame (PreparedScene::frame), 8 floats each: origin,
+  // unit direction, tnear, tfar. Returns the seconds the calls took.
+  double one_rays(const float* rays, std::size_t n, bool occluded, std::size_t& found) const;
+
   // A ray set (lancer/ray_sets.hpp) moved into the peer's frame, as the library API moves a
   // world-space ray (in double, rounded once to float), before anything is timed: both engines
   // then trace the same floats. tnear is the scene's epsilon, as for the camera rays.

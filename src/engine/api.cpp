@@ -13,6 +13,7 @@
 #include "lancer/image.hpp"
 #include "lancer/lancer.hpp"
 #include "lancer/packet/api_rays.hpp"
+#include "lancer/packet/one_ray_api.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
 #include "lancer/render.hpp"
@@ -52,6 +53,14 @@ namespace lancer::api {
 namespace {
 
 template <class T>
+const packet::OneRayTable<T>* one_ray_of() {
+  if constexpr (std::is_same_v<T, double>)
+    return packet::one_ray_double();
+  else
+    return packet::one_ray_float();
+}
+
+template <class T>
 const packet::KernelTable<T>* kernels_of(int width, Precision p) {
   if (width == 1) return nullptr;  // the reference
   if constexpr (std::is_same_v<T, double>)
@@ -70,21 +79,34 @@ struct Engine {
   // Per RayPacket<N> (by query_slot): the kernel's lanes and table (null: the reference).
   int query_width[4] = {1, 1, 1, 1};
   const packet::KernelTable<T>* query[4] = {};
+  // The lanes answered one ray at a time (Chunk::alone): the one-ray kernels, or null: the
+  // reference.
+  const packet::OneRayTable<T>* one = nullptr;
+  packet::OneRayScene<T> one_scene;  // packet::one_ray_scene(scene.bvh), where `one` is set
 };
 
 std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
 
+// The error of a ray check_ray refused, out of the way of the rays it lets through.
+template <int N>
+[[noreturn, gnu::cold, gnu::noinline]] void refuse_ray(const char* what, const RayPacket<N>& r,
+                                                       int k, double d2) {
+  const std::string at = std::string(what) + ": " + lane(k);
+  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
+    throw InputError(at + "org must be finite");
+  if (!(std::fabs(d2 - 1.0) <= 1e-5))
+    throw InputError(at + "dir must be unit length, |dir|^2 = " + std::to_string(d2));
+  if (std::isnan(r.tnear[k])) throw InputError(at + "tnear is NaN");
+  throw InputError(at + "tfar is NaN");
+}
+
 template <int N>
 void check_ray(const char* what, const RayPacket<N>& r, int k) {
-  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
-    throw InputError(std::string(what) + ": " + lane(k) + "org must be finite");
   const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
                     double(r.dir_z[k]) * r.dir_z[k];
-  if (!(std::fabs(d2 - 1.0) <= 1e-5))
-    throw InputError(std::string(what) + ": " + lane(k) +
-                     "dir must be unit length, |dir|^2 = " + std::to_string(d2));
-  if (std::isnan(r.tnear[k])) throw InputError(std::string(what) + ": " + lane(k) + "tnear is NaN");
-  if (std::isnan(r.tfar[k])) throw InputError(std::string(what) + ": " + lane(k) + "tfar is NaN");
+  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k]) &&
+        std::fabs(d2 - 1.0) <= 1e-5 && !std::isnan(r.tnear[k]) && !std::isnan(r.tfar[k])))
+    refuse_ray(what, r, k, d2);
 }
 
 // Whether some lane k < N with on[k] != 0 fails check_ray's checks (bit 0), and whether every
@@ -148,6 +170,14 @@ struct Chunk {
   ShapeHit<T> shape[kMaxLanes];
 };
 
+// Lane k of the caller's packet in the prepared frame: moved there in double, rounded once to T.
+template <class T, int N>
+void to_frame(const PreparedScene<T>& s, const RayPacket<N>& r, int k, Vec3<T>& o, Vec3<T>& d) {
+  const Vec3<double> po = s.frame.point({r.org_x[k], r.org_y[k], r.org_z[k]});
+  const Vec3<double> pd = s.frame.direction({r.dir_x[k], r.dir_y[k], r.dir_z[k]});
+  o = {T(po.x), T(po.y), T(po.z)}, d = {T(pd.x), T(pd.y), T(pd.z)};
+}
+
 // Lanes [c, c + w) of the caller's packet into a chunk of width w: origins moved to the
 // prepared frame in double and rounded once to T; inactive lanes get a harmless ray. With
 // `kernel` false every active lane goes to the reference. At a few objects, moving the rays
@@ -203,11 +233,10 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
       if (dense && ch.active[l]) continue;
       T o[3] = {0, 0, 0}, d[3] = {0, 0, 1};
       if (ch.active[l]) {
-        const int i = c + l;
-        const Vec3<double> po = s.frame.point({r.org_x[i], r.org_y[i], r.org_z[i]});
-        const Vec3<double> pd = s.frame.direction({r.dir_x[i], r.dir_y[i], r.dir_z[i]});
-        o[0] = T(po.x), o[1] = T(po.y), o[2] = T(po.z);
-        d[0] = T(pd.x), d[1] = T(pd.y), d[2] = T(pd.z);
+        Vec3<T> po, pd;
+        to_frame(s, r, c + l, po, pd);
+        o[0] = po.x, o[1] = po.y, o[2] = po.z;
+        d[0] = pd.x, d[1] = pd.y, d[2] = pd.z;
       }
       for (int a = 0; a < 3; ++a) rays[a * w + l] = o[a], rays[(3 + a) * w + l] = d[a];
     }
@@ -223,11 +252,24 @@ Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
 }
 
 // The reference's nearest hit beyond tmin of each lane traced alone. It counts where it lies
-// before tfar (ch.t), which it then replaces.
+// before tfar (ch.t), which it then replaces. With `one`, the one-ray kernels give the same
+// answer (any: whether something lies before tfar, ch.t then unchanged).
 template <class T>
-void trace_alone(const PreparedScene<T>& s, int w, Chunk<T>& ch) {
+void trace_alone(const Engine<T>& e, bool any, int w, Chunk<T>& ch) {
+  const PreparedScene<T>& s = e.scene;
+  const packet::OneRayTable<T>* one = e.one;
+  const packet::OneRayScene<T>& spheres = e.one_scene;
   for (int l = 0; l < w; ++l) {
     if (!ch.alone[l]) continue;
+    if (one) {
+      const T o[3] = {ch.rays[l], ch.rays[w + l], ch.rays[2 * w + l]};
+      const T d[3] = {ch.rays[3 * w + l], ch.rays[4 * w + l], ch.rays[5 * w + l]};
+      if (any)
+        ch.out[l] = one->occluded(s, spheres, o, d, ch.tmin[l], ch.t[l]);
+      else
+        ch.out[l] = one->closest(s, spheres, o, d, ch.tmin[l], ch.t[l], ch.t[l], ch.id[l]);
+      continue;
+    }
     const reference::Hit<T> hit = reference::closest_hit(
         s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.tmin[l], ch.shape[l]);
     ch.out[l] = hit.id >= 0 && hit.t < ch.t[l];
@@ -235,27 +277,72 @@ void trace_alone(const PreparedScene<T>& s, int w, Chunk<T>& ch) {
   }
 }
 
-// The renderer's geometric normal at a hit, before it is turned towards the ray, in world space.
+// The renderer's geometric normal at a hit (ray o, d; object id at t), before it is turned
+// towards the ray, in world space.
 template <class T>
-Vec3<double> world_normal(const PreparedScene<T>& s, const Chunk<T>& ch, int w, int l) {
-  const int id = ch.id[l];
-  const Vec3<T> o = lane_vec(ch, w, l, 0), d = lane_vec(ch, w, l, 3);
+Vec3<double> world_normal(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T t,
+                          int id, const ShapeHit<T>& shape) {
   Vec3<T> n;
   if (id < s.num_spheres) {
     const Vec3<T> centre{s.spheres.cx[id], s.spheres.cy[id], s.spheres.cz[id]};
-    const T r2 = s.spheres.r2[id], m = hit_magnitude(o, ch.t[l]);
-    n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, ch.t[l], centre, r2).normal
-        : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, ch.t[l], centre, r2, m).normal
-                                 : sphere_point_along<T>(o, d, ch.t[l], centre, m).normal;
+    const T r2 = s.spheres.r2[id], m = hit_magnitude(o, t);
+    n = sphere_is_small(r2, m)   ? sphere_point_local<T>(o, d, t, centre, r2).normal
+        : sphere_is_large(r2, m) ? sphere_point_large<T>(o, d, t, centre, r2, m).normal
+                                 : sphere_point_along<T>(o, d, t, centre, m).normal;
   } else if (id < s.num_spheres + s.num_planes) {
     const int q = id - s.num_spheres;
     n = {s.planes.nx[q], s.planes.ny[q], s.planes.nz[q]};
   } else {
     // A triangle, mesh or cylinder, at the point the reference shades (reference.cpp).
     Vec3<T> shading;
-    shapes_normals(*s.shapes, ch.shape[l], o, d, along(o, d, ch.t[l]), n, shading);
+    shapes_normals(*s.shapes, shape, o, d, along(o, d, t), n, shading);
   }
   return s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
+}
+
+// Lane k of a hit packet: object id at t (id -1: a miss), its primitive, u, v and normal.
+template <class T, int N>
+void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
+               const ShapeHit<T>& shape, HitPacket<N>& h, int k) {
+  h.id[k] = id;
+  if (id < 0) {
+    h.u[k] = h.v[k] = 0;
+    h.t[k] = std::numeric_limits<float>::infinity();
+    h.ng_x[k] = h.ng_y[k] = h.ng_z[k] = 0;
+    h.prim_id[k] = -1;
+    return;
+  }
+  h.t[k] = static_cast<float>(t);
+  // A sphere or a plane is one primitive with no surface coordinates.
+  ShapeSurface<T> at;
+  if (s.shapes && shape.object >= 0) at = shapes_surface(*s.shapes, shape, o, d);
+  h.prim_id[k] = at.prim_in_object;
+  h.u[k] = static_cast<float>(at.u), h.v[k] = static_cast<float>(at.v);
+  const Vec3<double> ng = world_normal(s, o, d, t, id, shape);
+  h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
+}
+
+// A query of one ray on the one-ray kernels, without a chunk: closest hit (hit non-null) or
+// occlusion.
+template <class T, int N>
+void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>* hit,
+             int* blocked) {
+  if (valid != nullptr && valid[0] == 0) return;
+  check_ray(hit ? "intersect" : "occluded", r, 0);
+  const PreparedScene<T>& s = e.scene;
+  Vec3<T> o, d;
+  to_frame(s, r, 0, o, d);
+  const T tmin = std::max(T(r.tnear[0]), s.epsilon), tfar = T(r.tfar[0]);
+  const T ov[3] = {o.x, o.y, o.z}, dv[3] = {d.x, d.y, d.z};
+  const bool sees = (r.mask[0] & kAllObjects) != 0;
+  if (!hit) {
+    *blocked = sees && e.one->occluded(s, e.one_scene, ov, dv, tmin, tfar) ? 1 : 0;
+    return;
+  }
+  T t = tfar;
+  std::int32_t id = -1;
+  if (!sees || !e.one->closest(s, e.one_scene, ov, dv, tmin, tfar, t, id)) id = -1;
+  store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
 template <class T, int N>
@@ -263,35 +350,18 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
+  if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
   const bool plain = check_rays("intersect", valid, r, s.epsilon);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
     if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
-    trace_alone(s, w, ch);
-    for (int l = 0; l < w && c + l < N; ++l) {
-      if (!ch.active[l]) continue;
-      const int kk = c + l;
-      const int id = ch.id[l];
-      h.id[kk] = id;
-      if (id < 0) {
-        h.u[kk] = h.v[kk] = 0;
-        h.t[kk] = std::numeric_limits<float>::infinity();
-        h.ng_x[kk] = h.ng_y[kk] = h.ng_z[kk] = 0;
-        h.prim_id[kk] = -1;
-        continue;
-      }
-      h.t[kk] = static_cast<float>(ch.t[l]);
-      // A sphere or a plane is one primitive with no surface coordinates.
-      ShapeSurface<T> at;
-      if (s.shapes && ch.shape[l].object >= 0)
-        at = shapes_surface(*s.shapes, ch.shape[l], lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3));
-      h.prim_id[kk] = at.prim_in_object;
-      h.u[kk] = static_cast<float>(at.u), h.v[kk] = static_cast<float>(at.v);
-      const Vec3<double> ng = world_normal(s, ch, w, l);
-      h.ng_x[kk] = float(ng.x), h.ng_y[kk] = float(ng.y), h.ng_z[kk] = float(ng.z);
-    }
+    trace_alone(e, false, w, ch);
+    for (int l = 0; l < w && c + l < N; ++l)
+      if (ch.active[l])
+        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l], ch.shape[l],
+                  h, c + l);
   }
 }
 
@@ -300,6 +370,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
+  if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
   const bool plain = check_rays("occluded", valid, r, s.epsilon);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
@@ -308,7 +379,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
       k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);  // false where not valid
     // The reference answers by its closest hit: something lies in (tmin, tfar) exactly when
     // the nearest hit does, since both take each object's same nearest root.
-    trace_alone(s, w, ch);
+    trace_alone(e, true, w, ch);
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l]) out[c + l] = ch.out[l] ? 1 : 0;
   }
@@ -351,6 +422,10 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.query[query_slot(n)] = kernels_of<T>(w, info.precision);
   }
   e.render = kernels_of<T>(info.width, info.precision);
+  // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1;
+  // scenes with triangles, meshes or cylinders run there too). Fast mode has no lone lanes.
+  if (info.width > 1 && info.precision != Precision::fast) e.one = one_ray_of<T>();
+  if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
 }
 
 // Options a scene cannot be made with, refused before anything is read: an enumerator outside
@@ -418,9 +493,11 @@ Scene Scene::make(SceneDescription description, const Options& options) {
   if (impl->dbl) {
     impl->d.scene = prepare<double>(s);
     choose_widths(impl->d, info);
+    if (impl->d.one) info.one_ray = impl->d.one->isa;
   } else {
     impl->f.scene = prepare<float>(s);
     choose_widths(impl->f, info);
+    if (impl->f.one) info.one_ray = impl->f.one->isa;
   }
   return Scene(std::move(impl));
 }

@@ -5,6 +5,7 @@
 
 #include "lancer/error.hpp"
 #include "lancer/packet/api.hpp"
+#include "lancer/packet/one_ray_api.hpp"
 
 namespace lancer::packet {
 
@@ -99,7 +100,21 @@ const KernelTable<Real>* table_for(int lanes) {
 #endif
 }
 
+// The one-ray kernels on the widest ISA that runs, after the CPU check (AVX2 at least: a node's
+// four double children take a ymm).
+template <class Real>
+const OneRayTable<Real>* one_ray_for() {
+#if defined(__x86_64__)
+  if (allowed(Isa::avx512f)) return one_ray_table<xsimd::avx512f, Real>();
+  if (allowed(Isa::avx2)) return one_ray_table<xsimd::avx2, Real>();
+#endif
+  return nullptr;
+}
+
 }  // namespace
+
+const OneRayTable<float>* one_ray_float() { return one_ray_for<float>(); }
+const OneRayTable<double>* one_ray_double() { return one_ray_for<double>(); }
 
 const KernelTable<float>* float_kernels(int width, Precision precision) {
   if (precision == Precision::exact) return table_for<float, ExactMode>(width);

@@ -285,6 +285,7 @@ py::dict PyScene::info(const CallOptions& call) const {
   d["precision_reason"] = in.precision_reason;
   d["width"] = in.width;
   d["isa"] = in.isa;
+  d["one_ray"] = in.one_ray;
   d["threads"] = in.threads;
   d["nx"] = in.nx, d["ny"] = in.ny, d["supersample"] = in.supersample;
   d["objects"] = in.objects;

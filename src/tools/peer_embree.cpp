@@ -110,6 +110,33 @@ EmbreeScene::RaysResult EmbreeScene::trace_all(int width, int threads) const {
   return res;
 }
 
+double EmbreeScene::one_rays(const float* rays, std::size_t n, bool occluded,
+                             std::size_t& found) const {
+  const Impl& im = *impl_;
+  const FlushDenormals ftz;
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  alignas(64) RTCRayHit rh;
+  RTCRayN* ray = RTCRayHitN_RayN(reinterpret_cast<RTCRayHitN*>(&rh), 1);
+  std::size_t count = 0;
+  const auto start = Clock::now();
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* r = rays + 8 * i;
+    set_ray<1>(ray, 0, {r[0], r[1], r[2]}, {r[3], r[4], r[5]}, r[6], r[7]);
+    if (occluded) {
+      rtcOccluded1(im.scene, &ctx, &rh.ray);
+      count += rh.ray.tfar < 0.0f;  // Embree marks a blocked ray with tfar = -inf
+    } else {
+      clear_hit<1>(RTCRayHitN_HitN(reinterpret_cast<RTCRayHitN*>(&rh), 1), 0);
+      rtcIntersect1(im.scene, &ctx, &rh);
+      count += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  found = count;
+  return seconds;
+}
+
 std::vector<PeerHit> EmbreeScene::camera_hits(int width) const {
   check_width(width);
   const Impl& im = *impl_;
@@ -156,6 +183,10 @@ double EmbreeScene::build_seconds() const { return 0; }
 const EmbreeConfig& EmbreeScene::config() const { return how_; }
 PrimaryResult EmbreeScene::primary(int, int) const { return {}; }
 EmbreeScene::RaysResult EmbreeScene::trace_all(int, int) const { return {}; }
+double EmbreeScene::one_rays(const float*, std::size_t, bool, std::size_t& found) const {
+  found = 0;
+  return 0;
+}
 std::vector<PeerHit> EmbreeScene::camera_hits(int) const { return {}; }
 struct EmbreeScene::Rays {};
 std::shared_ptr<const EmbreeScene::Rays> EmbreeScene::load_rays(const rays::RaySet&) const {

@@ -86,6 +86,7 @@ def test_info_says_what_was_resolved():
     scene = lancer.Scene.load(str(SCENES / "lorenzi-reflections.json"))
     info = scene.info(precision="exact", width=1, threads=1)
     assert (info["precision"], info["width"], info["isa"]) == ("exact", 1, "scalar")
+    assert info["one_ray"] == "scalar"  # width 1: every query on the reference
     assert (info["nx"], info["ny"], info["objects"]) == (600, 400, 4)
     assert scene.info()["precision"] in ("exact", "double")
 

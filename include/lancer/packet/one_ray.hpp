@@ -1,0 +1,388 @@
+// The one-ray kernels (one_ray_api.hpp): a single ray's closest hit and occlusion over the
+// sphere hierarchy and the planes, for the library API's one-ray queries. Kept apart from the
+// reference (traverse.hpp, reference.cpp), which stays the definition and which they equal bit
+// for bit. As Embree's single-ray BVH traversal: a wide node's children tested against the ray
+// in one SIMD operation per plane (float: the 4-wide hierarchy collapsed into 8-wide nodes, one
+// ymm; double: the 4-wide nodes, one ymm), the met ones visited nearest entry first, a popped
+// subtree culled where it starts beyond the best t; a leaf's spheres four at a time with the
+// reference's sphere formulas (formulas.hpp). The closest hit keeps the lexicographic minimum
+// of (t, object id), so the visiting order cannot change it; occlusion stops at the first
+// object met within (tmin, tfar). The boxes are the hierarchy's, padded for the sphere test's
+// rounding and, beyond origin_limit, for the origin's, as the reference pads them. Include only
+// from src/isa/one_ray_*.cpp.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <type_traits>
+
+#include "lancer/bvh.hpp"
+#include "lancer/formulas.hpp"
+#include "lancer/packet/intrin.hpp"
+#include "lancer/packet/lanes.hpp"
+#include "lancer/packet/one_ray_api.hpp"
+#include "lancer/prepared.hpp"
+#include "lancer/vec3.hpp"
+
+namespace lancer::packet {
+
+// Arch names the translation unit (its flags). A leaf's four spheres and a 4-wide node's four
+// children run on 128-bit float or 256-bit double vectors, an 8-wide node's eight float children
+// on one ymm: all of it in every x86 ISA from AVX2 up.
+template <class Arch, class T>
+struct OneRayKernel {
+  using A = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
+  using B = xsimd::batch<T, A>;
+  static_assert(B::size == 4 && Bvh<T>::kWidth == 4, "a 4-wide node's children in one vector");
+  using Node = typename Bvh<T>::Node;
+
+  // The ray's slab form, as the reference's (RayTraversal): a zero direction component becomes
+  // 2^-64; beyond origin_limit the boxes grow by kOriginPad |origin| (max-norm).
+  struct Slab {
+    B inv[3], oi[3], pad[3];
+    std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
+    bool padded;
+  };
+  static Slab slab(const Bvh<T>& h, const T* o, const T* d) noexcept {
+    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
+    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
+    Slab r;
+    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+    r.padded = m > h.origin_limit;
+    const T far = r.padded ? m * T(Bvh<T>::kOriginPad) : T(0);
+    for (int a = 0; a < 3; ++a) {
+      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
+      r.inv[a] = B(inv);
+      r.oi[a] = B(o[a] * inv);
+      r.pad[a] = B(far * std::fabs(inv));
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known, and
+      // its slab value is the reference's min of the two.
+      r.near[a] = inv < T(0) ? hi[a] : lo[a];
+      r.far[a] = inv < T(0) ? lo[a] : hi[a];
+    }
+    return r;
+  }
+
+  // The children of n the ray meets before tmax (bit k: slot k), their entry distances in tn.
+  template <bool kPadded>
+  static unsigned meet(const Node& n, const Slab& r, T tmax, B& tn) noexcept {
+    const char* base = reinterpret_cast<const char*>(&n);
+    auto plane = [&](std::size_t off) {
+      return B::load_aligned(reinterpret_cast<const T*>(base + off));
+    };
+    tn = B(T(0));
+    B tf(tmax);
+    for (int a = 0; a < 3; ++a) {
+      B t0 = plane(r.near[a]) * r.inv[a] - r.oi[a];
+      B t1 = plane(r.far[a]) * r.inv[a] - r.oi[a];
+      if constexpr (kPadded) t0 = t0 - r.pad[a], t1 = t1 + r.pad[a];
+      tn = xsimd::max(tn, t0);
+      tf = xsimd::min(tf, t1);
+    }
+    return lane_bits(tn <= tf) & ((1u << n.arity) - 1u);
+  }
+
+  // The depth-first walk over the 4-wide nodes (double): the met children sorted on the stack by
+  // entry distance, the nearest on top (as Embree's single-ray traversal sorts them), the
+  // nearest taken at once; a popped entry is skipped where it starts beyond tmax (read afresh: a
+  // closest-hit leaf lowers it). leaf(first, count) -> true to stop; returns whether a leaf
+  // stopped it.
+  template <bool kPadded, class Leaf>
+  static bool walk(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
+    struct Entry {
+      std::int32_t child, count;
+      T tnear;
+    };
+    Entry stack[Bvh<T>::kStack];
+    int sp = 0;
+    Entry next{0, -1, T(0)};
+    for (;;) {
+      if (next.count < 0) {
+        const Node& n = h.nodes[std::size_t(next.child)];
+        B tnb;
+        unsigned met = meet<kPadded>(n, r, tmax, tnb);
+        if (met) {
+          alignas(32) T tn[4];
+          tnb.store_aligned(tn);
+          const int base = sp;
+          for (; met; met &= met - 1) {  // insertion, at most four entries
+            const int k = __builtin_ctz(met);
+            const Entry e{n.child[k], n.count[k], tn[k]};
+            int q = sp++;
+            for (; q > base && stack[q - 1].tnear < e.tnear; --q) stack[q] = stack[q - 1];
+            stack[q] = e;
+          }
+          next = stack[--sp];
+          continue;
+        }
+      } else if (leaf(next.child, next.count)) {
+        return true;
+      }
+      do {
+        if (sp == 0) return false;
+        next = stack[--sp];
+      } while (next.tnear > tmax);
+    }
+  }
+
+  // Float over the 8-wide nodes (OneRayNode8): a node's eight children tested against the ray
+  // in one ymm per plane, the met ones visited nearest entry first (sorted on the stack, the
+  // nearest taken at once), as Embree's BVH8 single-ray traversal.
+  struct Slab8 {
+    __m256 inv[3], oi[3], pad[3];
+    std::size_t near[3], far[3];
+  };
+  static Slab8 slab8(const T* o, const T* d, bool padded) noexcept {
+    using N8 = OneRayNode8;
+    const std::size_t lo[3] = {offsetof(N8, lo_x), offsetof(N8, lo_y), offsetof(N8, lo_z)};
+    const std::size_t hi[3] = {offsetof(N8, hi_x), offsetof(N8, hi_y), offsetof(N8, hi_z)};
+    Slab8 r;
+    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+    const T far = padded ? m * T(Bvh<T>::kOriginPad) : T(0);
+    for (int a = 0; a < 3; ++a) {
+      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
+      r.inv[a] = _mm256_set1_ps(inv);
+      r.oi[a] = _mm256_set1_ps(o[a] * inv);
+      r.pad[a] = _mm256_set1_ps(far * std::fabs(inv));
+      r.near[a] = inv < T(0) ? hi[a] : lo[a];
+      r.far[a] = inv < T(0) ? lo[a] : hi[a];
+    }
+    return r;
+  }
+  template <bool kPadded, class Leaf>
+  static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf) noexcept {
+    struct Entry {
+      std::int32_t child, count;
+      float tnear;
+    };
+    // Every 8-wide level stands for one 4-wide level or more: at most seven entries each.
+    Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2];
+    int sp = 0;
+    std::int32_t node = 0;
+    for (;;) {
+      const OneRayNode8& n = nodes[std::size_t(node)];
+      const char* base = reinterpret_cast<const char*>(&n);
+      auto plane = [&](std::size_t off) {
+        return _mm256_load_ps(reinterpret_cast<const float*>(base + off));
+      };
+      __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax);
+      for (int a = 0; a < 3; ++a) {
+        __m256 t0 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
+        __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        if constexpr (kPadded) t0 = _mm256_sub_ps(t0, r.pad[a]), t1 = _mm256_add_ps(t1, r.pad[a]);
+        tn = _mm256_max_ps(tn, t0);
+        tf = _mm256_min_ps(tf, t1);
+      }
+      unsigned met = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ)));
+      if (met) {
+        Entry e;
+        if ((met & (met - 1)) == 0) {  // one child met: straight on
+          const int k = __builtin_ctz(met);
+          e = {n.child[k], n.count[k], 0.0f};
+        } else {
+          alignas(32) float dist[8];
+          _mm256_store_ps(dist, tn);
+          const int bottom = sp;
+          for (; met; met &= met - 1) {  // insertion: the nearest on top
+            const int k = __builtin_ctz(met);
+            const Entry x{n.child[k], n.count[k], dist[k]};
+            // A node the walk may come back to: its lines on their way meanwhile.
+            if (x.count < 0) {
+              const char* p = reinterpret_cast<const char*>(nodes + x.child);
+              for (int line = 0; line < int(sizeof(OneRayNode8)); line += 64)
+                _mm_prefetch(p + line, _MM_HINT_T0);
+            }
+            int q = sp++;
+            for (; q > bottom && stack[q - 1].tnear < x.tnear; --q) stack[q] = stack[q - 1];
+            stack[q] = x;
+          }
+          e = stack[--sp];
+        }
+        if (e.count < 0) {
+          node = e.child;
+          continue;
+        }
+        if (leaf(e.child, e.count)) return true;
+      }
+      for (;;) {
+        if (sp == 0) return false;
+        const Entry e = stack[--sp];
+        if (e.tnear > tmax) continue;
+        if (e.count < 0) {
+          node = e.child;
+          break;
+        }
+        if (leaf(e.child, e.count)) return true;
+      }
+    }
+  }
+
+  // Spheres [first, first + n) of arrays of `total` entries, four at a time, for one ray:
+  // hit(j, t) for each sphere j met at eps < t <= tmax, in index order within each four; true
+  // from hit stops.
+  struct SphereArrays {
+    const T *cx, *cy, *cz, *r2;
+    int total;
+  };
+  template <class Hit>
+  static bool spheres(const SphereArrays& sp, int first, int n, const Vec3<B>& o, const Vec3<B>& d,
+                      const B& eps, const T& tmax, Hit&& hit) noexcept {
+    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
+    const B lane = B::load_aligned(kLane);
+    for (int j = first; j < first + n; j += 4) {
+      const int m = std::min(4, first + n - j);
+      B cx, cy, cz, r2;
+      if (j + 4 <= sp.total) {
+        cx = B::load_unaligned(sp.cx + j), cy = B::load_unaligned(sp.cy + j);
+        cz = B::load_unaligned(sp.cz + j), r2 = B::load_unaligned(sp.r2 + j);
+      } else {  // the arrays' last spheres: no reads past them
+        alignas(32) T v[4][4] = {};
+        for (int q = 0; q < m; ++q)
+          v[0][q] = sp.cx[j + q], v[1][q] = sp.cy[j + q], v[2][q] = sp.cz[j + q],
+          v[3][q] = sp.r2[j + q];
+        cx = B::load_aligned(v[0]), cy = B::load_aligned(v[1]);
+        cz = B::load_aligned(v[2]), r2 = B::load_aligned(v[3]);
+      }
+      const Vec3<B> f = o - Vec3<B>{cx, cy, cz};
+      const SphereDisc<B> sd = sphere_disc(f, d, r2);
+      // No branch on the discriminant: the roots of four spheres cost less than its mispredictions.
+      const auto live = (sd.disc >= B(T(0))) & (lane < B(T(m)));
+      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = lane_bits(live & (t > eps) & (t <= B(tmax)));
+      if (!met) continue;
+      alignas(32) T tt[4];
+      t.store_aligned(tt);
+      for (; met; met &= met - 1) {
+        const int q = __builtin_ctz(met);
+        if (hit(j + q, tt[q])) return true;
+      }
+    }
+    return false;
+  }
+
+  // Leaf-order spheres [first, first + n) from one_ray_spheres' array, four at a time (each
+  // four loaded as rows and transposed), as spheres() does.
+  template <class Hit>
+  static bool leaf_spheres(const T* aos, int first, int n, const Vec3<B>& o, const Vec3<B>& d,
+                           const B& eps, const T& tmax, Hit&& hit) noexcept {
+    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
+    const B lane = B::load_aligned(kLane);
+    for (int j = first; j < first + n; j += 4) {
+      const int m = std::min(4, first + n - j);
+      const T* p = aos + 4 * std::size_t(j);
+      B cx, cy, cz, r2;
+      if constexpr (std::is_same_v<T, float>) {
+        __m128 r0 = _mm_loadu_ps(p), r1 = _mm_loadu_ps(p + 4), r2v = _mm_loadu_ps(p + 8),
+               r3 = _mm_loadu_ps(p + 12);
+        _MM_TRANSPOSE4_PS(r0, r1, r2v, r3);
+        cx = B(r0), cy = B(r1), cz = B(r2v), r2 = B(r3);
+      } else {
+        const __m256d r0 = _mm256_loadu_pd(p), r1 = _mm256_loadu_pd(p + 4),
+                      r2v = _mm256_loadu_pd(p + 8), r3 = _mm256_loadu_pd(p + 12);
+        const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+        const __m256d t2 = _mm256_unpacklo_pd(r2v, r3), t3 = _mm256_unpackhi_pd(r2v, r3);
+        cx = B(_mm256_permute2f128_pd(t0, t2, 0x20)), cy = B(_mm256_permute2f128_pd(t1, t3, 0x20));
+        cz = B(_mm256_permute2f128_pd(t0, t2, 0x31)), r2 = B(_mm256_permute2f128_pd(t1, t3, 0x31));
+      }
+      const Vec3<B> f = o - Vec3<B>{cx, cy, cz};
+      const SphereDisc<B> sd = sphere_disc(f, d, r2);
+      const auto live = (sd.disc >= B(T(0))) & (lane < B(T(m)));
+      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = lane_bits(live & (t > eps) & (t <= B(tmax)));
+      if (!met) continue;
+      alignas(32) T tt[4];
+      t.store_aligned(tt);
+      for (; met; met &= met - 1) {
+        const int q = __builtin_ctz(met);
+        if (hit(j + q, tt[q])) return true;
+      }
+    }
+    return false;
+  }
+
+  // Over the hierarchy, or every sphere in id order where there is none or the ray starts
+  // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin.
+  template <class Hit>
+  static bool all_spheres(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o,
+                          const T* d, T tmin, const T& tmax, Hit&& hit) noexcept {
+    const T* aos = one.spheres.data();
+    const Vec3<B> ov{B(o[0]), B(o[1]), B(o[2])}, dv{B(d[0]), B(d[1]), B(d[2])};
+    const B eps(tmin);
+    const Bvh<T>& h = s.bvh;
+    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+    if (!h.active() || m > T(Bvh<T>::kFarLimit)) {
+      const SphereArrays sp{s.spheres.cx.data(), s.spheres.cy.data(), s.spheres.cz.data(),
+                            s.spheres.r2.data(), s.num_spheres};
+      return spheres(sp, 0, s.num_spheres, ov, dv, eps, tmax,
+                     [&](int j, T t) { return hit(j, t); });
+    }
+    auto leaf = [&](std::int32_t first, std::int32_t count) {
+      return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
+                          [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
+    };
+    if constexpr (std::is_same_v<T, float>) {
+      if (!one.nodes8.empty()) {
+        const bool padded = m > h.origin_limit;
+        const Slab8 r = slab8(o, d, padded);
+        return padded ? walk8<true>(one.nodes8.data(), r, tmax, leaf)
+                      : walk8<false>(one.nodes8.data(), r, tmax, leaf);
+      }
+    }
+    const Slab r = slab(h, o, d);
+    return r.padded ? walk<true>(h, r, tmax, leaf) : walk<false>(h, r, tmax, leaf);
+  }
+
+  // The planes in id order, as the reference: hit(id, t) for each met at t > tmin.
+  template <class Hit>
+  static bool planes(const PreparedScene<T>& s, const T* o, const T* d, T tmin, Hit&& hit) {
+    const Vec3<T> origin{o[0], o[1], o[2]}, dir{d[0], d[1], d[2]};
+    const PlaneBlock<T>& p = s.planes;
+    for (int k = 0; k < s.num_planes; ++k) {
+      const Vec3<T> normal{p.nx[k], p.ny[k], p.nz[k]};
+      const T denom = dot(dir, normal);
+      if (denom == T(0)) continue;
+      const T t = dot(Vec3<T>{p.px[k], p.py[k], p.pz[k]} - origin, normal) / denom;
+      if (t > tmin && hit(s.num_spheres + k, t)) return true;
+    }
+    return false;
+  }
+
+  static bool closest(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
+                      T tmin, T tfar, T& t_out, std::int32_t& id_out) noexcept {
+    // Only hits before tfar count: starting from it, nothing at or beyond it is taken (an equal
+    // t would need an id below -1), and what is nearer is the reference's minimum.
+    T best_t = tfar;
+    std::int32_t best_id = -1;
+    // The planes first (their hit bounds the walk): in id order, a strictly nearer t wins; then
+    // the spheres, whose ids are lower, win ties with them.
+    planes(s, o, d, tmin, [&](std::int32_t id, T t) {
+      if (t < best_t) best_t = t, best_id = id;
+      return false;
+    });
+    all_spheres(s, one, o, d, tmin, best_t, [&](std::int32_t id, T t) {
+      if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
+      return false;
+    });
+    if (best_id < 0) return false;
+    t_out = best_t, id_out = best_id;
+    return true;
+  }
+
+  static bool occluded(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
+                       T tmin, T tfar) noexcept {
+    auto before = [&](std::int32_t, T t) { return t < tfar; };
+    // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
+    return planes(s, o, d, tmin, before) || all_spheres(s, one, o, d, tmin, tfar, before);
+  }
+};
+
+template <class Arch, class Real>
+const OneRayTable<Real>* one_ray_table() {
+  using K = OneRayKernel<Arch, Real>;
+  static const OneRayTable<Real> t{Arch::name(), &K::closest, &K::occluded};
+  return &t;
+}
+
+}  // namespace lancer::packet

@@ -1,0 +1,78 @@
+// The one-ray kernels' entry points (packet/one_ray.hpp), declared without any SIMD type so that
+// code built for the baseline ISA (the library API) can call them. Instantiated only in
+// src/isa/one_ray_<isa>.cpp, which alone are built with that ISA's flags; dispatch.cpp hands
+// them out after the CPU check.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "lancer/prepared.hpp"
+
+namespace lancer::packet {
+
+// An 8-wide node for float rays, the 4-wide hierarchy's nodes collapsed (one_ray_scene): its
+// children's boxes (those of the 4-wide nodes, padded alike) structure-of-arrays, eight in one
+// ymm per plane. Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres from
+// leaf-order index child[k]. Unused slots have empty boxes (lo +inf, hi -inf): never met.
+struct alignas(64) OneRayNode8 {
+  float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
+  std::int32_t child[8], count[8];
+};
+
+// What the one-ray kernels read beside the prepared scene: the spheres as rows (below) and,
+// for float, the 8-wide nodes (nodes8[0] the root; empty without a hierarchy).
+template <class Real>
+struct OneRayScene {
+  std::vector<Real> spheres;
+  std::vector<OneRayNode8> nodes8;
+};
+OneRayScene<float> one_ray_scene(const Bvh<float>& h);
+OneRayScene<double> one_ray_scene(const Bvh<double>& h);
+
+// The hierarchy's spheres in leaf order as x, y, z, r^2 each (array of structures: a leaf's
+// spheres in one or two cache lines, where the hierarchy's four arrays take four or more), and
+// four zero spheres after them (a leaf's last four-sphere load reads no further). Empty without
+// a hierarchy.
+template <class Real>
+std::vector<Real> one_ray_spheres(const Bvh<Real>& h) {
+  std::vector<Real> out;
+  if (!h.active()) return out;
+  const std::size_t n = h.cx.size();
+  out.assign(4 * (n + 4), Real(0));
+  for (std::size_t j = 0; j < n; ++j)
+    out[4 * j] = h.cx[j], out[4 * j + 1] = h.cy[j], out[4 * j + 2] = h.cz[j],
+            out[4 * j + 3] = h.r2[j];
+  return out;
+}
+
+// One ray in the prepared frame (origin o, unit direction d), its hits counted at
+// tmin < t < tfar (tmin at least the scene's epsilon). Scenes of spheres and planes only: the
+// triangles, meshes and cylinders stay with the reference.
+template <class Real>
+struct OneRayTable {
+  const char* isa;  // "avx2", "avx512f"
+  // The reference's closest hit (reference::closest_hit from tmin), bit for bit, where it lies
+  // before tfar: returns true and sets t and id (the object id, ties to the lower id); else
+  // leaves them.
+  // `one`: one_ray_scene(scene.bvh).
+  bool (*closest)(const PreparedScene<Real>&, const OneRayScene<Real>& one, const Real* o,
+                  const Real* d, Real tmin, Real tfar, Real& t, std::int32_t& id);
+  // Whether some object lies at tmin < t < tfar: exactly where closest would return true.
+  // Stops at the first such object.
+  bool (*occluded)(const PreparedScene<Real>&, const OneRayScene<Real>& one, const Real* o,
+                   const Real* d, Real tmin, Real tfar);
+};
+
+// Defined in packet/one_ray.hpp; instantiated per ISA in src/isa/one_ray_*.cpp. Call only after
+// the CPU check (dispatch.cpp): it runs that ISA's instructions.
+template <class Arch, class Real>
+const OneRayTable<Real>* one_ray_table();
+
+// The one-ray kernels on the widest ISA this CPU and OS run (within LANCER_MAX_WIDTH), or
+// nullptr where there is none (SSE4.2 only, a cap of 1 or 4, aarch64): the reference then.
+const OneRayTable<float>* one_ray_float();
+const OneRayTable<double>* one_ray_double();
+
+}  // namespace lancer::packet

@@ -1,0 +1,93 @@
+// What the one-ray kernels read beside the prepared scene (packet/one_ray_api.hpp): the spheres
+// as rows and, for float, the 4-wide hierarchy collapsed into 8-wide nodes.
+#include <algorithm>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "lancer/packet/one_ray_api.hpp"
+
+namespace lancer::packet {
+
+namespace {
+
+struct Slot {
+  float lo[3], hi[3];
+  std::int32_t child, count;
+  float area() const {
+    const float x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
+    return x * y + y * z + z * x;
+  }
+};
+
+// The children of 4-wide node i as slots.
+void children(const Bvh<float>& h, std::int32_t i, std::vector<Slot>& out) {
+  const Bvh<float>::Node& n = h.nodes[std::size_t(i)];
+  for (int k = 0; k < n.arity; ++k)
+    out.push_back({{n.lo_x[k], n.lo_y[k], n.lo_z[k]},
+                   {n.hi_x[k], n.hi_y[k], n.hi_z[k]},
+                   n.child[k],
+                   std::int32_t(n.count[k])});
+}
+
+// The 8-wide node standing for 4-wide node i (and its subtree), appended to `out`: its children,
+// then, while they fit in eight, the inner child of largest surface replaced by its own
+// children (the usual collapse of a binary or 4-wide tree into a wider one). Returns its index.
+std::int32_t collapse(const Bvh<float>& h, std::int32_t i, std::vector<OneRayNode8>& out) {
+  std::vector<Slot> slots;
+  children(h, i, slots);
+  for (;;) {
+    int best = -1;
+    for (int k = 0; k < int(slots.size()); ++k) {
+      if (slots[std::size_t(k)].count >= 0) continue;
+      const int arity = h.nodes[std::size_t(slots[std::size_t(k)].child)].arity;
+      if (int(slots.size()) - 1 + arity > 8) continue;
+      if (best < 0 || slots[std::size_t(k)].area() > slots[std::size_t(best)].area()) best = k;
+    }
+    if (best < 0) break;
+    const std::int32_t opened = slots[std::size_t(best)].child;
+    slots.erase(slots.begin() + best);
+    children(h, opened, slots);
+  }
+  const std::int32_t at = std::int32_t(out.size());
+  out.emplace_back();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  for (int k = 0; k < 8; ++k) {
+    OneRayNode8& n = out[std::size_t(at)];
+    if (k >= int(slots.size())) {
+      n.lo_x[k] = n.lo_y[k] = n.lo_z[k] = kInf;
+      n.hi_x[k] = n.hi_y[k] = n.hi_z[k] = -kInf;
+      n.child[k] = 0, n.count[k] = 0;
+      continue;
+    }
+    const Slot& s = slots[std::size_t(k)];
+    n.lo_x[k] = s.lo[0], n.lo_y[k] = s.lo[1], n.lo_z[k] = s.lo[2];
+    n.hi_x[k] = s.hi[0], n.hi_y[k] = s.hi[1], n.hi_z[k] = s.hi[2];
+    n.count[k] = s.count < 0 ? -1 : s.count;
+    n.child[k] = s.child;
+  }
+  // Inner children after the node itself is written (the recursion grows `out`).
+  for (int k = 0; k < int(slots.size()); ++k)
+    if (slots[std::size_t(k)].count < 0) {
+      const std::int32_t c = collapse(h, slots[std::size_t(k)].child, out);
+      out[std::size_t(at)].child[k] = c;
+    }
+  return at;
+}
+
+}  // namespace
+
+OneRayScene<float> one_ray_scene(const Bvh<float>& h) {
+  OneRayScene<float> s;
+  s.spheres = one_ray_spheres(h);
+  if (h.active()) collapse(h, 0, s.nodes8);
+  return s;
+}
+
+OneRayScene<double> one_ray_scene(const Bvh<double>& h) {
+  OneRayScene<double> s;
+  s.spheres = one_ray_spheres(h);
+  return s;
+}
+
+}  // namespace lancer::packet
