@@ -109,31 +109,12 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
     refuse_ray(what, r, k, d2);
 }
 
-// Whether some lane k < N with on[k] != 0 fails check_ray's checks (bit 0), and whether every
-// lane is on, sees every object and starts at epsilon (bit 1: the common case, whose lanes
-// all go to the kernel). One pass of bitwise operations without a branch (vectorised).
-template <class T, int N>
-int scan_rays(const RayPacket<N>& r, const int* __restrict on, T eps) {
-  int bad = 0, plain = 1;
-  for (int k = 0; k < N; ++k) {
-    const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
-                      double(r.dir_z[k]) * r.dir_z[k];
-    // x - x is 0 for finite x, NaN for an infinity or a NaN.
-    const float o =
-        (r.org_x[k] - r.org_x[k]) + (r.org_y[k] - r.org_y[k]) + (r.org_z[k] - r.org_z[k]);
-    const int ok = int(o == 0.0f) & int(std::fabs(d2 - 1.0) <= 1e-5) &
-                   int(r.tnear[k] == r.tnear[k]) & int(r.tfar[k] == r.tfar[k]);
-    bad |= (ok ^ 1) & int(on[k] != 0);
-    plain &= int(on[k] != 0) & int((r.mask[k] & kAllObjects) != 0) & int(T(r.tnear[k]) <= eps);
-  }
-  return bad | plain << 1;
-}
-
 // Every active lane, before any is traced: on an error nothing has been written. Only where
 // some lane fails does check_ray find the first and say what. Returns whether the packet is
 // plain (scan_rays' bit 1).
 template <class T, int N>
-bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps) {
+bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps,
+                const packet::KernelTable<T>* k) {
   static constexpr auto kAll = [] {
     std::array<int, N> a{};
     for (int& x : a) x = 1;
@@ -142,13 +123,17 @@ bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps
   int live = N;
   if (valid) {
     live = 0;
-    for (int k = 0; k < N; ++k) live += int(valid[k] != 0);
+    for (int l = 0; l < N; ++l) live += int(valid[l] != 0);
   }
   // A few active lanes: those alone; else every lane in one pass, the failing one found after.
-  const int scan = 4 * live < N ? 1 : scan_rays(r, valid ? valid : kAll.data(), eps);
+  const auto scan_rays = k ? k->scan_rays : &packet::scan_rays<void, T>;
+  const int scan = 4 * live < N
+                       ? 1
+                       : scan_rays(N, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear,
+                                   r.tfar, r.mask, valid ? valid : kAll.data(), kAllObjects, eps);
   if (scan & 1)
-    for (int k = 0; k < N; ++k)
-      if (valid == nullptr || valid[k] != 0) check_ray(what, r, k);
+    for (int l = 0; l < N; ++l)
+      if (valid == nullptr || valid[l] != 0) check_ray(what, r, l);
   return (scan & 2) != 0;
 }
 
@@ -167,7 +152,12 @@ struct Chunk {
   bool out[kMaxLanes];
   // Lanes the reference answered: the triangle, mesh or cylinder primitive hit (object -1 for
   // a sphere, a plane or none). The kernels never meet one (such scenes run at width 1).
-  ShapeHit<T> shape[kMaxLanes];
+  // Left unconstructed (ShapeHit initialises its members): fill sets them where the scene has
+  // shapes, and nothing reads them where it has none.
+  union Shapes {
+    Shapes() {}
+    ShapeHit<T> at[kMaxLanes];
+  } shape;
 };
 
 // Lane k of the caller's packet in the prepared frame: moved there in double, rounded once to T.
@@ -206,7 +196,7 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     std::fill(ch.out, ch.out + w, false);
     std::fill(ch.id, ch.id + w, -1);
     move(0, n);
-    if (s.shapes) std::fill(ch.shape, ch.shape + w, ShapeHit<T>{});
+    if (s.shapes) std::fill(ch.shape.at, ch.shape.at + w, ShapeHit<T>{});
     return w;
   }
   int active = 0;
@@ -242,7 +232,7 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
     }
   // Only the reference fills these (shape scenes' lone lanes).
   if (s.shapes)
-    for (int l = 0; l < w; ++l) ch.shape[l] = ShapeHit<T>{};
+    for (int l = 0; l < w; ++l) ch.shape.at[l] = ShapeHit<T>{};
   return active;
 }
 
@@ -271,7 +261,7 @@ void trace_alone(const Engine<T>& e, bool any, int w, Chunk<T>& ch) {
       continue;
     }
     const reference::Hit<T> hit = reference::closest_hit(
-        s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.tmin[l], ch.shape[l]);
+        s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.tmin[l], ch.shape.at[l]);
     ch.out[l] = hit.id >= 0 && hit.t < ch.t[l];
     if (ch.out[l]) ch.t[l] = hit.t, ch.id[l] = hit.id;
   }
@@ -351,17 +341,17 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
-  const bool plain = check_rays("intersect", valid, r, s.epsilon);
+  const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
     if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
-    trace_alone(e, false, w, ch);
+    if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l])
-        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l], ch.shape[l],
-                  h, c + l);
+        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+                  ch.shape.at[l], h, c + l);
   }
 }
 
@@ -371,7 +361,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
-  const bool plain = check_rays("occluded", valid, r, s.epsilon);
+  const bool plain = check_rays("occluded", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
     if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
@@ -379,7 +369,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
       k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);  // false where not valid
     // The reference answers by its closest hit: something lies in (tmin, tfar) exactly when
     // the nearest hit does, since both take each object's same nearest root.
-    trace_alone(e, true, w, ch);
+    if (!(plain && k)) trace_alone(e, true, w, ch);  // a plain packet on a kernel: none alone
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l]) out[c + l] = ch.out[l] ? 1 : 0;
   }

@@ -62,6 +62,11 @@ struct KernelTable {
   void (*frame_rays)(const Frame&, int n, const float* ox, const float* oy, const float* oz,
                      const float* dx, const float* dy, const float* dz, Real* o0, Real* o1,
                      Real* o2, Real* o3, Real* o4, Real* o5);
+  // Checks of n such rays (packet/api_rays.hpp scan_rays): bit 0, some lane with on[l] fails
+  // them; bit 1, every lane plain.
+  int (*scan_rays)(int n, const float* ox, const float* oy, const float* oz, const float* dx,
+                   const float* dy, const float* dz, const float* tnear, const float* tfar,
+                   const unsigned* mask, const int* on, unsigned all_objects, Real eps);
 };
 
 // camera_packets' where[] for a lane that holds no camera ray.

@@ -86,7 +86,8 @@ const KernelTable<Real>* table() {
                                    &K::intersect_camera_packets,
                                    &K::closest_hit_packet,
                                    &K::occluded_packet,
-                                   &frame_rays<Arch, Real>};
+                                   &frame_rays<Arch, Real>,
+                                   &scan_rays<Arch, Real>};
   return &t;
 }
 
