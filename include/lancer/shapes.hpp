@@ -67,7 +67,7 @@ struct PreparedShapes {
   // same factor of the ray origin's |o|inf, the walk adds (packet/prim/shapes_walk.hpp).
   static constexpr double kWidePad = sizeof(T) == 4 ? 0x1p-18 : 0x1p-47;
   static constexpr int kOrderBits = 2;
-  struct alignas(16) WideNode {
+  struct alignas(64) WideNode {  // two cache lines (float)
     T lo_x[kWide], hi_x[kWide], lo_y[kWide], hi_y[kWide], lo_z[kWide], hi_z[kWide];
     std::int32_t child[kWide];
     std::uint8_t count[kWide];
@@ -78,11 +78,16 @@ struct PreparedShapes {
   // A wide walk's stack bound: every child of a wide node lies a binary level down or more, so
   // at most kWide - 1 entries per binary level, and one.
   static constexpr int kWideStack = (kWide - 1) * kMaxTreeDepth + 2;
-  // The primitives in leaf order, as the packets' leaves read them: their reference (prim's
-  // entry) and, for triangles, the three vertices' coordinates (x0 y0 z0 x1 ... z2; the same
-  // bits as vx, vy, vz; zeros for a cylinder), so that a leaf's triangles lie side by side.
-  std::vector<std::int32_t> leaf_ref;
-  std::vector<T> leaf_vertex;
+  // The primitives in leaf order, as the packets' leaves read them, one record each so that a
+  // leaf is read contiguously: for triangles the three vertices' coordinates (x0 y0 z0 x1 ... z2;
+  // the same bits as vx, vy, vz; zeros for a cylinder), the primitive's reference (prim's
+  // entry) and its number.
+  struct LeafPrim {
+    T v[9];
+    std::int32_t ref;
+    std::uint32_t prim;
+  };
+  std::vector<LeafPrim> leaf;
   double build_seconds = 0;
 
   std::size_t triangles() const { return tri_object.size(); }

@@ -236,16 +236,15 @@ void build_wide(PreparedShapes<T>& s) {
     s.wide[job.wide] = w;
   }
   const std::size_t np = s.order.size();
-  s.leaf_ref.resize(np);
-  s.leaf_vertex.assign(9 * np, T(0));
+  s.leaf.assign(np, typename Shapes::LeafPrim{});
   for (std::size_t j = 0; j < np; ++j) {
-    const std::int32_t ref = s.prim[s.order[j]];
-    s.leaf_ref[j] = ref;
-    if (ref < 0) continue;
+    auto& out = s.leaf[j];
+    out.prim = s.order[j];
+    out.ref = s.prim[s.order[j]];
+    if (out.ref < 0) continue;
     for (int c = 0; c < 3; ++c) {
-      const std::uint32_t v = s.tri[3 * std::size_t(ref) + std::size_t(c)];
-      T* out = &s.leaf_vertex[9 * j + 3 * std::size_t(c)];
-      out[0] = s.vx[v], out[1] = s.vy[v], out[2] = s.vz[v];
+      const std::uint32_t v = s.tri[3 * std::size_t(out.ref) + std::size_t(c)];
+      out.v[3 * c] = s.vx[v], out.v[3 * c + 1] = s.vy[v], out.v[3 * c + 2] = s.vz[v];
     }
   }
 }
@@ -365,7 +364,7 @@ std::size_t PreparedShapes<T>::bytes() const {
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
          nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
-         leaf_ref.capacity() * 4 + leaf_vertex.capacity() * sizeof(T);
+         leaf.capacity() * sizeof(LeafPrim);
 }
 
 template <class T>

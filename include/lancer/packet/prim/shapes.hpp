@@ -108,9 +108,9 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         sh, r, valid, [&] { return best_t; },
         [&](std::uint32_t begin, std::uint32_t n, const M& at) {
           for (std::uint32_t j = begin; j < begin + n; ++j) {
-            const std::uint32_t p = sh.order[j];
+            const std::uint32_t p = sh.leaf[j].prim;
             tests(counts, at, false);
-            const B t = prim_t(sh, j, sh.leaf_ref[j], r, at, eps);
+            const B t = prim_t(sh, j, sh.leaf[j].ref, r, at, eps);
             const I pid(Id(first + Id(p)));
             const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
             const M take = at & ((t < best_t) | tie);
@@ -190,9 +190,9 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
           for (std::uint32_t j = begin; j < begin + n; ++j) {
             const M lanes = at & pending;
             tests(counts, lanes, false);
-            const M hit = lanes & (prim_t(sh, j, sh.leaf_ref[j], r, lanes, eps) < dist);
+            const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
             if (!xsimd::any(hit)) continue;
-            const int obj = object(sh, sh.leaf_ref[j]);
+            const int obj = object(sh, sh.leaf[j].ref);
             auto it =
                 std::find_if(met.begin(), met.end(), [&](const Met& m) { return m.object == obj; });
             if (it == met.end()) it = met.insert(met.end(), Met{obj, 0u});

@@ -165,6 +165,14 @@ struct ShapeWalk {
     }
   }
 
+  // Starts loading a subtree's node (count 0) or leaf records, for when it is popped.
+  static void prefetch(const Shapes& sh, std::int32_t child, unsigned count) noexcept {
+    const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
+                               : reinterpret_cast<const char*>(&sh.leaf[std::size_t(child)]);
+    const std::size_t bytes = count == 0 ? sizeof(Wide) : count * sizeof(sh.leaf[0]);
+    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+  }
+
   // Visits the leaves of the wide hierarchy that some lane of `lanes` may reach before limit()
   // (re-read after each leaf: popped subtrees are culled by it), children nearest first by the
   // packet's direction code: leaf(first, count, lanes_at_leaf) returns true to stop.
@@ -201,6 +209,7 @@ struct ShapeWalk {
           }
           for (int q = c - 1; q > 0; --q) {
             const int s = slots[q];
+            prefetch(sh, n.child[s], n.count[s]);
             st_child[sp] = n.child[s], st_count[sp] = n.count[s];
             st_mask[sp] = m[s], st_t0[sp] = t0[s];
             ++sp;
@@ -227,7 +236,7 @@ struct ShapeWalk {
   // (infinity elsewhere, and where it misses), by the reference's watertight formula.
   static B triangle_t(const Shapes& sh, std::size_t j, const Ray& r, const M& at,
                       const B& eps) noexcept {
-    const T* v = &sh.leaf_vertex[9 * j];
+    const T* v = sh.leaf[j].v;
     V a, b, c;
     if (r.uniform) {
       auto vertex = [&](const T* p) {
