@@ -52,6 +52,42 @@ struct PreparedShapes {
   // The tree's depth bound: its walks keep fixed stacks of this many entries.
   static constexpr int kMaxTreeDepth = 128;
   std::vector<std::uint32_t> order;  // primitive numbers in leaf order
+
+  // The packets' hierarchy: the binary tree above collapsed into kWide-wide nodes (the inner
+  // child of largest surface area opened until a node has kWide children), their children's
+  // boxes structure-of-arrays, so a packet tests every child of a node per lane. Child slot k <
+  // arity: count[k] > 0 a leaf of leaf-order positions child[k] .. + count[k] (the binary
+  // tree's leaves, unchanged), else the wide node child[k]. order[u], per direction code u (bit
+  // a set: the packet's summed direction goes up axis a): the slots by their box centres along
+  // that diagonal, nearest first, kOrderBits each; the walk only reorders by it. wide[0] is the
+  // root; empty when there are no primitives.
+  static constexpr int kWide = 4;
+  // The wide boxes are stored grown by kWidePad times their largest |coordinate| (rounded
+  // outwards): the box test's margin for the triangle test's reach, whose other share, the
+  // same factor of the ray origin's |o|inf, the walk adds (packet/prim/shapes_walk.hpp).
+  static constexpr double kWidePad = sizeof(T) == 4 ? 0x1p-18 : 0x1p-47;
+  static constexpr int kOrderBits = 2;
+  struct alignas(64) WideNode {  // two cache lines (float)
+    T lo_x[kWide], hi_x[kWide], lo_y[kWide], hi_y[kWide], lo_z[kWide], hi_z[kWide];
+    std::int32_t child[kWide];
+    std::uint8_t count[kWide];
+    std::uint8_t order[8];
+    std::int32_t arity;
+  };
+  std::vector<WideNode> wide;
+  // A wide walk's stack bound: every child of a wide node lies a binary level down or more, so
+  // at most kWide - 1 entries per binary level, and one.
+  static constexpr int kWideStack = (kWide - 1) * kMaxTreeDepth + 2;
+  // The primitives in leaf order, as the packets' leaves read them, one record each so that a
+  // leaf is read contiguously: for triangles the three vertices' coordinates (x0 y0 z0 x1 ... z2;
+  // the same bits as vx, vy, vz; zeros for a cylinder), the primitive's reference (prim's
+  // entry) and its number.
+  struct LeafPrim {
+    T v[9];
+    std::int32_t ref;
+    std::uint32_t prim;
+  };
+  std::vector<LeafPrim> leaf;
   double build_seconds = 0;
 
   std::size_t triangles() const { return tri_object.size(); }

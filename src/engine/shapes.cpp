@@ -153,6 +153,102 @@ void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
   }
 }
 
+// The binary tree collapsed into wide nodes (PreparedShapes::wide), and the primitives copied in
+// leaf order for the packets' leaves.
+template <class T>
+void build_wide(PreparedShapes<T>& s) {
+  using Shapes = PreparedShapes<T>;
+  using Wide = typename Shapes::WideNode;
+  constexpr int kW = Shapes::kWide;
+  s.wide.clear();
+  if (s.order.empty()) return;
+  auto area = [&](std::uint32_t b) {
+    const auto& n = s.nodes[b];
+    Box<T> box;
+    for (int k = 0; k < 3; ++k) box.lo[k] = n.lo[k], box.hi[k] = n.hi[k];
+    return box.area();
+  };
+  struct Job {
+    std::uint32_t binary, wide;
+  };
+  std::vector<Job> jobs{{0, 0}};
+  s.wide.emplace_back();
+  while (!jobs.empty()) {
+    const Job job = jobs.back();
+    jobs.pop_back();
+    // The children, in the binary tree's depth-first order: the inner one of largest area
+    // opened into its two until there are kW (a leaf root: itself, alone).
+    std::uint32_t kids[kW];
+    int n = 0;
+    if (s.nodes[job.binary].count > 0) {
+      kids[n++] = job.binary;
+    } else {
+      kids[n++] = s.nodes[job.binary].first, kids[n++] = s.nodes[job.binary].first + 1;
+    }
+    while (n < kW) {
+      int open = -1;
+      double best = -1;
+      for (int k = 0; k < n; ++k)
+        if (s.nodes[kids[k]].count == 0 && area(kids[k]) > best) best = area(kids[k]), open = k;
+      if (open < 0) break;
+      const std::uint32_t first = s.nodes[kids[open]].first;
+      for (int k = n; k > open + 1; --k) kids[k] = kids[k - 1];
+      kids[open] = first, kids[open + 1] = first + 1, ++n;
+    }
+    Wide w{};
+    w.arity = n;
+    double centre[kW][3];
+    for (int k = 0; k < kW; ++k) {
+      const T inf = std::numeric_limits<T>::infinity();
+      w.lo_x[k] = w.lo_y[k] = w.lo_z[k] = inf, w.hi_x[k] = w.hi_y[k] = w.hi_z[k] = -inf;
+      w.child[k] = -1;
+      if (k >= n) continue;
+      const auto& b = s.nodes[kids[k]];
+      double mag = 0;
+      for (int a = 0; a < 3; ++a)
+        mag = std::max({mag, std::fabs(double(b.lo[a])), std::fabs(double(b.hi[a]))});
+      const double pad = Shapes::kWidePad * mag;
+      auto down = [&](T x) { return std::nextafter(T(double(x) - pad), -inf); };
+      auto up = [&](T x) { return std::nextafter(T(double(x) + pad), inf); };
+      w.lo_x[k] = down(b.lo[0]), w.lo_y[k] = down(b.lo[1]), w.lo_z[k] = down(b.lo[2]);
+      w.hi_x[k] = up(b.hi[0]), w.hi_y[k] = up(b.hi[1]), w.hi_z[k] = up(b.hi[2]);
+      for (int a = 0; a < 3; ++a) centre[k][a] = 0.5 * (double(b.lo[a]) + double(b.hi[a]));
+      if (b.count > 0) {
+        w.child[k] = std::int32_t(b.first), w.count[k] = std::uint8_t(b.count);
+      } else {
+        w.child[k] = std::int32_t(s.wide.size()), w.count[k] = 0;
+        jobs.push_back({kids[k], std::uint32_t(s.wide.size())});
+        s.wide.emplace_back();
+      }
+    }
+    for (unsigned code = 0; code < 8; ++code) {
+      int slot[kW] = {0, 1, 2, 3};
+      double key[kW];
+      for (int k = 0; k < n; ++k) {
+        key[k] = 0;
+        for (int a = 0; a < 3; ++a) key[k] += (code >> a & 1u ? 1 : -1) * centre[k][a];
+      }
+      std::stable_sort(slot, slot + n, [&](int a, int b) { return key[a] < key[b]; });
+      unsigned packed = 0;
+      for (int p = 0; p < kW; ++p) packed |= unsigned(slot[p]) << (Shapes::kOrderBits * p);
+      w.order[code] = std::uint8_t(packed);
+    }
+    s.wide[job.wide] = w;
+  }
+  const std::size_t np = s.order.size();
+  s.leaf.assign(np, typename Shapes::LeafPrim{});
+  for (std::size_t j = 0; j < np; ++j) {
+    auto& out = s.leaf[j];
+    out.prim = s.order[j];
+    out.ref = s.prim[s.order[j]];
+    if (out.ref < 0) continue;
+    for (int c = 0; c < 3; ++c) {
+      const std::uint32_t v = s.tri[3 * std::size_t(out.ref) + std::size_t(c)];
+      out.v[3 * c] = s.vx[v], out.v[3 * c + 1] = s.vy[v], out.v[3 * c + 2] = s.vz[v];
+    }
+  }
+}
+
 // The slab test in double, never turning away a ray the primitive tests would accept. Two
 // margins: the box's entry and exit carry three roundings each, covered by widening [t0, t1]
 // by a few ulps of double (Ize, "Robust BVH Ray Traversal", JCGT 2013); and the watertight
@@ -267,7 +363,8 @@ std::size_t PreparedShapes<T>::bytes() const {
           cyl_object.capacity() + order.capacity()) *
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
-         nodes.capacity() * sizeof(Node);
+         nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
+         leaf.capacity() * sizeof(LeafPrim);
 }
 
 template <class T>
@@ -336,6 +433,7 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
     }
   }
   build_hierarchy(s, boxes);
+  build_wide(s);
   s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
 }

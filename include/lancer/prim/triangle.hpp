@@ -71,23 +71,43 @@ struct TriangleEdges {
 };
 
 // a, b, c: the triangle's vertices minus the ray's origin, each permuted into (kx, ky, kz);
-// sx, sy, sz: the ray's shear.
+// sx, sy: the ray's shear. The edge functions u, v, w and det (t_scaled: triangle_depth).
 template <class S, class T>
-inline TriangleEdges<T> triangle_edges(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c,
-                                       const T& sx, const T& sy, const T& sz) {
+inline TriangleEdges<T> triangle_uvw(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c,
+                                     const T& sx, const T& sy) {
   const T ax = a.x - sx * a.z, ay = a.y - sy * a.z;
   const T bx = b.x - sx * b.z, by = b.y - sy * b.z;
   const T cx = c.x - sx * c.z, cy = c.y - sy * c.z;
   T u = cx * by - cy * bx;
   T v = ax * cy - ay * cx;
   T w = bx * ay - by * ax;
-  u = select(u == T(0), difference_of_products<S>(cx, by, cy, bx), u);
-  v = select(v == T(0), difference_of_products<S>(ax, cy, ay, cx), v);
-  w = select(w == T(0), difference_of_products<S>(bx, ay, by, ax), w);
+  // The exact recomputation only where a product difference rounded to 0 (rare: a branch, so
+  // that batches skip it when no lane needs it; the values are those of computing it always).
+  if (any((u == T(0)) | (v == T(0)) | (w == T(0)))) {
+    u = select(u == T(0), difference_of_products<S>(cx, by, cy, bx), u);
+    v = select(v == T(0), difference_of_products<S>(ax, cy, ay, cx), v);
+    w = select(w == T(0), difference_of_products<S>(bx, ay, by, ax), w);
+  }
   const T det = (u + v) + w;
+  return {u, v, w, det, T(0)};
+}
+
+// The scaled distance of triangle_uvw's edges e (sz: the ray's shear).
+template <class T>
+inline void triangle_depth(TriangleEdges<T>& e, const Vec3<T>& a, const Vec3<T>& b,
+                           const Vec3<T>& c, const T& sz) {
   const T az = sz * a.z, bz = sz * b.z, cz = sz * c.z;
-  const T t_scaled = (u * az + v * bz) + w * cz;
-  return {u, v, w, det, t_scaled};
+  e.t_scaled = (e.u * az + e.v * bz) + e.w * cz;
+}
+
+// a, b, c: the triangle's vertices minus the ray's origin, each permuted into (kx, ky, kz);
+// sx, sy, sz: the ray's shear.
+template <class S, class T>
+inline TriangleEdges<T> triangle_edges(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c,
+                                       const T& sx, const T& sy, const T& sz) {
+  TriangleEdges<T> e = triangle_uvw<S>(a, b, c, sx, sy);
+  triangle_depth(e, a, b, c, sz);
+  return e;
 }
 
 // Inside, edges and vertices included: no two edge functions of opposite signs, and a

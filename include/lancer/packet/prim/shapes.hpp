@@ -1,8 +1,10 @@
 // Triangles, meshes and cylinders, a primitive module of the packets. Their own hierarchy
-// (lancer/shapes.hpp: a binary SAH tree over every triangle and cylinder) is walked by the whole
-// packet after the planes, as their ids come after the planes'. The tests are the reference's
-// formula helpers (prim/triangle.hpp, prim/cylinder.hpp) on batches: the triangle test shears
-// each lane by its own axes, picked per lane, so every lane gets the reference's bits.
+// (lancer/shapes.hpp: a binary SAH tree over every triangle and cylinder, collapsed into 4-wide
+// nodes) is walked by the whole packet after the planes, as their ids come after the planes'
+// (packet/prim/shapes_walk.hpp). The tests are the reference's formula helpers
+// (prim/triangle.hpp, prim/cylinder.hpp) on batches: the triangle test shears each lane by its
+// own axes, picked per lane (or once for all, where every lane has the same), so every lane gets
+// the reference's bits.
 //
 // Hit ids: a lane that hits a shape carries first_id + its primitive number (primitives are
 // numbered in object-id order, so comparing these ids orders hits as object ids do, and ties
@@ -20,6 +22,7 @@
 #include <vector>
 
 #include "lancer/packet/lane_traits.hpp"
+#include "lancer/packet/prim/shapes_walk.hpp"
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
 #include "lancer/shapes.hpp"
@@ -52,97 +55,14 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   // Shape ids start after the planes'.
   static int first_id(const Prepared& s) noexcept { return s.num_spheres + s.num_planes; }
 
-  // v's component k per lane, k given as the masks k == 0 and k == 1.
-  static B pick(const V& v, const M& is0, const M& is1) noexcept {
-    return xsimd::select(is0, v.x, xsimd::select(is1, v.y, v.z));
-  }
+  using Walk = ShapeWalk<Arch, T>;
+  using Ray = typename Walk::Ray;
 
-  // The packet as the tests see it: each lane's shear (prim::ray_shear, lane by lane: its axes
-  // as masks), and the box test's reciprocal directions.
-  struct Ray {
-    V o, d;
-    M x0, x1, y0, y1, z0, z1;  // kx == 0, kx == 1, ky == 0, ...
-    B sx, sy, sz;
-    V inv;                     // 1 / d, 1 where d is 0
-    M zero_x, zero_y, zero_z;  // d's zero components: the box test asks o to lie in the slab
-    B o_mag;                   // |o|inf, for the box's margin
-    T heading[3];              // the lanes' directions summed: the walk's order of children
-
-    Ray(const V& org, const V& dir) noexcept : o(org), d(dir) {
-      const B ax = xsimd::abs(d.x), ay = xsimd::abs(d.y), az = xsimd::abs(d.z);
-      // kz: the largest component (ray_shear's comparisons); kx, ky the next two in turn.
-      const M kz0 = (ax > ay) & (ax > az), kz1 = ~(ax > ay) & (ay > az);
-      const M kz2 = ~(kz0 | kz1);
-      z0 = kz0, z1 = kz1;
-      const B dz = pick(d, z0, z1);
-      // kx = kz + 1 and ky = kz + 2 (mod 3), swapped where d[kz] < 0 to keep the winding.
-      const M neg = dz < B(0);
-      auto either = [&](const M& a, const M& b) { return (neg & a) | (~neg & b); };
-      x0 = either(kz1, kz2), x1 = either(kz2, kz0);
-      y0 = either(kz2, kz1), y1 = either(kz0, kz2);
-      sx = pick(d, x0, x1) / dz;
-      sy = pick(d, y0, y1) / dz;
-      sz = B(T(1)) / dz;
-      zero_x = d.x == B(0), zero_y = d.y == B(0), zero_z = d.z == B(0);
-      inv = {B(T(1)) / xsimd::select(zero_x, B(T(1)), d.x),
-             B(T(1)) / xsimd::select(zero_y, B(T(1)), d.y),
-             B(T(1)) / xsimd::select(zero_z, B(T(1)), d.z)};
-      o_mag = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z));
-      const B* comp[3] = {&d.x, &d.y, &d.z};
-      for (int k = 0; k < 3; ++k) {  // (xsimd's hadd needs AVX-512 DQ at width 16)
-        alignas(64) T v[W];
-        comp[k]->store_aligned(v);
-        heading[k] = T(0);
-        for (int l = 0; l < W; ++l) heading[k] += v[l];
-      }
-    }
-    V permuted(const V& v) const noexcept {
-      return {pick(v, x0, x1), pick(v, y0, y1), pick(v, z0, z1)};
-    }
-  };
-
-  // The lanes whose segment [0, limit] may meet the node's box: the reference's margins (the
-  // watertight test's reach outside a triangle, SlabRay in shapes.cpp) doubled, and each slab's
-  // entry and exit widened by more than the float (or double) roundings of their computation.
-  static M box_lanes(const typename Shapes::Node& node, const Ray& r, const M& lanes,
-                     const B& limit) noexcept {
-    constexpr T kPad = sizeof(T) == 4 ? T(0x1p-18) : T(0x1p-47);
-    constexpr T kWiden = sizeof(T) == 4 ? T(0x1p-20) : T(0x1p-49);
-    T mag = 0;
-    for (int k = 0; k < 3; ++k) mag = std::max({mag, std::abs(node.lo[k]), std::abs(node.hi[k])});
-    const B pad = B(kPad) * (r.o_mag + B(mag));
-    const B inf(std::numeric_limits<T>::infinity());
-    B t0(T(0)), t1 = limit * B(T(1) + kWiden);
-    M out = ~lanes;
-    auto slab = [&](int k, const B& o, const B& inv, const M& zero) {
-      const B lo = B(node.lo[k]) - pad, hi = B(node.hi[k]) + pad;
-      const B a = (lo - o) * inv, b = (hi - o) * inv;
-      const B near = xsimd::select(zero, -inf, xsimd::min(a, b) * B(T(1) - kWiden));
-      const B far = xsimd::select(zero, inf, xsimd::max(a, b) * B(T(1) + kWiden));
-      out = out | (zero & ((o < lo) | (o > hi)));
-      t0 = xsimd::max(t0, near);
-      t1 = xsimd::min(t1, far);
-    };
-    slab(0, r.o.x, r.inv.x, r.zero_x);
-    slab(1, r.o.y, r.inv.y, r.zero_y);
-    slab(2, r.o.z, r.inv.z, r.zero_z);
-    return ~out & (t0 <= t1);
-  }
-
-  // The nearest hit of primitive p (its reference `ref`: a triangle >= 0, else ~cylinder)
-  // beyond eps, infinity where none.
-  static B prim_t(const Shapes& sh, std::int32_t ref, const Ray& r, const B& eps) noexcept {
-    const B inf(std::numeric_limits<T>::infinity());
-    if (ref >= 0) {
-      const std::uint32_t* v = &sh.tri[3 * std::size_t(ref)];
-      auto vertex = [&](std::uint32_t k) {
-        return r.permuted(V{B(sh.vx[k]) - r.o.x, B(sh.vy[k]) - r.o.y, B(sh.vz[k]) - r.o.z});
-      };
-      const prim::TriangleEdges<B> e =
-          prim::triangle_edges<T>(vertex(v[0]), vertex(v[1]), vertex(v[2]), r.sx, r.sy, r.sz);
-      const B t = prim::triangle_t(e);
-      return xsimd::select(prim::triangle_inside(e) & (t > eps), t, inf);
-    }
+  // The nearest hit of the primitive at leaf-order position j (its reference `ref`: a triangle
+  // >= 0, else ~cylinder) beyond eps for the lanes of `at`, infinity where none.
+  static B prim_t(const Shapes& sh, std::size_t j, std::int32_t ref, const Ray& r, const M& at,
+                  const B& eps) noexcept {
+    if (ref >= 0) return Walk::triangle_t(sh, j, r, at, eps);
     const std::size_t c = std::size_t(~ref);
     const Vec3<T>& a = sh.cyl_base[c];
     const Vec3<T>& ax = sh.cyl_axis[c];
@@ -152,37 +72,16 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         .t;
   }
 
-  // Visits the leaves of the shapes' hierarchy that some lane of `lanes` may reach before
+  // Visits the leaves of the shapes' wide hierarchy that some lane of `lanes` may reach before
   // limit(): leaf(first, count, lanes_at_leaf) returns true to stop.
   template <class Limit, class Leaf>
   [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
                                           Limit&& limit, Leaf&& leaf) noexcept {
-    if (sh.nodes.empty()) return;
-    std::uint32_t stack[Shapes::kMaxTreeDepth];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const auto& node = sh.nodes[stack[--top]];
-      const M at = box_lanes(node, r, lanes, limit());
-      if (!xsimd::any(at)) continue;
-      if (node.count > 0) {
-        if (leaf(node.first, node.count, at)) return;
-        continue;
-      }
-      // The child nearer along the packet's direction first (pushed last): on the axis that
-      // parts the children's centres most. Only the order: every box is tested all the same.
-      const auto& a = sh.nodes[node.first];
-      const auto& b = sh.nodes[node.first + 1];
-      int axis = 0;
-      T apart = 0;
-      for (int k = 0; k < 3; ++k) {
-        const T gap = (b.lo[k] + b.hi[k]) - (a.lo[k] + a.hi[k]);
-        if (std::abs(gap) > std::abs(apart)) apart = gap, axis = k;
-      }
-      const bool a_first = apart * r.heading[axis] >= T(0);
-      stack[top++] = a_first ? node.first + 1 : node.first;
-      stack[top++] = a_first ? node.first : node.first + 1;
-    }
+    if (sh.wide.empty()) return;
+    if (r.fast)
+      Walk::template walk<true>(sh, r, lanes, limit, leaf);
+    else
+      Walk::template walk<false>(sh, r, lanes, limit, leaf);
   }
 
   // Closest hit over the shapes for the lanes of `valid`: a nearer t wins, an equal t only
@@ -202,16 +101,16 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   [[gnu::noinline]] static Found closest_walk(const Prepared& s, M valid, V o, V d, B best_t,
                                               I best_id, RayCounts& counts) noexcept {
     const Shapes& sh = *s.shapes;
-    const Ray r(o, d);
+    const Ray r(o, d, valid);
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
     walk(
         sh, r, valid, [&] { return best_t; },
         [&](std::uint32_t begin, std::uint32_t n, const M& at) {
           for (std::uint32_t j = begin; j < begin + n; ++j) {
-            const std::uint32_t p = sh.order[j];
+            const std::uint32_t p = sh.leaf[j].prim;
             tests(counts, at, false);
-            const B t = prim_t(sh, sh.prim[p], r, eps);
+            const B t = prim_t(sh, j, sh.leaf[j].ref, r, at, eps);
             const I pid(Id(first + Id(p)));
             const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
             const M take = at & ((t < best_t) | tie);
@@ -281,7 +180,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   [[gnu::noinline]] static MetList met_objects(const Prepared& s, M pending, V p, V l, B dist,
                                                B eps, RayCounts& counts) noexcept {
     const Shapes& sh = *s.shapes;
-    const Ray r(p, l);
+    const Ray r(p, l, pending);
     const bool first_only = !s.features.transparency;
     thread_local std::vector<Met> met;
     met.clear();
@@ -289,12 +188,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         sh, r, pending, [&] { return dist; },
         [&](std::uint32_t begin, std::uint32_t n, const M& at) {
           for (std::uint32_t j = begin; j < begin + n; ++j) {
-            const std::uint32_t q = sh.order[j];
             const M lanes = at & pending;
             tests(counts, lanes, false);
-            const M hit = lanes & (prim_t(sh, sh.prim[q], r, eps) < dist);
+            const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
             if (!xsimd::any(hit)) continue;
-            const int obj = object(sh, sh.prim[q]);
+            const int obj = object(sh, sh.leaf[j].ref);
             auto it =
                 std::find_if(met.begin(), met.end(), [&](const Met& m) { return m.object == obj; });
             if (it == met.end()) it = met.insert(met.end(), Met{obj, 0u});
@@ -416,7 +314,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     if (!xsimd::any(mine)) return geometric;
     const Hits h = hits_of(s, mine, best_id);
     if (!h.any_smooth) return geometric;
-    const Ray r(o, d);
+    const Ray r(o, d, h.smooth);
     const prim::TriangleEdges<B> e = prim::triangle_edges<T>(
         r.permuted(h.v0 - o), r.permuted(h.v1 - o), r.permuted(h.v2 - o), r.sx, r.sy, r.sz);
     const V blend =

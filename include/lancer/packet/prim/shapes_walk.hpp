@@ -1,0 +1,262 @@
+// The packets' walk of the shapes' wide hierarchy (PreparedShapes::wide) and their triangle test
+// on a leaf's vertices, apart from the shape module's bookkeeping (packet/prim/shapes.hpp).
+//
+// The box test is conservative: it never turns away a box the reference's (double, padded)
+// test accepts, so the closest hit, the least (t, primitive), does not depend on it. The
+// reference grows each box by 2^-19 (float; 2^-48 for double) of |origin|inf + |box|inf for the
+// watertight test's reach outside a triangle; the walk twice that: the wide boxes are stored
+// grown by kWidePad |box|inf (rounded outwards), the lanes' origins move by kWidePad |o|inf
+// towards each plane, and each slab's entry and exit widen by more than the float (or double)
+// roundings of their computation. The extra half of the margin covers this form's roundings.
+// Include only from code built for the batch's ISA (packet/kernel.hpp).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+
+#include "lancer/packet/lane_traits.hpp"
+#include "lancer/prim/triangle.hpp"
+#include "lancer/shapes.hpp"
+
+namespace lancer::packet {
+
+template <class Arch, class T>
+struct ShapeWalk {
+  using B = xsimd::batch<T, Arch>;
+  using M = xsimd::batch_bool<T, Arch>;
+  using V = Vec3<B>;
+  using Shapes = PreparedShapes<T>;
+  using Wide = typename Shapes::WideNode;
+  static constexpr int W = static_cast<int>(B::size);
+  static constexpr int kW = Shapes::kWide;
+  static constexpr T kWiden = sizeof(T) == 4 ? T(0x1p-20) : T(0x1p-49);
+
+  // v's component k per lane, k given as the masks k == 0 and k == 1.
+  static B pick(const V& v, const M& is0, const M& is1) noexcept {
+    return xsimd::select(is0, v.x, xsimd::select(is1, v.y, v.z));
+  }
+  static const B& axis(const V& v, int k) noexcept { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+
+  // The packet as the tests see it: each lane's shear (prim::ray_shear, lane by lane: its axes
+  // as masks; one scalar permutation where every live lane has the same axes), and the box
+  // test's form of the rays.
+  struct Ray {
+    V o, d;
+    M x0, x1, y0, y1, z0, z1;  // kx == 0, kx == 1, ky == 0, ...
+    B sx, sy, sz;
+    V inv;                     // 1 / d, 1 where d is 0
+    M zero_x, zero_y, zero_z;  // d's zero components: the box test asks o to lie in the slab
+    B o_pad;                   // kWidePad |o|inf: the origin's share of the boxes' margin
+    V o_lo, o_hi;              // o + o_pad, o - o_pad: the origins the lower and upper planes see
+    V o_near, o_far;           // o_lo or o_hi per axis: those of the near and far planes (fast)
+    unsigned code = 0;         // direction code: bit a set where the lanes' summed d goes up a
+    // Every live lane has the same axes (kx, ky, kz): the vertices are permuted once, scalar.
+    bool uniform = false;
+    int kx = 0, ky = 1, kz = 2;
+    V o_perm;  // o permuted into (kx, ky, kz), where uniform
+    // The fast box test: every live lane's |d| is at least 2^-60 on every axis (no zero, no
+    // overflow) and its sign is the same on each axis; near[a], far[a]: the offsets (in T) in a
+    // WideNode of axis a's planes the rays enter and leave by.
+    bool fast = false;
+    int near[3] = {0, 8, 16}, far[3] = {4, 12, 20};
+
+    Ray(const V& org, const V& dir, const M& valid) noexcept : o(org), d(dir) {
+      const B ax = xsimd::abs(d.x), ay = xsimd::abs(d.y), az = xsimd::abs(d.z);
+      // kz: the largest component (ray_shear's comparisons); kx, ky the next two in turn.
+      const M kz0 = (ax > ay) & (ax > az), kz1 = ~(ax > ay) & (ay > az);
+      const M kz2 = ~(kz0 | kz1);
+      z0 = kz0, z1 = kz1;
+      const B dz = pick(d, z0, z1);
+      // kx = kz + 1 and ky = kz + 2 (mod 3), swapped where d[kz] < 0 to keep the winding.
+      const M neg = dz < B(0);
+      auto either = [&](const M& a, const M& b) { return (neg & a) | (~neg & b); };
+      x0 = either(kz1, kz2), x1 = either(kz2, kz0);
+      y0 = either(kz2, kz1), y1 = either(kz0, kz2);
+      sx = pick(d, x0, x1) / dz;
+      sy = pick(d, y0, y1) / dz;
+      sz = B(T(1)) / dz;
+      zero_x = d.x == B(0), zero_y = d.y == B(0), zero_z = d.z == B(0);
+      inv = {B(T(1)) / xsimd::select(zero_x, B(T(1)), d.x),
+             B(T(1)) / xsimd::select(zero_y, B(T(1)), d.y),
+             B(T(1)) / xsimd::select(zero_z, B(T(1)), d.z)};
+      const B o_mag = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z));
+      o_pad = B(T(Shapes::kWidePad)) * o_mag;
+      o_lo = {o.x + o_pad, o.y + o_pad, o.z + o_pad};
+      o_hi = {o.x - o_pad, o.y - o_pad, o.z - o_pad};
+      const M dead = ~valid;
+      auto all = [&](const M& m) { return xsimd::all(m | dead); };
+      const int kzs = all(kz0) ? 0 : all(kz1) ? 1 : all(kz2) ? 2 : -1;
+      const bool all_neg = all(neg), all_pos = all(~neg);
+      if (kzs >= 0 && (all_neg || all_pos)) {
+        uniform = true, kz = kzs;
+        kx = kz == 2 ? 0 : kz + 1;
+        ky = kx == 2 ? 0 : kx + 1;
+        if (all_neg) std::swap(kx, ky);
+        o_perm = {axis(o, kx), axis(o, ky), axis(o, kz)};
+      }
+      set_code(valid);
+    }
+    // The direction code, and whether the fast box test holds.
+    void set_code(const M& valid) noexcept {
+      const B tiny(T(0x1p-60));
+      const M dead = ~valid;
+      fast = true;
+      const B* comp[3] = {&d.x, &d.y, &d.z};
+      for (int a = 0; a < 3; ++a) {
+        const B& c = *comp[a];
+        const bool up = xsimd::all((c > B(T(0))) | dead);
+        const bool down = !up && xsimd::all((c < B(T(0))) | dead);
+        fast = fast && (up || down) && xsimd::all((xsimd::abs(c) >= tiny) | dead);
+        near[a] = 8 * a + (down ? 4 : 0), far[a] = 8 * a + (down ? 0 : 4);
+        const B& lo = a == 0 ? o_lo.x : a == 1 ? o_lo.y : o_lo.z;
+        const B& hi = a == 0 ? o_hi.x : a == 1 ? o_hi.y : o_hi.z;
+        B& on = a == 0 ? o_near.x : a == 1 ? o_near.y : o_near.z;
+        B& of = a == 0 ? o_far.x : a == 1 ? o_far.y : o_far.z;
+        on = down ? hi : lo, of = down ? lo : hi;
+        // (xsimd's hadd needs AVX-512 DQ at width 16)
+        alignas(64) T v[W];
+        xsimd::select(valid, c, B(T(0))).store_aligned(v);
+        T sum = 0;
+        for (int l = 0; l < W; ++l) sum += v[l];
+        code |= unsigned(sum >= T(0)) << a;
+      }
+    }
+    V permuted(const V& v) const noexcept {
+      return {pick(v, x0, x1), pick(v, y0, y1), pick(v, z0, z1)};
+    }
+  };
+
+  // The lanes of `lanes` whose segment [0, limit] may meet child k's box (lim_w: limit widened
+  // by 1 + kWiden); t0: where they enter it, widened (the walk culls popped subtrees by it).
+  template <bool kFast>
+  [[gnu::always_inline]] static M child_lanes(const Wide& n, int k, const Ray& r, const M& lanes,
+                                              const B& lim_w, B& t0) noexcept {
+    if constexpr (kFast) {
+      // Every lane's direction has the same signs: entry and exit planes known per packet,
+      // the values of the generic form's min and max (rounding is monotonic).
+      const T* base = &n.lo_x[0] + k;
+      auto plane = [&](int off) { return B(base[off]); };
+      const B nx = (plane(r.near[0]) - r.o_near.x) * r.inv.x;
+      const B fx = (plane(r.far[0]) - r.o_far.x) * r.inv.x;
+      const B ny = (plane(r.near[1]) - r.o_near.y) * r.inv.y;
+      const B fy = (plane(r.far[1]) - r.o_far.y) * r.inv.y;
+      const B nz = (plane(r.near[2]) - r.o_near.z) * r.inv.z;
+      const B fz = (plane(r.far[2]) - r.o_far.z) * r.inv.z;
+      t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, B(T(0)))) * B(T(1) - kWiden);
+      const B t1 = xsimd::min(xsimd::min(fx, fy), fz) * B(T(1) + kWiden);
+      return lanes & (t0 <= xsimd::min(t1, lim_w));
+    } else {
+      const B inf(std::numeric_limits<T>::infinity());
+      B near(T(0)), far = lim_w;
+      M out = ~lanes;
+      auto slab = [&](T lo_t, T hi_t, const B& o, const B& olo, const B& ohi, const B& inv,
+                      const M& zero) {
+        const B lo = B(lo_t) - r.o_pad, hi = B(hi_t) + r.o_pad;
+        const B a = (B(lo_t) - olo) * inv, b = (B(hi_t) - ohi) * inv;
+        near = xsimd::max(near, xsimd::select(zero, -inf, xsimd::min(a, b)));
+        far = xsimd::min(far, xsimd::select(zero, inf, xsimd::max(a, b) * B(T(1) + kWiden)));
+        out = out | (zero & ((o < lo) | (o > hi)));
+      };
+      slab(n.lo_x[k], n.hi_x[k], r.o.x, r.o_lo.x, r.o_hi.x, r.inv.x, r.zero_x);
+      slab(n.lo_y[k], n.hi_y[k], r.o.y, r.o_lo.y, r.o_hi.y, r.inv.y, r.zero_y);
+      slab(n.lo_z[k], n.hi_z[k], r.o.z, r.o_lo.z, r.o_hi.z, r.inv.z, r.zero_z);
+      t0 = near * B(T(1) - kWiden);
+      return ~out & (t0 <= far);
+    }
+  }
+
+  // Starts loading a subtree's node (count 0) or leaf records, for when it is popped.
+  static void prefetch(const Shapes& sh, std::int32_t child, unsigned count) noexcept {
+    const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
+                               : reinterpret_cast<const char*>(&sh.leaf[std::size_t(child)]);
+    const std::size_t bytes = count == 0 ? sizeof(Wide) : count * sizeof(sh.leaf[0]);
+    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+  }
+
+  // Visits the leaves of the wide hierarchy that some lane of `lanes` may reach before limit()
+  // (re-read after each leaf: popped subtrees are culled by it), children nearest first by the
+  // packet's direction code: leaf(first, count, lanes_at_leaf) returns true to stop.
+  template <bool kFast, class Limit, class Leaf>
+  [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
+                                          Limit& limit, Leaf& leaf) noexcept {
+    std::int32_t st_child[Shapes::kWideStack];
+    std::uint8_t st_count[Shapes::kWideStack];
+    M st_mask[Shapes::kWideStack];
+    B st_t0[Shapes::kWideStack];
+    int sp = 0;
+    std::int32_t child = 0;
+    unsigned count = 0;
+    M mask = lanes;
+    const B widen(T(1) + kWiden);
+    for (;;) {
+      if (count == 0) {
+        const Wide& n = sh.wide[std::size_t(child)];
+        const B lim_w = limit() * widen;
+        M m[kW];
+        B t0[kW];
+        unsigned met = 0;
+        for (int k = 0; k < kW; ++k) {
+          m[k] = child_lanes<kFast>(n, k, r, mask, lim_w, t0[k]);
+          met |= unsigned(xsimd::any(m[k])) << k;
+        }
+        met &= (1u << n.arity) - 1;
+        if (met != 0) {
+          const unsigned order = n.order[r.code];
+          int slots[kW], c = 0;
+          for (int p = 0; p < kW; ++p) {
+            const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
+            if (met >> s & 1u) slots[c++] = s;
+          }
+          for (int q = c - 1; q > 0; --q) {
+            const int s = slots[q];
+            prefetch(sh, n.child[s], n.count[s]);
+            st_child[sp] = n.child[s], st_count[sp] = n.count[s];
+            st_mask[sp] = m[s], st_t0[sp] = t0[s];
+            ++sp;
+          }
+          child = n.child[slots[0]], count = n.count[slots[0]], mask = m[slots[0]];
+          continue;
+        }
+      } else if (leaf(std::uint32_t(child), count, mask)) {
+        return;
+      }
+      for (;;) {  // the next subtree some lane may still reach before its limit
+        if (sp == 0) return;
+        --sp;
+        mask = st_mask[sp] & (st_t0[sp] <= limit() * widen);
+        if (xsimd::any(mask)) {
+          child = st_child[sp], count = st_count[sp];
+          break;
+        }
+      }
+    }
+  }
+
+  // The triangle at leaf-order position j: its hit t beyond eps for the lanes of `at`
+  // (infinity elsewhere, and where it misses), by the reference's watertight formula.
+  static B triangle_t(const Shapes& sh, std::size_t j, const Ray& r, const M& at,
+                      const B& eps) noexcept {
+    const T* v = sh.leaf[j].v;
+    V a, b, c;
+    if (r.uniform) {
+      auto vertex = [&](const T* p) {
+        return V{B(p[r.kx]) - r.o_perm.x, B(p[r.ky]) - r.o_perm.y, B(p[r.kz]) - r.o_perm.z};
+      };
+      a = vertex(v), b = vertex(v + 3), c = vertex(v + 6);
+    } else {
+      auto vertex = [&](const T* p) {
+        return r.permuted(V{B(p[0]) - r.o.x, B(p[1]) - r.o.y, B(p[2]) - r.o.z});
+      };
+      a = vertex(v), b = vertex(v + 3), c = vertex(v + 6);
+    }
+    const B inf(std::numeric_limits<T>::infinity());
+    prim::TriangleEdges<B> e = prim::triangle_uvw<T>(a, b, c, r.sx, r.sy);
+    const M inside = at & prim::triangle_inside(e);
+    if (!xsimd::any(inside)) return inf;
+    prim::triangle_depth(e, a, b, c, r.sz);
+    const B t = prim::triangle_t(e);
+    return xsimd::select(inside & (t > eps), t, inf);
+  }
+};
+
+}  // namespace lancer::packet
