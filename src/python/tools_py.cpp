@@ -125,6 +125,9 @@ py::dict bench_row(const BenchRow& r) {
   d["engine"] = r.engine, d["mode"] = r.mode, d["width"] = r.width, d["isa"] = r.isa;
   d["precision"] = r.precision, d["threads"] = r.threads, d["rays"] = r.rays;
   d["seconds"] = r.seconds, d["mrays_per_s"] = r.mrays_per_s();
+  // What else names the row: "kernels, prepared frame" for the ao and diffuse modes' kernels
+  // alone (else through the library API); empty for the others.
+  d["config"] = r.config;
   d["samples"] = py::array_t<double>(py::ssize_t(r.samples.size()), r.samples.data());
   d["rays_by_kind"] = py::dict(
       py::arg("camera") = r.by_kind.camera, py::arg("shadow") = r.by_kind.shadow,
@@ -151,8 +154,8 @@ py::dict bench(const PyScene& s, std::optional<OneOrMany<int>> widths,
       opt.threads.push_back(ran);
   }
   for (const std::string& m : modes)
-    if (m != "primary" && m != "full" && m != "kernel")
-      throw InputError("mode: must be primary, full or kernel, not '" + m + "'");
+    if (m != "primary" && m != "full" && m != "kernel" && m != "ao" && m != "diffuse")
+      throw InputError("mode: must be primary, full, kernel, ao or diffuse, not '" + m + "'");
   if (modes.empty()) throw InputError("mode: no mode given");
   opt.modes = modes;
   check_repeat(repeat);

@@ -46,8 +46,16 @@ def test_bench_rows():
         assert row["samples"].shape == (2,)
     one = lancer.bench(scene, widths=4, threads=1, modes="primary", repeat=1)
     assert [(row["width"], row["threads"]) for row in one["results"]] == [(4, 1)]
-    with pytest.raises(ValueError, match="^mode: must be primary, full or kernel, not 'x'$"):
+    with pytest.raises(ValueError,
+                       match="^mode: must be primary, full, kernel, ao or diffuse, not 'x'$"):
         lancer.bench(scene, modes=["x"])
+    # The incoherent kinds: through the library API, and the kernels alone beside it.
+    inc = lancer.bench(scene, widths=4, modes=["ao", "diffuse"], repeat=1)
+    kinds = {(row["mode"], row["config"]) for row in inc["results"]}
+    assert kinds == {("ao", ""), ("ao", "kernels, prepared frame"), ("diffuse", ""),
+                     ("diffuse", "kernels, prepared frame")}
+    for row in inc["results"]:
+        assert row["rays"] > 0 and row["rays"] % 4 == 0  # four rays from each camera hit
     with pytest.raises(ValueError, match="^repeat: must be from 1 to 1000, not 0"):
         lancer.bench(scene, repeat=0)
 
