@@ -229,10 +229,10 @@ if kinds:
 PY
 } >"$long"
 title="Primary rays"
-[ "$incoherent" -eq 1 ] && title="Primary, ambient occlusion and diffuse rays"
+[ "$incoherent" -eq 1 ] && title="Primary, AO, diffuse rays"
 for ext in png svg; do
   "$lancer" plot "$long" -o "$out/scaling.$ext" --x "$what" --y mrays_per_s --group engine \
-    --log xy --title "$title against scene size, 1 thread ($cpu)" \
+    --log xy --title "$title, 1 thread ($cpu)" \
     --x-label "$what ($scene_words)" \
     --y-label "Mrays/s (median of $repeat)" >/dev/null
 done
