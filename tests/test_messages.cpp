@@ -46,6 +46,18 @@ TEST(Messages, WidthLeftOutByLancerMaxWidthBlamesIt) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
 }
 
+// Fast mode has no width 1: with the packets capped at 1 lane (or a CPU without SSE4.2) it has
+// no width at all, and render crashed reading the first of none (a segmentation fault). Now one
+// line naming the cap; the library refuses the scene the same way.
+TEST(Messages, FastPrecisionWithoutPacketsIsOneLine) {
+  TempDir dir;
+  const CommandResult r = run_command("LANCER_MAX_WIDTH=1 " + cli() + " render " + kScene +
+                                      " --precision fast -o " + dir.file("x.png"));
+  expect_one_line(r, 2, "fast precision runs on packets of 4 lanes or more");
+  expect_one_line(r, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
+}
+
 // A deep bound that overflows to infinity: 0 x infinity was NaN for the material that reflects
 // nothing, which then won the comparison and took the blame ("objects[1] ...: -nan").
 TEST(Messages, RadianceBoundBlamesTheReflectingObject) {

@@ -37,6 +37,15 @@ int resolve_threads(int requested, const std::string& option) {
 int resolve_width(int requested, Precision precision, const std::string& option) {
   LANCER_CHECK(precision != Precision::automatic);
   const std::vector<int> widths = packet::supported_widths(precision);
+  if (widths.empty()) {
+    // Only fast mode, which has no width 1, can have none: a CPU without SSE4.2, or the cap.
+    const char* cap = std::getenv("LANCER_MAX_WIDTH");
+    throw InputError(option + ": fast precision runs on packets of 4 lanes or more, which " +
+                     (cap && std::atoi(cap) < 4
+                          ? std::string("LANCER_MAX_WIDTH=") + cap + " leaves out"
+                          : std::string("this CPU or OS does not run")) +
+                     "; take exact or double precision");
+  }
   if (requested == 0) return widths.front();
   if (std::find(widths.begin(), widths.end(), requested) != widths.end()) return requested;
   const std::string w = std::to_string(requested);
