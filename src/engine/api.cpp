@@ -312,6 +312,38 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
   h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
 }
 
+// Lanes [c, c + w) of a hit packet from a chunk on kernel k: the normals of the lanes that hit
+// a sphere or a plane computed by its ISA a packet at a time (packet/api_hits.hpp, world_normal's
+// bits), every lane's fields then written without a branch on what it hit (a packet of diffuse
+// rays mixes hits and misses at random), and the lanes that hit a triangle, mesh or cylinder
+// rewritten by store_hit.
+template <class T, int N>
+void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, const Chunk<T>& ch,
+                int w, int c, HitPacket<N>& h) {
+  alignas(64) float ng[3 * kMaxLanes];
+  k.hit_normals(s, ch.rays, ch.t, ch.id, ng);
+  const int flat = s.num_spheres + s.num_planes, n = std::min(w, N - c);
+  const float inf = std::numeric_limits<float>::infinity();
+  bool shapes = false;
+  for (int l = 0; l < n; ++l) {
+    if (!ch.active[l]) continue;
+    // A sphere or a plane is one primitive with no surface coordinates; a miss has id -1.
+    const int id = ch.id[l], i = c + l;
+    const bool miss = id < 0;
+    h.id[i] = id, h.prim_id[i] = miss ? -1 : 0, h.u[i] = h.v[i] = 0;
+    h.t[i] = miss ? inf : static_cast<float>(ch.t[l]);
+    h.ng_x[i] = miss ? 0.0f : ng[l];
+    h.ng_y[i] = miss ? 0.0f : ng[w + l];
+    h.ng_z[i] = miss ? 0.0f : ng[2 * w + l];
+    shapes |= id >= flat;
+  }
+  if (shapes)
+    for (int l = 0; l < n; ++l)
+      if (ch.active[l] && ch.id[l] >= flat)
+        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+                  ch.shape.at[l], h, c + l);
+}
+
 // A query of one ray on the one-ray kernels, without a chunk: closest hit (hit non-null) or
 // occlusion.
 template <class T, int N>
@@ -348,6 +380,10 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
     if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
+    if (k) {
+      store_hits(s, *k, ch, w, c, h);
+      continue;
+    }
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l])
         store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],

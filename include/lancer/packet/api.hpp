@@ -67,6 +67,11 @@ struct KernelTable {
   int (*scan_rays)(int n, const float* ox, const float* oy, const float* oz, const float* dx,
                    const float* dy, const float* dz, const float* tnear, const float* tfar,
                    const unsigned* mask, const int* on, unsigned all_objects, Real eps);
+  // The world-space geometric normals of one packet's hits on spheres and planes
+  // (packet/api_hits.hpp): rays, t and id as closest_hit_packet's; into ng the x of each of
+  // `width` lanes, then y, then z; other lanes' values unspecified.
+  void (*hit_normals)(const PreparedScene<Real>&, const Real* rays, const Real* t,
+                      const std::int32_t* id, float* ng);
 };
 
 // camera_packets' where[] for a lane that holds no camera ray.

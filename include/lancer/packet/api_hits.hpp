@@ -1,0 +1,84 @@
+// The library API's hits written out (src/engine/api.cpp): the geometric normal of each lane
+// that hit a sphere or a plane, in world space, by the kernel's ISA a packet at a time. The
+// same formulas as the API's scalar world_normal (formulas.hpp, ExactMath, whatever the
+// kernel's mode), chosen per lane as it chooses them, so every lane gets its bits. Include only
+// from code built for the batch's ISA (src/isa/*.cpp, through packet/kernel.hpp).
+#pragma once
+
+#include <cstdint>
+
+#include "lancer/packet/api_rays.hpp"
+#include "lancer/packet/lane_traits.hpp"
+
+namespace lancer::packet {
+
+// n object-space normals to world space, Frame::world_direction written out in double
+// (u n.x + v n.y, then + w n.z) and rounded once to float. A plain loop over restrict arrays,
+// vectorised as frame_rays is.
+template <class Arch, class T>
+void world_normals(const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,
+                   const T* __restrict nz, float* __restrict gx, float* __restrict gy,
+                   float* __restrict gz) noexcept {
+  const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
+  const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
+  const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z;
+  for (int l = 0; l < n; ++l) {
+    const double a = nx[l], b = ny[l], c = nz[l];
+    gx[l] = float((ux * a + vx * b) + wx * c);
+    gy[l] = float((uy * a + vy * b) + wy * c);
+    gz[l] = float((uz * a + vz * b) + wz * c);
+  }
+}
+
+// One chunk of the API's width-W lanes (rays as closest_hit_packet's, t and id as it left
+// them): into ng (x of every lane, then y, then z) the world-space normal of each lane whose id
+// is a sphere or a plane; other lanes' values are unspecified. A sphere's normal is the one
+// sphere_point_along gives, sphere_point_local's where the sphere is small against the hit's
+// magnitude, sphere_point_large's where it is huge.
+template <class Arch, class Real>
+void hit_normals(const PreparedScene<Real>& s, const Real* rays, const Real* t,
+                 const std::int32_t* ids, float* ng) noexcept {
+  using L = Lanes<Arch, Real, ExactMode>;
+  using B = typename L::B;
+  using M = typename L::M;
+  using V = typename L::V;
+  using I = typename L::I;
+  using Id = typename L::Id;
+  constexpr int W = L::W;
+  const V o{B::load_unaligned(rays), B::load_unaligned(rays + W), B::load_unaligned(rays + 2 * W)};
+  const V d{B::load_unaligned(rays + 3 * W), B::load_unaligned(rays + 4 * W),
+            B::load_unaligned(rays + 5 * W)};
+  const B tt = B::load_unaligned(t);
+  const I id = L::load_ids(ids);
+  const int ns = s.num_spheres, np = s.num_planes;
+  V n{B(0), B(0), B(0)};
+  if (np > 0) {
+    const M plane = L::to_m((id >= I(Id(ns))) & (id < I(Id(ns + np))));
+    const I pid = xsimd::max(xsimd::min(id - I(Id(ns)), I(Id(np - 1))), I(Id(0)));
+    const V pn{L::gather(s.planes.nx, pid, np), L::gather(s.planes.ny, pid, np),
+               L::gather(s.planes.nz, pid, np)};
+    n = L::select3(plane, pn, n);
+  }
+  const M sphere = L::to_m((id >= I(Id(0))) & (id < I(Id(ns))));
+  if (ns > 0 && xsimd::any(sphere)) {
+    const I sid = xsimd::max(xsimd::min(id, I(Id(ns - 1))), I(Id(0)));
+    const V c{L::gather(s.spheres.cx, sid, ns), L::gather(s.spheres.cy, sid, ns),
+              L::gather(s.spheres.cz, sid, ns)};
+    const B r2 = L::gather(s.spheres.r2, sid, ns);
+    const B m = hit_magnitude(o, tt);
+    V sn = sphere_point_along<Real>(o, d, tt, c, m).normal;
+    // world_normal's order: small first, large only where not small.
+    const M small = sphere & sphere_is_small(r2, m);
+    if (xsimd::any(small))
+      sn = L::select3(small, sphere_point_local<Real>(o, d, tt, c, r2).normal, sn);
+    const M large = sphere & ~small & sphere_is_large(r2, m);
+    if (xsimd::any(large))
+      sn = L::select3(large, sphere_point_large<Real>(o, d, tt, c, r2, m).normal, sn);
+    n = L::select3(sphere, sn, n);
+  }
+  alignas(64) Real nx[W], ny[W], nz[W];
+  n.x.store_aligned(nx), n.y.store_aligned(ny), n.z.store_aligned(nz);
+  world_normals<Arch, Real>(s.frame, W, nx, ny, nz, ng, ng + W, ng + 2 * W);
+}
+
+}  // namespace lancer::packet
