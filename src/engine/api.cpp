@@ -312,34 +312,34 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
   h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
 }
 
-// Lanes [c, c + w) of a hit packet from a chunk on kernel k: the normals of the lanes that hit
-// a sphere or a plane computed by its ISA a packet at a time (packet/api_hits.hpp, world_normal's
-// bits), every lane's fields then written without a branch on what it hit (a packet of diffuse
-// rays mixes hits and misses at random), and the lanes that hit a triangle, mesh or cylinder
-// rewritten by store_hit.
+// Lanes [c, c + w) of a hit packet from a chunk on kernel k, every field by its ISA a packet at
+// a time (packet/api_hits.hpp; the sphere and plane normals world_normal's bits), straight into
+// the caller's packet where every lane is active, else through a packet of our own; then the
+// lanes that hit a triangle, mesh or cylinder again by store_hit.
 template <class T, int N>
 void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, const Chunk<T>& ch,
                 int w, int c, HitPacket<N>& h) {
-  alignas(64) float ng[3 * kMaxLanes];
-  k.hit_normals(s, ch.rays, ch.t, ch.id, ng);
-  const int flat = s.num_spheres + s.num_planes, n = std::min(w, N - c);
-  const float inf = std::numeric_limits<float>::infinity();
-  bool shapes = false;
-  for (int l = 0; l < n; ++l) {
-    if (!ch.active[l]) continue;
-    // A sphere or a plane is one primitive with no surface coordinates; a miss has id -1.
-    const int id = ch.id[l], i = c + l;
-    const bool miss = id < 0;
-    h.id[i] = id, h.prim_id[i] = miss ? -1 : 0, h.u[i] = h.v[i] = 0;
-    h.t[i] = miss ? inf : static_cast<float>(ch.t[l]);
-    h.ng_x[i] = miss ? 0.0f : ng[l];
-    h.ng_y[i] = miss ? 0.0f : ng[w + l];
-    h.ng_z[i] = miss ? 0.0f : ng[2 * w + l];
-    shapes |= id >= flat;
-  }
-  if (shapes)
+  const auto lanes = [](auto& p, int i) {
+    return packet::HitLanes{p.t + i, p.ng_x + i, p.ng_y + i,    p.ng_z + i,
+                            p.u + i, p.v + i,    p.prim_id + i, p.id + i};
+  };
+  const int n = std::min(w, N - c);
+  if (n == w && std::all_of(ch.active, ch.active + w, [](bool a) { return a; })) {
+    k.hit_fields(s, ch.rays, ch.t, ch.id, lanes(h, c));
+  } else {
+    HitPacket<kMaxLanes> own;
+    k.hit_fields(s, ch.rays, ch.t, ch.id, lanes(own, 0));
     for (int l = 0; l < n; ++l)
-      if (ch.active[l] && ch.id[l] >= flat)
+      if (ch.active[l]) {
+        const int i = c + l;
+        h.t[i] = own.t[l], h.u[i] = own.u[l], h.v[i] = own.v[l];
+        h.ng_x[i] = own.ng_x[l], h.ng_y[i] = own.ng_y[l], h.ng_z[i] = own.ng_z[l];
+        h.prim_id[i] = own.prim_id[l], h.id[i] = own.id[l];
+      }
+  }
+  if (s.shapes)
+    for (int l = 0; l < n; ++l)
+      if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes)
         store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
                   ch.shape.at[l], h, c + l);
 }

@@ -1,43 +1,56 @@
-// The library API's hits written out (src/engine/api.cpp): the geometric normal of each lane
-// that hit a sphere or a plane, in world space, by the kernel's ISA a packet at a time. The
+// The library API's hits written out (src/engine/api.cpp): every field of a packet's lanes, the
+// geometric normal of each lane that hit a sphere or a plane in world space, by the kernel's ISA
+// a packet at a time. The
 // same formulas as the API's scalar world_normal (formulas.hpp, ExactMath, whatever the
 // kernel's mode), chosen per lane as it chooses them, so every lane gets its bits. Include only
 // from code built for the batch's ISA (src/isa/*.cpp, through packet/kernel.hpp).
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 #include "lancer/packet/api_rays.hpp"
 #include "lancer/packet/lane_traits.hpp"
 
 namespace lancer::packet {
 
-// n object-space normals to world space, Frame::world_direction written out in double
-// (u n.x + v n.y, then + w n.z) and rounded once to float. A plain loop over restrict arrays,
-// vectorised as frame_rays is.
+// n lanes' hit fields (HitLanes): id as given; for a miss (id < 0) t infinity, primitive -1
+// and a zero normal; else t rounded to float, primitive 0 (a sphere or a plane is one primitive)
+// and the object-space normal moved to world space, Frame::world_direction written out in double
+// (u n.x + v n.y, then + w n.z) and rounded once to float; u = v = 0. A plain loop over restrict
+// arrays without a branch, vectorised as frame_rays is.
 template <class Arch, class T>
-void world_normals(const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,
-                   const T* __restrict nz, float* __restrict gx, float* __restrict gy,
-                   float* __restrict gz) noexcept {
+void world_hits(const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,
+                const T* __restrict nz, const T* __restrict t, const std::int32_t* __restrict id,
+                float* __restrict t_out, float* __restrict gx, float* __restrict gy,
+                float* __restrict gz, float* __restrict u, float* __restrict v,
+                int* __restrict prim_out, int* __restrict id_out) noexcept {
   const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
   const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
   const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z;
+  const float inf = std::numeric_limits<float>::infinity();
   for (int l = 0; l < n; ++l) {
+    const bool miss = id[l] < 0;
     const double a = nx[l], b = ny[l], c = nz[l];
-    gx[l] = float((ux * a + vx * b) + wx * c);
-    gy[l] = float((uy * a + vy * b) + wy * c);
-    gz[l] = float((uz * a + vz * b) + wz * c);
+    const float x = float((ux * a + vx * b) + wx * c);
+    const float y = float((uy * a + vy * b) + wy * c);
+    const float z = float((uz * a + vz * b) + wz * c);
+    t_out[l] = miss ? inf : float(t[l]);
+    gx[l] = miss ? 0.0f : x, gy[l] = miss ? 0.0f : y, gz[l] = miss ? 0.0f : z;
+    u[l] = 0.0f, v[l] = 0.0f;
+    prim_out[l] = miss ? -1 : 0;
+    id_out[l] = id[l];
   }
 }
 
 // One chunk of the API's width-W lanes (rays as closest_hit_packet's, t and id as it left
-// them): into ng (x of every lane, then y, then z) the world-space normal of each lane whose id
-// is a sphere or a plane; other lanes' values are unspecified. A sphere's normal is the one
-// sphere_point_along gives, sphere_point_local's where the sphere is small against the hit's
-// magnitude, sphere_point_large's where it is huge.
+// them) into the W lanes of `out` (world_hits), the normal of a lane whose id is a sphere or a
+// plane the one world_normal gives: sphere_point_along's, sphere_point_local's where the sphere
+// is small against the hit's magnitude, sphere_point_large's where it is huge. A lane whose id is
+// a triangle, mesh or cylinder gets a zero normal (the caller's to rewrite).
 template <class Arch, class Real>
-void hit_normals(const PreparedScene<Real>& s, const Real* rays, const Real* t,
-                 const std::int32_t* ids, float* ng) noexcept {
+void hit_fields(const PreparedScene<Real>& s, const Real* rays, const Real* t,
+                const std::int32_t* ids, const HitLanes& out) noexcept {
   using L = Lanes<Arch, Real, ExactMode>;
   using B = typename L::B;
   using M = typename L::M;
@@ -78,7 +91,8 @@ void hit_normals(const PreparedScene<Real>& s, const Real* rays, const Real* t,
   }
   alignas(64) Real nx[W], ny[W], nz[W];
   n.x.store_aligned(nx), n.y.store_aligned(ny), n.z.store_aligned(nz);
-  world_normals<Arch, Real>(s.frame, W, nx, ny, nz, ng, ng + W, ng + 2 * W);
+  world_hits<Arch, Real>(s.frame, W, nx, ny, nz, t, ids, out.t, out.ng_x, out.ng_y, out.ng_z, out.u,
+                         out.v, out.prim_id, out.id);
 }
 
 }  // namespace lancer::packet

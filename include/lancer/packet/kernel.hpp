@@ -89,7 +89,7 @@ const KernelTable<Real>* table() {
                                    &K::occluded_packet,
                                    &frame_rays<Arch, Real>,
                                    &scan_rays<Arch, Real>,
-                                   &hit_normals<Arch, Real>};
+                                   &hit_fields<Arch, Real>};
   return &t;
 }
 
