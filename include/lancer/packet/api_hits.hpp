@@ -1,18 +1,27 @@
 // The library API's hits written out (src/engine/api.cpp): every field of a packet's lanes, the
 // geometric normal of each lane that hit a sphere or a plane in world space, by the kernel's ISA
-// a packet at a time. The
-// same formulas as the API's scalar world_normal (formulas.hpp, ExactMath, whatever the
-// kernel's mode), chosen per lane as it chooses them, so every lane gets its bits. Include only
-// from code built for the batch's ISA (src/isa/*.cpp, through packet/kernel.hpp).
+// a packet at a time. The same formulas as the API's scalar world_normal (formulas.hpp,
+// ExactMath, whatever the kernel's mode), chosen per lane as it chooses them, so every lane gets
+// its bits. Include only from code built for the batch's ISA (src/isa/*.cpp, through
+// packet/kernel.hpp).
 #pragma once
 
 #include <cstdint>
-#include <limits>
+#include <cstring>
 
 #include "lancer/packet/api_rays.hpp"
 #include "lancer/packet/lane_traits.hpp"
 
 namespace lancer::packet {
+
+// x's bits where keep's are set, other's elsewhere.
+inline float masked(float x, std::uint32_t keep, std::uint32_t other) noexcept {
+  std::uint32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  b = (b & keep) | (other & ~keep);
+  std::memcpy(&x, &b, sizeof x);
+  return x;
+}
 
 // n lanes' hit fields (HitLanes): id as given; for a miss (id < 0) t infinity, primitive -1
 // and a zero normal; else t rounded to float, primitive 0 (a sphere or a plane is one primitive)
@@ -28,17 +37,19 @@ void world_hits(const Frame& frame, int n, const T* __restrict nx, const T* __re
   const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
   const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
   const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z;
-  const float inf = std::numeric_limits<float>::infinity();
+  const std::uint32_t inf = 0x7f800000u;  // +infinity's bits
   for (int l = 0; l < n; ++l) {
-    const bool miss = id[l] < 0;
+    // A hit's fields by bitwise masks, not by a select of the float values: GCC would compute
+    // them only for hits, behind a branch it cannot turn back into vectors (its float
+    // operations may trap), and not vectorise the loop.
+    const std::uint32_t keep = id[l] < 0 ? 0u : ~0u;
     const double a = nx[l], b = ny[l], c = nz[l];
-    const float x = float((ux * a + vx * b) + wx * c);
-    const float y = float((uy * a + vy * b) + wy * c);
-    const float z = float((uz * a + vz * b) + wz * c);
-    t_out[l] = miss ? inf : float(t[l]);
-    gx[l] = miss ? 0.0f : x, gy[l] = miss ? 0.0f : y, gz[l] = miss ? 0.0f : z;
+    gx[l] = masked(float((ux * a + vx * b) + wx * c), keep, 0u);
+    gy[l] = masked(float((uy * a + vy * b) + wy * c), keep, 0u);
+    gz[l] = masked(float((uz * a + vz * b) + wz * c), keep, 0u);
+    t_out[l] = masked(float(t[l]), keep, inf);
     u[l] = 0.0f, v[l] = 0.0f;
-    prim_out[l] = miss ? -1 : 0;
+    prim_out[l] = ~int(keep);  // -1 for a miss, 0 (a sphere or a plane is one primitive)
     id_out[l] = id[l];
   }
 }
