@@ -312,6 +312,38 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
   h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
 }
 
+// Lanes [c, c + w) of a hit packet from a chunk on kernel k, every field by its ISA a packet at
+// a time (packet/api_hits.hpp; the sphere and plane normals world_normal's bits), straight into
+// the caller's packet where every lane is active, else through a packet of our own; then the
+// lanes that hit a triangle, mesh or cylinder again by store_hit.
+template <class T, int N>
+void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, const Chunk<T>& ch,
+                int w, int c, HitPacket<N>& h) {
+  const auto lanes = [](auto& p, int i) {
+    return packet::HitLanes{p.t + i, p.ng_x + i, p.ng_y + i,    p.ng_z + i,
+                            p.u + i, p.v + i,    p.prim_id + i, p.id + i};
+  };
+  const int n = std::min(w, N - c);
+  if (n == w && std::all_of(ch.active, ch.active + w, [](bool a) { return a; })) {
+    k.hit_fields(s, ch.rays, ch.t, ch.id, lanes(h, c));
+  } else {
+    HitPacket<kMaxLanes> own;
+    k.hit_fields(s, ch.rays, ch.t, ch.id, lanes(own, 0));
+    for (int l = 0; l < n; ++l)
+      if (ch.active[l]) {
+        const int i = c + l;
+        h.t[i] = own.t[l], h.u[i] = own.u[l], h.v[i] = own.v[l];
+        h.ng_x[i] = own.ng_x[l], h.ng_y[i] = own.ng_y[l], h.ng_z[i] = own.ng_z[l];
+        h.prim_id[i] = own.prim_id[l], h.id[i] = own.id[l];
+      }
+  }
+  if (s.shapes)
+    for (int l = 0; l < n; ++l)
+      if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes)
+        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+                  ch.shape.at[l], h, c + l);
+}
+
 // A query of one ray on the one-ray kernels, without a chunk: closest hit (hit non-null) or
 // occlusion.
 template <class T, int N>
@@ -348,6 +380,10 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
     if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
+    if (k) {
+      store_hits(s, *k, ch, w, c, h);
+      continue;
+    }
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l])
         store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],

@@ -301,5 +301,99 @@ TEST(ApiRays, TrianglesMeshesAndCylindersGiveEmbreesHitFields) {
 static_assert(alignof(api::Ray16) == 64 && alignof(api::Hit16) == 64 && alignof(api::Ray4) == 64);
 static_assert(sizeof(api::Ray16) % 64 == 0 && sizeof(api::Hit8) % 64 == 0);
 
+// Rays packed N to a packet, every lane active: each lane's hit fields against the same ray
+// alone at width 1 (the scalar world_normal's). Counts the rays whose id is in [lo, hi).
+template <int N>
+int packed_like_alone(const api::Scene& scene, const std::vector<Ray>& rays, int lo, int hi) {
+  int in_range = 0;
+  for (std::size_t base = 0; base + N <= rays.size(); base += N) {
+    api::RayPacket<N> r;
+    for (int k = 0; k < N; ++k) {
+      const Ray& ray = rays[base + k];
+      r.org_x[k] = float(ray.org.x), r.org_y[k] = float(ray.org.y), r.org_z[k] = float(ray.org.z);
+      r.dir_x[k] = float(ray.dir.x), r.dir_y[k] = float(ray.dir.y), r.dir_z[k] = float(ray.dir.z);
+      r.tnear[k] = ray.tnear, r.tfar[k] = ray.tfar, r.mask[k] = ray.mask;
+    }
+    api::HitPacket<N> h;
+    scene.intersect(nullptr, r, h);
+    for (int k = 0; k < N; ++k) {
+      const Hit one = trace<1>(scene, rays[base + k], 0);
+      SCOPED_TRACE(::testing::Message() << "width " << N << " ray " << base + k);
+      EXPECT_EQ(h.id[k], one.id);
+      EXPECT_TRUE(same_bits(h.t[k], one.t));
+      EXPECT_TRUE(same_bits(h.ng_x[k], one.ng[0]) && same_bits(h.ng_y[k], one.ng[1]) &&
+                  same_bits(h.ng_z[k], one.ng[2]))
+          << h.ng_x[k] << " " << h.ng_y[k] << " " << h.ng_z[k] << " vs " << one.ng[0] << " "
+          << one.ng[1] << " " << one.ng[2];
+      EXPECT_EQ(h.prim_id[k], one.prim_id);
+      EXPECT_TRUE(same_bits(h.u[k], one.u) && same_bits(h.v[k], one.v));
+      in_range += h.id[k] >= lo && h.id[k] < hi;
+    }
+  }
+  return in_range;
+}
+
+// The normals of full packets, computed a packet at a time, against the scalar ones lane by
+// lane, on every kind of sphere normal: tiny spheres far away (p relative to the sphere), a
+// huge ground sphere seen from close above (t recomputed), ordinary spheres and a plane, in
+// one rotated frame, the kinds mixed within packets.
+TEST(ApiRays, PacketNormalsOfEverySphereKindAreTheScalarOnes) {
+  Scene d;
+  d.name = "kinds.json";
+  d.camera.position = {3.5, 1.25, -2};
+  d.camera.direction = {0.3, -0.2, -1};
+  d.camera.nx = d.camera.ny = 8;
+  d.materials.push_back(Material{});
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 12; ++i) {  // ids 0-11: radius 0.01, about 300 away (small)
+    Sphere s;
+    s.center = d.camera.position + Vec3<double>{u(rng) * 30, u(rng) * 30, -300 + u(rng) * 20};
+    s.radius = 0.01;
+    d.spheres.push_back(s);
+  }
+  for (int i = 0; i < 4; ++i) {  // ids 12-15: ordinary
+    Sphere s;
+    s.center = d.camera.position + Vec3<double>{u(rng) * 3, u(rng) * 2, -8 + u(rng)};
+    s.radius = 0.7;
+    d.spheres.push_back(s);
+  }
+  Sphere ground;  // id 16: radius 1e6, its top 3 below the camera (large)
+  ground.center = d.camera.position + Vec3<double>{0, -3 - 1e6, 0};
+  ground.radius = 1e6;
+  d.spheres.push_back(ground);
+  Plane wall;  // id 17
+  wall.point = d.camera.position + Vec3<double>{-6, 0, 0};
+  wall.normal = {1, 0.1, 0};
+  d.planes.push_back(wall);
+  std::vector<Ray> rays;
+  for (int i = 0; i < 32 * 16; ++i) {
+    Ray ray;
+    ray.org = d.camera.position + Vec3<double>{u(rng), u(rng), u(rng)} * 0.5;
+    const int kind = i % 4;
+    Vec3<double> to;
+    if (kind == 0)  // a tiny sphere, within a radius of its centre
+      to = d.spheres[rng() % 12].center + Vec3<double>{u(rng), u(rng), u(rng)} * 0.006;
+    else if (kind == 1)
+      to = d.spheres[12 + rng() % 4].center + Vec3<double>{u(rng), u(rng), u(rng)} * 0.5;
+    else if (kind == 2)  // the ground
+      to = ray.org + Vec3<double>{u(rng) * 4, -3, u(rng) * 4};
+    else  // anywhere: the wall, the ground, misses
+      to = ray.org + Vec3<double>{u(rng), u(rng), u(rng)};
+    ray.dir = normalize(to - ray.org);
+    rays.push_back(ray);
+  }
+  for (Precision p : {Precision::exact, Precision::dbl}) {
+    SCOPED_TRACE(to_string(p));
+    const api::Scene scene = api::Scene::from_description(d, with(p));
+    const int small = packed_like_alone<16>(scene, rays, 0, 12);
+    EXPECT_GT(small, 32);  // the rays meet every kind
+    EXPECT_GT(packed_like_alone<16>(scene, rays, 16, 17), 64);
+    EXPECT_GT(packed_like_alone<16>(scene, rays, 17, 18), 8);
+    EXPECT_EQ(packed_like_alone<8>(scene, rays, 0, 12), small);
+    EXPECT_EQ(packed_like_alone<4>(scene, rays, 0, 12), small);
+  }
+}
+
 }  // namespace
 }  // namespace lancer

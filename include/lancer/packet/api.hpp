@@ -22,6 +22,12 @@ struct FastMode {};
 // Exact arithmetic plus per-stage timing and counters (lancer profile); never used to render.
 struct ProfiledMode {};
 
+// Where a packet's hit fields go (lancer.hpp's HitPacket, from some lane on): one array each.
+struct HitLanes {
+  float *t, *ng_x, *ng_y, *ng_z, *u, *v;
+  int *prim_id, *id;
+};
+
 // One kernel instantiation's entry points.
 template <class Real>
 struct KernelTable {
@@ -67,6 +73,11 @@ struct KernelTable {
   int (*scan_rays)(int n, const float* ox, const float* oy, const float* oz, const float* dx,
                    const float* dy, const float* dz, const float* tnear, const float* tfar,
                    const unsigned* mask, const int* on, unsigned all_objects, Real eps);
+  // Every hit field of one packet's lanes (packet/api_hits.hpp): rays, t and id as
+  // closest_hit_packet's, into the first `width` lanes of out's arrays; a lane that hit a
+  // triangle, mesh or cylinder gets a zero normal.
+  void (*hit_fields)(const PreparedScene<Real>&, const Real* rays, const Real* t,
+                     const std::int32_t* id, const HitLanes& out);
 };
 
 // camera_packets' where[] for a lane that holds no camera ray.

@@ -18,6 +18,7 @@
 // same order, so every lane computes the reference's bits.
 #pragma once
 
+#include "lancer/packet/api_hits.hpp"
 #include "lancer/packet/api_rays.hpp"
 #include "lancer/packet/rows.hpp"
 
@@ -87,7 +88,8 @@ const KernelTable<Real>* table() {
                                    &K::closest_hit_packet,
                                    &K::occluded_packet,
                                    &frame_rays<Arch, Real>,
-                                   &scan_rays<Arch, Real>};
+                                   &scan_rays<Arch, Real>,
+                                   &hit_fields<Arch, Real>};
   return &t;
 }
 
