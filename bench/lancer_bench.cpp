@@ -142,6 +142,14 @@ void api_intersect(benchmark::State& state, const ApiPackets* packets) {
 // bench's ao and diffuse modes (lancer/ray_sets.hpp) through the library API: the set and its
 // packets of `width` made on the case's first run, outside the timed loop; each iteration
 // traces the whole set with occluded<width> or intersect<width>, as a user calls them.
+// The library's scene as the ray-set cases trace it: exact, one thread.
+api::Scene exact_one_thread(const Scene& scene) {
+  api::Options opt;
+  opt.precision = Precision::exact;
+  opt.threads = 1;
+  return api::Scene::from_description(scene, opt);
+}
+
 struct RaySetCase {
   const Scene* scene;
   rays::Kind kind;
@@ -152,15 +160,12 @@ struct RaySetCase {
 
 void ray_set(benchmark::State& state, RaySetCase* c) {
   if (!c->packets) {
-    api::Options opt;
-    opt.precision = Precision::exact;
-    opt.threads = 1;
-    c->api = std::make_unique<api::Scene>(api::Scene::from_description(*c->scene, opt));
+    c->api = std::make_unique<api::Scene>(exact_one_thread(*c->scene));
     c->packets = std::make_unique<rays::ApiPackets>(rays::make_set(*c->api, c->kind), c->width);
   }
   for (auto _ : state) c->packets->trace(*c->api, 1);
   state.SetItemsProcessed(static_cast<int64_t>(c->packets->rays() * state.iterations()));
-  state.SetLabel(packet::isa_name(std::min(c->width, c->api->info().width)));
+  state.SetLabel(rays::api_isa(*c->api, c->width));
 }
 
 // The same sets straight into the packet kernels (rays::KernelPackets: the rays moved into the
@@ -175,10 +180,7 @@ struct RaySetKernelCase {
 
 void ray_set_kernel(benchmark::State& state, RaySetKernelCase* c) {
   if (!c->packets) {
-    api::Options opt;
-    opt.precision = Precision::exact;
-    opt.threads = 1;
-    const api::Scene s = api::Scene::from_description(*c->scene, opt);
+    const api::Scene s = exact_one_thread(*c->scene);
     c->packets = std::make_unique<rays::KernelPackets>(
         rays::KernelPackets::prepare(*c->scene, Precision::exact), rays::make_set(s, c->kind),
         c->width);

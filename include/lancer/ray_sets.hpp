@@ -70,6 +70,11 @@ Vec3<double> cosine_direction(std::mt19937_64& rng, const Vec3<double>& n);
 // hits are traced by its intersect<16>). InputError if the scene's camera sees nothing.
 RaySet make_set(const api::Scene& scene, Kind kind, const SetOptions& options = {});
 
+// What answers packets of `width` rays through the library API, for the summaries: the ISA of
+// the widest kernel up to that width ("avx512f"; the reference for shapes), or, one ray at a
+// time, "one-ray avx2" / "one-ray avx512f" where Info::one_ray names the one-ray kernels.
+std::string api_isa(const api::Scene& scene, int width);
+
 // Every ray's answer: occluded (AO sets) or the closest hit's object id and t (diffuse sets;
 // id -1 and t infinity for a miss).
 struct Answers {

@@ -236,12 +236,7 @@ void prepare_ray_sets(SceneRun& s) {
     } else if (row.engine == "lancer") {
       const Precision p = s.row_precision[k];
       const api::Scene& a = api_scene(s, p);
-      // What runs: the widest kernel up to the packet's width (the reference for shapes); one
-      // ray at a time, the one-ray kernels where the library has them (Info::one_ray).
-      const std::string& one = a.info().one_ray;
-      row.isa = row.width > 1     ? packet::isa_name(std::min(row.width, a.info().width), p)
-                : one == "scalar" ? one
-                                  : "one-ray " + one;
+      row.isa = rays::api_isa(a, row.width);  // what runs
       s.packets[k] = std::make_unique<rays::ApiPackets>(set, row.width);
       s.packets[k]->trace(a, row.threads, &got);
     } else {

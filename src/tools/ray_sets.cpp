@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "lancer/error.hpp"
+#include "lancer/packet/api.hpp"
 #include "lancer/tiles.hpp"
 
 namespace lancer::rays {
@@ -258,6 +259,12 @@ Agreement compare(const RaySet& set, const Answers& reference, const Answers& ot
     a.differ += !same;
   }
   return a;
+}
+
+std::string api_isa(const api::Scene& scene, int width) {
+  const api::Info& info = scene.info();
+  if (width > 1) return packet::isa_name(std::min(width, info.width), info.precision);
+  return info.one_ray == "scalar" ? info.one_ray : "one-ray " + info.one_ray;
 }
 
 }  // namespace lancer::rays
