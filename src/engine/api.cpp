@@ -367,12 +367,30 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
   store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
+// A packet of exactly the kernel's width, straight from the caller's arrays (valid may be null).
+template <int N>
+packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
+  static constexpr auto kAll = [] {
+    std::array<int, N> a{};
+    for (int& x : a) x = 1;
+    return a;
+  }();
+  return {r.org_x,    r.org_y, r.org_z, r.dir_x, r.dir_y,
+          r.dir_z,    r.tnear, r.tfar,  r.mask,  valid ? valid : kAll.data(),
+          kAllObjects};
+}
+
 template <class T, int N>
 void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
+  // A plain packet of the kernel's width: checked, moved, traced and written out in one call.
+  if (k && N == w) {
+    const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
+    if (k->intersect_lanes(s, ray_lanes(valid, r), out) == 2) return;
+  }
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
@@ -397,6 +415,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
+  if (k && N == w && k->occluded_lanes(s, ray_lanes(valid, r), out) == 2) return;
   const bool plain = check_rays("occluded", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {

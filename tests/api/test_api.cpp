@@ -197,6 +197,60 @@ TEST(Api, FewActiveLanesGiveTheBitsOfFullPackets) {
   }
 }
 
+// A plain packet of the kernel's width (every lane on, from tnear 0) is checked, moved, traced
+// and written in one pass; one lane off sends the packet chunk by chunk. The same bits either
+// way, at every packet width, in exact and double, on a scene without and with a hierarchy.
+TEST(Api, PlainPacketsGiveTheBitsOfMixedOnes) {
+  for (const char* file : {"scenes/lorenzi-reflections.json", "scenes/many-spheres.json"}) {
+    for (Options opt : {with(Precision::exact), with(Precision::dbl)}) {
+      const api::Scene scene = api::Scene::load(testing::source_path(file), opt);
+      Rays rays = random_rays(scene, 31, 1600, 3.0);
+      std::fill(rays.valid.begin(), rays.valid.end(), -1);
+      Rays mixed = rays;  // lane 0 of every packet of 16 off: no packet of 4, 8, 16 is plain
+      for (std::size_t i = 0; i < mixed.size(); i += 16) mixed.valid[i] = 0;
+      for (int n : {4, 8, 16}) {
+        SCOPED_TRACE(::testing::Message()
+                     << file << " " << to_string(opt.precision) << " width " << n);
+        const Results plain = trace(scene, rays, n), part = trace(scene, mixed, n);
+        std::size_t differ = 0, compared = 0;
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+          if (part.id[i] == -2) continue;
+          bool same = part.id[i] == plain.id[i] && same_bits(part.t[i], plain.t[i]) &&
+                      part.occluded[i] == plain.occluded[i];
+          for (int a = 0; a < 3; ++a)
+            same = same && same_bits(part.ng[3 * i + a], plain.ng[3 * i + a]);
+          differ += !same, ++compared;
+        }
+        EXPECT_EQ(differ, 0u);
+        EXPECT_GT(compared, rays.size() / 2);
+      }
+    }
+  }
+}
+
+// A bad ray in the last lane of a full packet of every width: the error names it, and no lane
+// of the packet is written (the one-pass path refuses before tracing, as the chunked one does).
+TEST(Api, BadRayInAFullPacketWritesNothing) {
+  const api::Scene scene =
+      api::Scene::load(testing::source_path("scenes/lorenzi-shadows.json"), with(Precision::exact));
+  const auto check = [&](auto r, auto h) {
+    constexpr int N = sizeof(r.tfar) / sizeof(float);
+    for (int k = 0; k < N; ++k) r.dir_z[k] = -1, r.tfar[k] = kInf, h.id[k] = 42;
+    r.dir_x[N - 1] = 1;
+    const std::string what =
+        ": lane " + std::to_string(N - 1) + ": dir must be unit length, |dir|^2 = 2.000000";
+    EXPECT_EQ(error_of([&] { scene.intersect(nullptr, r, h); }), "intersect" + what);
+    for (int k = 0; k < N; ++k) EXPECT_EQ(h.id[k], 42) << "width " << N << " lane " << k;
+    int occ[N];
+    std::fill(occ, occ + N, 42);
+    EXPECT_EQ(error_of([&] { scene.occluded(nullptr, r, occ); }), "occluded" + what);
+    for (int k = 0; k < N; ++k) EXPECT_EQ(occ[k], 42) << "width " << N << " lane " << k;
+  };
+  check(api::Ray4{}, api::Hit4{});
+  check(api::Ray8{}, api::Hit8{});
+  check(api::Ray16{}, api::Hit16{});
+}
+
 // Occluded before tfar exactly where the closest hit (with tfar infinite) lies before tfar.
 TEST(Api, OcclusionAgreesWithClosestHit) {
   for (Options opt : {with(Precision::exact), with(Precision::dbl)}) {

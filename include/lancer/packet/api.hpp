@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "lancer/image.hpp"
+#include "lancer/packet/api_rays.hpp"
 #include "lancer/precision.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/stats.hpp"
@@ -63,6 +64,11 @@ struct KernelTable {
   // epsilon < t < tfar[k]; false elsewhere.
   void (*occluded_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                           const Real* tfar, bool* blocked_out);
+  // A caller's packet of `width` lanes straight from its arrays (packet/api_rays.hpp RayLanes),
+  // checked, moved, traced and written out in one call where it is plain; returns 2 when done,
+  // else scan_rays' bits having written nothing (packet/kernel.hpp).
+  int (*intersect_lanes)(const PreparedScene<Real>&, const RayLanes&, const HitLanes& out);
+  int (*occluded_lanes)(const PreparedScene<Real>&, const RayLanes&, int* blocked_out);
   // n world-space rays (float origin x, y, z, direction x, y, z) moved into the prepared frame,
   // into six arrays (packet/api_rays.hpp): the library API's packets, in this ISA's vectors.
   void (*frame_rays)(const Frame&, int n, const float* ox, const float* oy, const float* oz,

@@ -1,40 +1,80 @@
 // The library API's rays checked and moved into the prepared frame (src/engine/api.cpp):
 // world-space float origins and directions, Frame::point and Frame::direction written out in double
-// (dot's order: x, y, then z) and rounded once to T. One plain loop over lanes without a branch,
-// over restrict arrays, which the compiler vectorises for the ISA it is built for: each ISA's
-// translation unit instantiates it for its kernel table (Arch names the instantiation), and the
-// library's baseline code for the reference's width.
+// (dot's order: x, y, then z) and rounded once to T. Plain loops over lanes without a branch, over
+// restrict arrays, which the compiler vectorises for the ISA it is built for: each ISA's
+// translation unit instantiates them for its kernel table (Arch names the instantiation), and the
+// library's baseline code for the reference's width. One lane's check and move are written once
+// (ray_fails, FrameMove) and shared by every loop.
 #pragma once
 
 #include "lancer/prepared.hpp"
 
 namespace lancer::packet {
 
+// 1 where a ray fails the API's checks: an origin not finite, a direction whose |d|^2 is not
+// within 1e-5 of 1, computed in double, a NaN tnear or tfar. Bitwise operations, no branch.
+[[gnu::always_inline]] inline int ray_fails(float ox, float oy, float oz, float dx, float dy,
+                                            float dz, float tnear, float tfar) noexcept {
+  const double d2 = double(dx) * dx + double(dy) * dy + double(dz) * dz;
+  // x - x is 0 for finite x, NaN for an infinity or a NaN.
+  const float o = (ox - ox) + (oy - oy) + (oz - oz);
+  const double e = d2 - 1.0;
+  const int ok =
+      int(o == 0.0f) & int(e <= 1e-5) & int(e >= -1e-5) & int(tnear == tnear) & int(tfar == tfar);
+  return ok ^ 1;
+}
+
+// 1 where a live lane is plain: it sees some object and starts at epsilon (the kernel alone
+// answers it).
+template <class T>
+[[gnu::always_inline]] inline int ray_plain(float tnear, unsigned mask, unsigned all_objects,
+                                            T eps) noexcept {
+  return int((mask & all_objects) != 0) & int(T(tnear) <= eps);
+}
+
+// Frame::point and Frame::direction of one lane, the frame's numbers held in locals.
+struct FrameMove {
+  double ex, ey, ez, ux, uy, uz, vx, vy, vz, wx, wy, wz, depth;
+  explicit FrameMove(const Frame& f) noexcept
+      : ex(f.origin.x),
+        ey(f.origin.y),
+        ez(f.origin.z),
+        ux(f.u.x),
+        uy(f.u.y),
+        uz(f.u.z),
+        vx(f.v.x),
+        vy(f.v.y),
+        vz(f.v.z),
+        wx(f.w.x),
+        wy(f.w.y),
+        wz(f.w.z),
+        depth(f.depth) {}
+  template <class T>
+  [[gnu::always_inline]] void operator()(float ox, float oy, float oz, float dx, float dy, float dz,
+                                         T& o0, T& o1, T& o2, T& o3, T& o4, T& o5) const noexcept {
+    const double px = double(ox) - ex, py = double(oy) - ey, pz = double(oz) - ez;
+    const double qx = dx, qy = dy, qz = dz;
+    o0 = T(px * ux + py * uy + pz * uz);
+    o1 = T(px * vx + py * vy + pz * vz);
+    o2 = T((px * wx + py * wy + pz * wz) + depth);
+    o3 = T(qx * ux + qy * uy + qz * uz);
+    o4 = T(qx * vx + qy * vy + qz * vz);
+    o5 = T(qx * wx + qy * wy + qz * wz);
+  }
+};
+
 template <class Arch, class T>
 void frame_rays(const Frame& frame, int n, const float* __restrict ox, const float* __restrict oy,
                 const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
                 const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
                 T* __restrict o3, T* __restrict o4, T* __restrict o5) noexcept {
-  const double ex = frame.origin.x, ey = frame.origin.y, ez = frame.origin.z;
-  const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
-  const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
-  const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z, depth = frame.depth;
-  for (int l = 0; l < n; ++l) {
-    const double px = double(ox[l]) - ex, py = double(oy[l]) - ey, pz = double(oz[l]) - ez;
-    const double qx = dx[l], qy = dy[l], qz = dz[l];
-    o0[l] = T(px * ux + py * uy + pz * uz);
-    o1[l] = T(px * vx + py * vy + pz * vz);
-    o2[l] = T((px * wx + py * wy + pz * wz) + depth);
-    o3[l] = T(qx * ux + qy * uy + qz * uz);
-    o4[l] = T(qx * vx + qy * vy + qz * vz);
-    o5[l] = T(qx * wx + qy * wy + qz * wz);
-  }
+  const FrameMove move(frame);
+  for (int l = 0; l < n; ++l)
+    move(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], o0[l], o1[l], o2[l], o3[l], o4[l], o5[l]);
 }
 
-// Whether some lane l < n with on[l] != 0 fails the API's checks (bit 0: an origin not finite,
-// a direction whose |d|^2 is not within 1e-5 of 1, computed in double, a NaN tnear or tfar),
-// and whether every lane is on, sees some object (mask & all_objects) and starts at epsilon
-// (bit 1: the plain packet, whose lanes all go to the kernel). Bitwise operations, no branch.
+// Whether some lane l < n with on[l] != 0 fails the API's checks (bit 0) and whether every
+// lane is on and plain (bit 1: the plain packet, whose lanes all go to the kernel).
 template <class Arch, class T>
 int scan_rays(int n, const float* __restrict ox, const float* __restrict oy,
               const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
@@ -43,15 +83,38 @@ int scan_rays(int n, const float* __restrict ox, const float* __restrict oy,
               const int* __restrict on, unsigned all_objects, T eps) noexcept {
   int bad = 0, plain = 1;
   for (int l = 0; l < n; ++l) {
-    const double d2 = double(dx[l]) * dx[l] + double(dy[l]) * dy[l] + double(dz[l]) * dz[l];
-    // x - x is 0 for finite x, NaN for an infinity or a NaN.
-    const float o = (ox[l] - ox[l]) + (oy[l] - oy[l]) + (oz[l] - oz[l]);
-    const double e = d2 - 1.0;
-    const int ok = int(o == 0.0f) & int(e <= 1e-5) & int(e >= -1e-5) & int(tnear[l] == tnear[l]) &
-                   int(tfar[l] == tfar[l]);
     const int live = int(on[l] != 0);
-    bad |= (ok ^ 1) & live;
-    plain &= live & int((mask[l] & all_objects) != 0) & int(T(tnear[l]) <= eps);
+    bad |= ray_fails(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], tnear[l], tfar[l]) & live;
+    plain &= live & ray_plain(tnear[l], mask[l], all_objects, eps);
+  }
+  return bad | plain << 1;
+}
+
+// The caller's arrays of one packet's W lanes (lancer.hpp's RayPacket from some lane on), for
+// the kernels' one-pass entries (packet/kernel.hpp intersect_lanes, occluded_lanes). `on` is
+// the caller's valid mask, or all ones.
+struct RayLanes {
+  const float *ox, *oy, *oz, *dx, *dy, *dz, *tnear, *tfar;
+  const unsigned* mask;
+  const int* on;
+  unsigned all_objects;
+};
+
+// W lanes checked and moved in one pass, into rays' six rows of W (origin x, y, z, direction
+// x, y, z): scan_rays' bits, and frame_rays' values. W is the kernel's: no remainder loop.
+template <int W, class T>
+[[gnu::always_inline]] inline int take_rays(const Frame& frame, const RayLanes& r, T eps,
+                                            T* __restrict rays) noexcept {
+  const FrameMove move(frame);
+  const float* __restrict ox = r.ox, * __restrict oy = r.oy, * __restrict oz = r.oz;
+  const float* __restrict dx = r.dx, * __restrict dy = r.dy, * __restrict dz = r.dz;
+  int bad = 0, plain = 1;
+  for (int l = 0; l < W; ++l) {
+    const int live = int(r.on[l] != 0);
+    bad |= ray_fails(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], r.tnear[l], r.tfar[l]) & live;
+    plain &= live & ray_plain(r.tnear[l], r.mask[l], r.all_objects, eps);
+    move(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], rays[l], rays[W + l], rays[2 * W + l],
+         rays[3 * W + l], rays[4 * W + l], rays[5 * W + l]);
   }
   return bad | plain << 1;
 }

@@ -71,6 +71,47 @@ struct Kernel : Rows<Arch, Real, Mode> {
         ~Ro::template occluded<false>(s, v, o, d, B::load_unaligned(tfar), unused, I(-1)).pending);
     for (int k = 0; k < W; ++k) blocked_out[k] = (bb >> k) & 1u;
   }
+
+  // A caller's packet of W lanes straight from its arrays, in one call: the rays checked and
+  // moved into the frame in one pass (take_rays), traced, and the answers written out. Only a
+  // plain packet (every lane on, seeing some object, from epsilon) is traced: else nothing is
+  // written and the result is take_rays' bits (bit 0, some live lane fails the checks), for
+  // the caller's lane by lane path, which names the failing lane. Returns 2 when done.
+  static int intersect_lanes(const Prepared& s, const RayLanes& r, const HitLanes& out) noexcept {
+    alignas(64) T rays[6 * W];
+    const int scan = take_rays<W>(s.frame, r, s.epsilon, rays);
+    if (scan != 2) return scan;
+    alignas(64) T t[W];
+    alignas(64) std::int32_t id[W];
+    for (int k = 0; k < W; ++k) t[k] = T(r.tfar[k]);
+    const V o{B::load_aligned(rays), B::load_aligned(rays + W), B::load_aligned(rays + 2 * W)};
+    const V d{B::load_aligned(rays + 3 * W), B::load_aligned(rays + 4 * W),
+              B::load_aligned(rays + 5 * W)};
+    B bt = B::load_aligned(t);
+    I bid(-1);
+    RayCounts unused;
+    closest_hit(s, M(true), o, d, bt, bid, unused);
+    bt.store_aligned(t);
+    store_ids(Ro::object_ids(s, bid), id, W);
+    hit_fields<Arch, Real>(s, rays, t, id, out);
+    return scan;
+  }
+  static int occluded_lanes(const Prepared& s, const RayLanes& r, int* blocked_out) noexcept {
+    alignas(64) T rays[6 * W];
+    const int scan = take_rays<W>(s.frame, r, s.epsilon, rays);
+    if (scan != 2) return scan;
+    alignas(64) T tfar[W];
+    for (int k = 0; k < W; ++k) tfar[k] = T(r.tfar[k]);
+    const V o{B::load_aligned(rays), B::load_aligned(rays + W), B::load_aligned(rays + 2 * W)};
+    const V d{B::load_aligned(rays + 3 * W), B::load_aligned(rays + 4 * W),
+              B::load_aligned(rays + 5 * W)};
+    RayCounts unused;
+    const M all(true);
+    const unsigned bb = bits(
+        ~Ro::template occluded<false>(s, all, o, d, B::load_aligned(tfar), unused, I(-1)).pending);
+    for (int k = 0; k < W; ++k) blocked_out[k] = int((bb >> k) & 1u);
+    return scan;
+  }
 };
 
 // The table of one instantiation, made on first use inside this ISA's own code: the dispatcher
@@ -87,6 +128,8 @@ const KernelTable<Real>* table() {
                                    &K::intersect_camera_packets,
                                    &K::closest_hit_packet,
                                    &K::occluded_packet,
+                                   &K::intersect_lanes,
+                                   &K::occluded_lanes,
                                    &frame_rays<Arch, Real>,
                                    &scan_rays<Arch, Real>,
                                    &hit_fields<Arch, Real>};
