@@ -216,7 +216,7 @@ TEST(PacketKernel, InactiveLanesUntouched) {
         id[l] = -1;
         if (!valid[l]) t[l] = 1234.5f + l, id[l] = 99 + l;  // sentinels
       }
-      k->closest_hit_packet(p, valid.get(), rays.data(), t.data(), id.data(), hit.get());
+      k->closest_hit_packet(p, valid.get(), rays.data(), t.data(), id.data(), hit.get(), nullptr);
       for (int l = 0; l < width; ++l) {
         if (!valid[l]) {
           EXPECT_EQ(t[l], 1234.5f + l) << "lane " << l;

@@ -129,7 +129,7 @@ std::vector<reference::Hit<T>> packet_hits(const PreparedScene<T>& p,
       for (int c = 0; c < 6; ++c) soa[std::size_t(c * w + l)] = v[c];
       t[std::size_t(l)] = std::numeric_limits<T>::infinity(), id[std::size_t(l)] = -1;
     }
-    k.closest_hit_packet(p, valid, soa.data(), t.data(), id.data(), hit);
+    k.closest_hit_packet(p, valid, soa.data(), t.data(), id.data(), hit, nullptr);
     for (int l = 0; l < w && first + std::size_t(l) < rays.size(); ++l)
       out[first + std::size_t(l)] = {id[std::size_t(l)], t[std::size_t(l)]};
   }

@@ -71,7 +71,7 @@ Vec3<double> cosine_direction(std::mt19937_64& rng, const Vec3<double>& n);
 RaySet make_set(const api::Scene& scene, Kind kind, const SetOptions& options = {});
 
 // What answers packets of `width` rays through the library API, for the summaries: the ISA of
-// the widest kernel up to that width ("avx512f"; the reference for shapes), or, one ray at a
+// the widest kernel up to that width ("avx512f"), or, one ray at a
 // time, "one-ray avx2" / "one-ray avx512f" where Info::one_ray names the one-ray kernels.
 std::string api_isa(const api::Scene& scene, int width);
 
@@ -105,8 +105,7 @@ class ApiPackets {
 // The set straight into the packet kernels, without the library API: the rays moved into the
 // prepared frame once (as the API moves each ray on every call: in double, rounded once to
 // float) and laid out as the kernels take them, so that only the kernels are timed, as the
-// Embree peer's calls are. Float packets (exact or fast, width 4, 8 or 16) of scenes without
-// triangles, meshes or cylinders (the library answers those on the reference); InputError
+// Embree peer's calls are. Float packets (exact or fast, width 4, 8 or 16); InputError
 // otherwise.
 class KernelPackets {
  public:

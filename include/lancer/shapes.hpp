@@ -112,6 +112,13 @@ template <class T>
 ShapeHit<T> shapes_closest(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
                            T epsilon, T t_limit);
 
+// Primitive `prim`'s hit along o, d beyond epsilon (its object, t and, on a cylinder, the part):
+// what shapes_closest returns where that primitive is the nearest. The library API's packets
+// find the primitive; this completes its hit.
+template <class T>
+ShapeHit<T> shape_hit(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d, T epsilon,
+                      std::int64_t prim);
+
 // The objects a shadow segment from o along unit l meets before `dist` (a hit with
 // epsilon < t < dist), each once, in ascending object id. `stop_at_first`: one is enough (an
 // opaque scene), the list then holds at most one.

@@ -150,10 +150,11 @@ struct Chunk {
   bool valid[kMaxLanes];   // by the kernel
   bool alone[kMaxLanes];   // by the reference from tmin
   bool out[kMaxLanes];
-  // Lanes the reference answered: the triangle, mesh or cylinder primitive hit (object -1 for
-  // a sphere, a plane or none). The kernels never meet one (such scenes run at width 1).
-  // Left unconstructed (ShapeHit initialises its members): fill sets them where the scene has
-  // shapes, and nothing reads them where it has none.
+  alignas(64) std::int32_t prim[kMaxLanes];  // the kernel's: a shape's primitive number, or -1
+  // The triangle, mesh or cylinder primitive hit (object -1 for a sphere, a plane or none): the
+  // reference's, or shape_hit's of the kernel's primitive. Left unconstructed (ShapeHit
+  // initialises its members): fill sets them where the scene has shapes, and nothing reads them
+  // where it has none.
   union Shapes {
     Shapes() {}
     ShapeHit<T> at[kMaxLanes];
@@ -239,6 +240,16 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
 template <class T>
 Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
   return {ch.rays[first * w + l], ch.rays[(first + 1) * w + l], ch.rays[(first + 2) * w + l]};
+}
+
+// The kernel's lanes that hit a triangle, mesh or cylinder: their primitive's whole hit (object,
+// cylinder part) from its number, for the normal, prim_id, u and v the reference would give.
+template <class T>
+void shape_hits(const PreparedScene<T>& s, int w, Chunk<T>& ch) {
+  for (int l = 0; l < w; ++l)
+    if (ch.valid[l] && ch.out[l] && ch.prim[l] >= 0)
+      ch.shape.at[l] =
+          shape_hit(*s.shapes, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), s.epsilon, ch.prim[l]);
 }
 
 // The reference's nearest hit beyond tmin of each lane traced alone. It counts where it lies
@@ -367,7 +378,7 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
   store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
-// A packet of exactly the kernel's width, straight from the caller's arrays (valid may be null).
+// A caller's packet, straight from its arrays (valid may be null: every lane on).
 template <int N>
 packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
   static constexpr auto kAll = [] {
@@ -386,17 +397,19 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
-  // A plain packet of the kernel's width: checked, moved, traced and written out in one call.
-  if (k && N == w) {
+  // A plain packet of whole chunks: checked, moved, traced and written out in one call.
+  if (k && N % w == 0 && !s.shapes) {
     const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
-    if (k->intersect_lanes(s, ray_lanes(valid, r), out) == 2) return;
+    if (k->intersect_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
   }
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
     if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
-      k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out);
+      k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out,
+                            s.shapes ? ch.prim : nullptr);
+    if (k && s.shapes) shape_hits(s, w, ch);
     if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
     if (k) {
       store_hits(s, *k, ch, w, c, h);
@@ -415,7 +428,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
-  if (k && N == w && k->occluded_lanes(s, ray_lanes(valid, r), out) == 2) return;
+  if (k && N % w == 0 && k->occluded_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
   const bool plain = check_rays("occluded", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
@@ -469,7 +482,8 @@ void choose_widths(Engine<T>& e, const Info& info) {
   e.render = kernels_of<T>(info.width, info.precision);
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1;
   // scenes with triangles, meshes or cylinders run there too). Fast mode has no lone lanes.
-  if (info.width > 1 && info.precision != Precision::fast) e.one = one_ray_of<T>();
+  if (info.width > 1 && info.precision != Precision::fast && !e.scene.shapes)
+    e.one = one_ray_of<T>();
   if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
 }
 
@@ -519,17 +533,7 @@ Scene Scene::make(SceneDescription description, const Options& options) {
     info.precision = c.precision;
     info.precision_reason = c.reason;
   }
-  if (!s.shapes.empty()) {
-    // Triangles, meshes and cylinders: the reference, whose hits give the primitive and its
-    // u, v (the packets' do not hand them back yet).
-    if (info.precision == Precision::fast || (options.width != 0 && options.width != 1))
-      throw InputError(
-          "width: the library answers scenes with triangles, meshes or cylinders on the "
-          "reference only (width 1, exact or double precision), for their primitive ids and u, v");
-    info.width = 1;
-  } else {
-    info.width = resolve_width(options.width, info.precision, "width");
-  }
+  info.width = resolve_width(options.width, info.precision, "width");
   info.isa = packet::isa_name(info.width, info.precision);
   info.threads = resolve_threads(options.threads, "threads");
   info.nx = s.camera.nx, info.ny = s.camera.ny, info.supersample = s.supersample;

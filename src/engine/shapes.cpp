@@ -461,6 +461,15 @@ ShapeHit<T> shapes_closest(const PreparedShapes<T>& s, const Vec3<T>& o, const V
 }
 
 template <class T>
+ShapeHit<T> shape_hit(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d, T epsilon,
+                      std::int64_t prim) {
+  const PrimRay<T> ray(s, o, d, epsilon);
+  const std::int32_t ref = s.prim[std::size_t(prim)];
+  const prim::CylinderHit<T> h = ray.hit(ref);
+  return {ray.object(ref), prim, h.t, h.part};
+}
+
+template <class T>
 void shapes_met(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& l, T epsilon, T dist,
                 bool stop_at_first, std::vector<int>& objects) {
   objects.clear();
@@ -529,6 +538,8 @@ ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hi
   template PreparedShapes<T> prepare_shapes<T>(const Scene&, const Frame&, int);                   \
   template ShapeHit<T> shapes_closest<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, \
                                          T, T);                                                    \
+  template ShapeHit<T> shape_hit<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, T,   \
+                                    std::int64_t);                                                 \
   template void shapes_met<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, T, T,      \
                               bool, std::vector<int>&);                                            \
   template void shapes_normals<T>(const PreparedShapes<T>&, const ShapeHit<T>&, const Vec3<T>&,    \

@@ -55,10 +55,6 @@ py::object finite_or_none(double v) {
 py::dict validate(const PyScene& s, std::optional<OneOrMany<int>> asked,
                   const std::string& precision_text, int threads) {
   const Scene& scene = s.description();
-  if (!scene.shapes.empty())
-    throw InputError(s.name() +
-                     ": triangles, meshes and cylinders run on the reference only until the "
-                     "packets model them: no packet width to validate");
   const Precision precision = parse_precision(precision_text, "precision");
   if (precision != Precision::exact && precision != Precision::dbl)
     throw InputError("precision: validate compares exact or double renders, not " + precision_text);

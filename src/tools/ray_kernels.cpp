@@ -20,9 +20,6 @@ std::shared_ptr<const KernelPackets::Prepared> KernelPackets::prepare(const Scen
                                                                       Precision precision) {
   if (precision != Precision::exact && precision != Precision::fast)
     throw InputError("ray set kernels: float packets only (exact or fast)");
-  if (!scene.shapes.empty())
-    throw InputError(
-        "ray set kernels: triangles, meshes and cylinders run on the reference, not the packets");
   auto p = std::make_shared<Prepared>();
   p->scene = lancer::prepare<float>(scene);
   p->precision = precision;
@@ -53,7 +50,7 @@ struct KernelPackets::Impl {
       } else {
         std::copy_n(&tfar[p * w], w, t);
         std::fill_n(id, w, -1);
-        kernels->closest_hit_packet(s, v, r, t, id, hit);
+        kernels->closest_hit_packet(s, v, r, t, id, hit, nullptr);
       }
       if (!out) continue;
       for (int k = 0; k < w && p * w + k < count; ++k) {

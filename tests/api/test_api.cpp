@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <random>
+#include <type_traits>
 
 #include "api/api_util.hpp"
 #include "lancer/lancer.hpp"
@@ -233,8 +234,10 @@ TEST(Api, PlainPacketsGiveTheBitsOfMixedOnes) {
 TEST(Api, BadRayInAFullPacketWritesNothing) {
   const api::Scene scene =
       api::Scene::load(testing::source_path("scenes/lorenzi-shadows.json"), with(Precision::exact));
-  const auto check = [&](auto r, auto h) {
-    constexpr int N = sizeof(r.tfar) / sizeof(float);
+  const auto check = [&](auto lanes) {
+    constexpr int N = decltype(lanes)::value;
+    api::RayPacket<N> r{};
+    api::HitPacket<N> h;
     for (int k = 0; k < N; ++k) r.dir_z[k] = -1, r.tfar[k] = kInf, h.id[k] = 42;
     r.dir_x[N - 1] = 1;
     const std::string what =
@@ -246,9 +249,9 @@ TEST(Api, BadRayInAFullPacketWritesNothing) {
     EXPECT_EQ(error_of([&] { scene.occluded(nullptr, r, occ); }), "occluded" + what);
     for (int k = 0; k < N; ++k) EXPECT_EQ(occ[k], 42) << "width " << N << " lane " << k;
   };
-  check(api::Ray4{}, api::Hit4{});
-  check(api::Ray8{}, api::Hit8{});
-  check(api::Ray16{}, api::Hit16{});
+  check(std::integral_constant<int, 4>{});
+  check(std::integral_constant<int, 8>{});
+  check(std::integral_constant<int, 16>{});
 }
 
 // Occluded before tfar exactly where the closest hit (with tfar infinite) lies before tfar.

@@ -395,5 +395,39 @@ TEST(ApiRays, PacketNormalsOfEverySphereKindAreTheScalarOnes) {
   }
 }
 
+// Triangles, meshes and cylinders through the packet kernels: every hit field of full packets
+// (prim_id, u, v and the normal from the kernel's primitive; t and id its own) against the
+// same ray alone at width 1, on the shape scene above and on the shipped ones, exact and double.
+TEST(ApiRays, PacketsOfTrianglesMeshesAndCylindersGiveTheReferencesFields) {
+  const ShapeScene file;
+  for (const std::string& path : {file.path, testing::source_path("scenes/prims/glass-mesh.json"),
+                                  testing::source_path("scenes/prims/cylinders.json")}) {
+    for (Precision p : {Precision::exact, Precision::dbl}) {
+      SCOPED_TRACE(path + " " + to_string(p));
+      const api::Scene scene = api::Scene::load(path, with(p));
+      EXPECT_GT(scene.info().width, 1);
+      const api::SceneDescription& d = scene.description();
+      const int first_shape = int(d.spheres.size() + d.planes.size());
+      // Camera rays through random points of the image, from points near the eye.
+      std::mt19937 rng(17);
+      std::uniform_real_distribution<double> u(0, 1);
+      std::vector<Ray> rays;
+      float o[3], dir[3];
+      for (int i = 0; i < 16 * 40; ++i) {
+        scene.camera_ray(int(u(rng) * scene.info().nx), int(u(rng) * scene.info().ny), 0, 0, o,
+                         dir);
+        Ray ray;
+        ray.org = {o[0] + 0.01 * u(rng), o[1], o[2]};
+        ray.dir = normalize(Vec3<double>{dir[0], dir[1], dir[2]});
+        rays.push_back(ray);
+      }
+      const int shapes = packed_like_alone<16>(scene, rays, first_shape, 1 << 30);
+      EXPECT_GT(shapes, 16);  // the rays meet the shapes
+      EXPECT_EQ(packed_like_alone<8>(scene, rays, first_shape, 1 << 30), shapes);
+      EXPECT_EQ(packed_like_alone<4>(scene, rays, first_shape, 1 << 30), shapes);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lancer

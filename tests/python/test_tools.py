@@ -28,6 +28,14 @@ def test_validate_is_the_clis(cli):
     assert ours["resolution"] == tuple(theirs["resolution"])
 
 
+def test_validate_takes_triangles_meshes_and_cylinders(cli):
+    path = SCENES / "prims" / "cylinders.json"
+    ours = lancer.validate(lancer.Scene.load(str(path)), threads=2)
+    theirs = cli_json(cli, "validate", path, "--json", "--threads", 2)
+    assert ours["identical"] is True and theirs["identical"] is True
+    assert [w["width"] for w in ours["widths"]] == [w["width"] for w in theirs["widths"]]
+
+
 def test_validate_refuses_what_the_cli_refuses(cli):
     scene = lancer.Scene.load(str(SCENES / "lorenzi-diffuse.json"))
     with pytest.raises(ValueError, match="^precision: validate compares exact or double"):

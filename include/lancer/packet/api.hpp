@@ -27,6 +27,10 @@ struct ProfiledMode {};
 struct HitLanes {
   float *t, *ng_x, *ng_y, *ng_z, *u, *v;
   int *prim_id, *id;
+  // The lanes from lane c on.
+  HitLanes from(int c) const noexcept {
+    return {t + c, ng_x + c, ng_y + c, ng_z + c, u + c, v + c, prim_id + c, id + c};
+  }
 };
 
 // One kernel instantiation's entry points.
@@ -56,19 +60,22 @@ struct KernelTable {
   // One packet through the closest-hit kernel, for tests and the library API (src/engine/api.cpp,
   // which moves world-space rays into the prepared frame first): rays in SoA arrays of `width`
   // lanes (origin x, y, z then direction x, y, z), lanes with valid[k] false come back untouched in
-  // t and id. hit_out gets the lanes hit.
+  // t and id. hit_out gets the lanes hit; prim_out, unless null, each valid lane's shape
+  // primitive number (PreparedShapes::prim's index, ShapeHit::prim) where it hit a triangle,
+  // mesh or cylinder, else -1.
   void (*closest_hit_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
-                             Real* t, std::int32_t* id, bool* hit_out);
+                             Real* t, std::int32_t* id, bool* hit_out, std::int32_t* prim_out);
   // One packet through the any-hit kernel (shadow rays), for the library API (lancer.hpp):
   // rays as closest_hit_packet, blocked_out[k] true where valid[k] and some object lies at
   // epsilon < t < tfar[k]; false elsewhere.
   void (*occluded_packet)(const PreparedScene<Real>&, const bool* valid, const Real* rays,
                           const Real* tfar, bool* blocked_out);
-  // A caller's packet of `width` lanes straight from its arrays (packet/api_rays.hpp RayLanes),
-  // checked, moved, traced and written out in one call where it is plain; returns 2 when done,
-  // else scan_rays' bits having written nothing (packet/kernel.hpp).
-  int (*intersect_lanes)(const PreparedScene<Real>&, const RayLanes&, const HitLanes& out);
-  int (*occluded_lanes)(const PreparedScene<Real>&, const RayLanes&, int* blocked_out);
+  // A caller's packet of n lanes, a multiple of `width`, straight from its arrays
+  // (packet/api_rays.hpp RayLanes), checked, moved, traced and written out in one call where it
+  // is plain; returns 2 when done, else scan_rays' bits having written nothing
+  // (packet/kernel.hpp).
+  int (*intersect_lanes)(const PreparedScene<Real>&, const RayLanes&, int n, const HitLanes& out);
+  int (*occluded_lanes)(const PreparedScene<Real>&, const RayLanes&, int n, int* blocked_out);
   // n world-space rays (float origin x, y, z, direction x, y, z) moved into the prepared frame,
   // into six arrays (packet/api_rays.hpp): the library API's packets, in this ISA's vectors.
   void (*frame_rays)(const Frame&, int n, const float* ox, const float* oy, const float* oz,

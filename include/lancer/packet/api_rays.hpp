@@ -98,6 +98,11 @@ struct RayLanes {
   const unsigned* mask;
   const int* on;
   unsigned all_objects;
+  // The lanes from lane c on.
+  RayLanes from(int c) const noexcept {
+    return {ox + c,    oy + c,   oz + c,   dx + c, dy + c,     dz + c,
+            tnear + c, tfar + c, mask + c, on + c, all_objects};
+  }
 };
 
 // W lanes checked and moved in one pass, into rays' six rows of W (origin x, y, z, direction

@@ -40,7 +40,7 @@ struct Kernel : Rows<Arch, Real, Mode> {
   using typename Ro::V;
 
   static void closest_hit_packet(const Prepared& s, const bool* valid, const T* rays, T* t,
-                                 std::int32_t* id, bool* hit_out) noexcept {
+                                 std::int32_t* id, bool* hit_out, std::int32_t* prim_out) noexcept {
     const M v = M::load_unaligned(valid);
     const V o{B::load_unaligned(rays), B::load_unaligned(rays + W),
               B::load_unaligned(rays + 2 * W)};
@@ -52,6 +52,12 @@ struct Kernel : Rows<Arch, Real, Mode> {
     const M hit = closest_hit(s, v, o, d, bt, bid, unused);
     bt.store_unaligned(t);
     store_ids(Ro::object_ids(s, bid), id, W);
+    if (prim_out) {
+      // A shape's hit id is first_id + its primitive number (prim/shapes.hpp).
+      using Meshes = typename Ro::Prims::Meshes;
+      const I first(typename Ro::Id(Meshes::first_id(s)));
+      store_ids(xsimd::select(bid >= first, bid - first, I(-1)), prim_out, W);
+    }
     const unsigned hb = bits(hit);
     for (int k = 0; k < W; ++k) hit_out[k] = (hb >> k) & 1u;
   }
@@ -72,44 +78,62 @@ struct Kernel : Rows<Arch, Real, Mode> {
     for (int k = 0; k < W; ++k) blocked_out[k] = (bb >> k) & 1u;
   }
 
-  // A caller's packet of W lanes straight from its arrays, in one call: the rays checked and
-  // moved into the frame in one pass (take_rays), traced, and the answers written out. Only a
-  // plain packet (every lane on, seeing some object, from epsilon) is traced: else nothing is
-  // written and the result is take_rays' bits (bit 0, some live lane fails the checks), for
-  // the caller's lane by lane path, which names the failing lane. Returns 2 when done.
-  static int intersect_lanes(const Prepared& s, const RayLanes& r, const HitLanes& out) noexcept {
-    alignas(64) T rays[6 * W];
-    const int scan = take_rays<W>(s.frame, r, s.epsilon, rays);
-    if (scan != 2) return scan;
+  // A caller's packet of n lanes (a multiple of W, at most kMaxLanes) straight from its arrays,
+  // in one call: every lane checked and moved into the frame in one pass (take_rays), then
+  // traced W at a time, and the answers written out. Only a plain packet (every lane on, seeing
+  // some object, from epsilon) is traced: else nothing is written and the result is take_rays'
+  // bits (bit 0, some live lane fails the checks), for the caller's chunked path, which names
+  // the failing lane. Returns 2 when done.
+  static int take_packet(const Prepared& s, const RayLanes& r, int n, T* rays) noexcept {
+    int bad = 0, plain = 1;
+    for (int c = 0; c < n; c += W) {
+      const int scan = take_rays<W>(s.frame, r.from(c), s.epsilon, rays + 6 * c);
+      bad |= scan & 1, plain &= scan >> 1;
+    }
+    return bad | plain << 1;
+  }
+  static V row3(const T* rays) noexcept {
+    return {B::load_aligned(rays), B::load_aligned(rays + W), B::load_aligned(rays + 2 * W)};
+  }
+  static B tfar_of(const float* tfar) noexcept {
     alignas(64) T t[W];
-    alignas(64) std::int32_t id[W];
-    for (int k = 0; k < W; ++k) t[k] = T(r.tfar[k]);
-    const V o{B::load_aligned(rays), B::load_aligned(rays + W), B::load_aligned(rays + 2 * W)};
-    const V d{B::load_aligned(rays + 3 * W), B::load_aligned(rays + 4 * W),
-              B::load_aligned(rays + 5 * W)};
-    B bt = B::load_aligned(t);
-    I bid(-1);
-    RayCounts unused;
-    closest_hit(s, M(true), o, d, bt, bid, unused);
-    bt.store_aligned(t);
-    store_ids(Ro::object_ids(s, bid), id, W);
-    hit_fields<Arch, Real>(s, rays, t, id, out);
+    for (int k = 0; k < W; ++k) t[k] = T(tfar[k]);
+    return B::load_aligned(t);
+  }
+  static int intersect_lanes(const Prepared& s, const RayLanes& r, int n,
+                             const HitLanes& out) noexcept {
+    alignas(64) T rays[6 * kMaxLanes];
+    const int scan = take_packet(s, r, n, rays);
+    if (scan != 2) return scan;
+    for (int c = 0; c < n; c += W) {
+      const T* chunk = rays + 6 * c;
+      B bt = tfar_of(r.tfar + c);
+      I bid(-1);
+      RayCounts unused;
+      closest_hit(s, M(true), row3(chunk), row3(chunk + 3 * W), bt, bid, unused);
+      alignas(64) T t[W];
+      alignas(64) std::int32_t id[W];
+      bt.store_aligned(t);
+      store_ids(Ro::object_ids(s, bid), id, W);
+      hit_fields<Arch, Real>(s, chunk, t, id, out.from(c));
+    }
     return scan;
   }
-  static int occluded_lanes(const Prepared& s, const RayLanes& r, int* blocked_out) noexcept {
-    alignas(64) T rays[6 * W];
-    const int scan = take_rays<W>(s.frame, r, s.epsilon, rays);
+  static int occluded_lanes(const Prepared& s, const RayLanes& r, int n,
+                            int* blocked_out) noexcept {
+    alignas(64) T rays[6 * kMaxLanes];
+    const int scan = take_packet(s, r, n, rays);
     if (scan != 2) return scan;
-    alignas(64) T tfar[W];
-    for (int k = 0; k < W; ++k) tfar[k] = T(r.tfar[k]);
-    const V o{B::load_aligned(rays), B::load_aligned(rays + W), B::load_aligned(rays + 2 * W)};
-    const V d{B::load_aligned(rays + 3 * W), B::load_aligned(rays + 4 * W),
-              B::load_aligned(rays + 5 * W)};
-    RayCounts unused;
-    const M all(true);
-    const unsigned bb = bits(
-        ~Ro::template occluded<false>(s, all, o, d, B::load_aligned(tfar), unused, I(-1)).pending);
-    for (int k = 0; k < W; ++k) blocked_out[k] = int((bb >> k) & 1u);
+    for (int c = 0; c < n; c += W) {
+      const T* chunk = rays + 6 * c;
+      RayCounts unused;
+      const M all(true);
+      const unsigned bb =
+          bits(~Ro::template occluded<false>(s, all, row3(chunk), row3(chunk + 3 * W),
+                                             tfar_of(r.tfar + c), unused, I(-1))
+                    .pending);
+      for (int k = 0; k < W; ++k) blocked_out[c + k] = int((bb >> k) & 1u);
+    }
     return scan;
   }
 };
