@@ -58,6 +58,35 @@ TEST(Messages, FastPrecisionWithoutPacketsIsOneLine) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
 }
 
+// bench, profile, trade and validate under the same cap. bench's default widths ("all") came out
+// empty and said "--width: no width given", blaming a width nobody gave; profile's auto width
+// fell back to 1 and asked for 4, 8 or 16; trade left its fast rows out without a word; validate
+// --width all asked for "at least one of 4, 8, 16".
+TEST(Messages, ToolsWithoutPacketsNameTheCap) {
+  const std::string cap = "LANCER_MAX_WIDTH=1 ";
+  const CommandResult bench =
+      run_command(cap + cli() + " bench " + kScene + " --precision fast --resolution 8x8");
+  expect_one_line(bench, 2, "--width: fast precision runs on packets of 4 lanes or more");
+  expect_one_line(bench, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  const CommandResult mixed = run_command(cap + cli() + " bench " + kScene +
+                                          " --precision exact,fast --width all --resolution 8x8");
+  expect_one_line(mixed, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  const CommandResult profile = run_command(cap + cli() + " profile " + kScene);
+  expect_one_line(profile, 2, "profile instruments the packet kernels");
+  expect_one_line(profile, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  const CommandResult validate =
+      run_command(cap + cli() + " validate " + kScene + " --width all --resolution 8x8");
+  expect_one_line(validate, 2, "LANCER_MAX_WIDTH=1");
+  EXPECT_EQ(validate.out.find("give at least one"), std::string::npos) << validate.out;
+  const CommandResult trade =
+      run_command(cap + cli() + " trade " + kScene + " --repeat 1 --resolution 8x8");
+  EXPECT_EQ(trade.status, 0) << trade.out;
+  EXPECT_NE(trade.out.find("lancer trade: no fast rows: fast precision runs on packets of 4 "
+                           "lanes or more, which LANCER_MAX_WIDTH=1 leaves out"),
+            std::string::npos)
+      << trade.out;
+}
+
 // A deep bound that overflows to infinity: 0 x infinity was NaN for the material that reflects
 // nothing, which then won the comparison and took the blame ("objects[1] ...: -nan").
 TEST(Messages, RadianceBoundBlamesTheReflectingObject) {
