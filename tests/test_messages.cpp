@@ -87,6 +87,29 @@ TEST(Messages, ToolsWithoutPacketsNameTheCap) {
       << trade.out;
 }
 
+// The ao and diffuse modes trace through the library API, which has no packets of 2 rays: double
+// precision's width 2 was dropped from their rows without a word, and with nothing else asked for
+// the run was refused as if --mode kernel had been given.
+TEST(Messages, RaySetWidthWithoutApiPacketsIsSaid) {
+  const std::vector<int> dbl = packet_widths(Precision::dbl);
+  if (std::find(dbl.begin(), dbl.end(), 2) == dbl.end()) GTEST_SKIP() << "no double width 2";
+  const std::string bench = cli() + " bench " + kScene + " --precision double --repeat 1 " +
+                            "--warmup 0 --resolution 8x8 --mode ";
+  const CommandResult none = run_command(bench + "ao,diffuse --width 2");
+  expect_one_line(none, 2,
+                  "--width 2: the ao and diffuse modes trace through the library API, whose "
+                  "packets are 1, 4, 8 or 16 rays: nothing to run");
+  EXPECT_EQ(none.out.find("--mode kernel"), std::string::npos) << none.out;
+  const CommandResult some = run_command(bench + "ao --width 1,2");
+  EXPECT_EQ(some.status, 0) << some.out;
+  EXPECT_NE(some.out.find("lancer: --width 2: the ao mode traces through the library API, whose "
+                          "packets are 1, 4, 8 or 16 rays: no ao row at width 2 (double "
+                          "precision)\n"),
+            std::string::npos)
+      << some.out;
+  EXPECT_NE(some.out.find("  lancer   ao       double        1 "), std::string::npos) << some.out;
+}
+
 // A deep bound that overflows to infinity: 0 x infinity was NaN for the material that reflects
 // nothing, which then won the comparison and took the blame ("objects[1] ...: -nan").
 TEST(Messages, RadianceBoundBlamesTheReflectingObject) {
