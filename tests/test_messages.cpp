@@ -257,6 +257,36 @@ TEST(Garbage, EmbreeConfigRefusesWhatEmbreeWouldIgnore) {
   expect_one_line(r, 2, "LANCER_EMBREE_CONFIG: isa must be");
 }
 
+// The Embree peer's width check blamed "this CPU or OS" when LANCER_MAX_WIDTH was what left the
+// width out. The cap is read once per process: without it set, this test runs itself again in a
+// child with LANCER_MAX_WIDTH=4.
+TEST(Messages, EmbreePeerWidthLeftOutByLancerMaxWidthBlamesIt) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  const char* cap = std::getenv("LANCER_MAX_WIDTH");
+  if (!cap) {
+    const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+    const CommandResult r =
+        run_command("LANCER_MAX_WIDTH=4 " + self +
+                    " --gtest_filter=Messages.EmbreePeerWidthLeftOutByLancerMaxWidthBlamesIt");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("[  PASSED  ] 1 test"), std::string::npos) << r.out;
+    return;
+  }
+  if (std::atoi(cap) >= 16) GTEST_SKIP() << "LANCER_MAX_WIDTH=" << cap << " leaves no width out";
+  const peer::EmbreeScene embree(load_scene(kScene));
+  try {
+    embree.primary(16, 1);
+    ADD_FAILURE() << "width 16 ran under LANCER_MAX_WIDTH=" << cap;
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("--peer embree: width 16 needs ", 0), 0u) << what;
+    EXPECT_NE(what.find("which LANCER_MAX_WIDTH=" + std::string(cap) + " leaves out"),
+              std::string::npos)
+        << what;
+    EXPECT_EQ(what.find("this CPU"), std::string::npos) << what;
+  }
+}
+
 // docs/scene-format.md: camera.type defaults to "pinhole".
 TEST(Docs, CameraTypeDefaultsToPinhole) {
   json j = json::parse(read_text(kScene));
