@@ -73,7 +73,8 @@ struct LeftOut {
 std::vector<LeftOut> rows_left_out(const BenchOptions& opt, bool with_peer) {
   std::vector<std::string> ray_modes;
   for (const std::string& m : opt.modes)
-    if (ray_set_mode(m)) ray_modes.push_back(m);
+    if (ray_set_mode(m) && std::find(ray_modes.begin(), ray_modes.end(), m) == ray_modes.end())
+      ray_modes.push_back(m);
   const bool both = ray_modes.size() > 1;
   std::vector<LeftOut> out;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k)
