@@ -58,6 +58,58 @@ TEST(Messages, FastPrecisionWithoutPacketsIsOneLine) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
 }
 
+// bench, profile, trade and validate under the same cap. bench's default widths ("all") came out
+// empty and said "--width: no width given", blaming a width nobody gave; profile's auto width
+// fell back to 1 and asked for 4, 8 or 16; trade left its fast rows out without a word; validate
+// --width all asked for "at least one of 4, 8, 16".
+TEST(Messages, ToolsWithoutPacketsNameTheCap) {
+  const std::string cap = "LANCER_MAX_WIDTH=1 ";
+  const CommandResult bench =
+      run_command(cap + cli() + " bench " + kScene + " --precision fast --resolution 8x8");
+  expect_one_line(bench, 2, "--width: fast precision runs on packets of 4 lanes or more");
+  expect_one_line(bench, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  const CommandResult mixed = run_command(cap + cli() + " bench " + kScene +
+                                          " --precision exact,fast --width all --resolution 8x8");
+  expect_one_line(mixed, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  const CommandResult profile = run_command(cap + cli() + " profile " + kScene);
+  expect_one_line(profile, 2, "profile instruments the packet kernels");
+  expect_one_line(profile, 2, "LANCER_MAX_WIDTH=1 leaves out");
+  const CommandResult validate =
+      run_command(cap + cli() + " validate " + kScene + " --width all --resolution 8x8");
+  expect_one_line(validate, 2, "LANCER_MAX_WIDTH=1");
+  EXPECT_EQ(validate.out.find("give at least one"), std::string::npos) << validate.out;
+  const CommandResult trade =
+      run_command(cap + cli() + " trade " + kScene + " --repeat 1 --resolution 8x8");
+  EXPECT_EQ(trade.status, 0) << trade.out;
+  EXPECT_NE(trade.out.find("lancer trade: no fast rows: fast precision runs on packets of 4 "
+                           "lanes or more, which LANCER_MAX_WIDTH=1 leaves out"),
+            std::string::npos)
+      << trade.out;
+}
+
+// The ao and diffuse modes trace through the library API, which has no packets of 2 rays: double
+// precision's width 2 was dropped from their rows without a word, and with nothing else asked for
+// the run was refused as if --mode kernel had been given.
+TEST(Messages, RaySetWidthWithoutApiPacketsIsSaid) {
+  const std::vector<int> dbl = packet_widths(Precision::dbl);
+  if (std::find(dbl.begin(), dbl.end(), 2) == dbl.end()) GTEST_SKIP() << "no double width 2";
+  const std::string bench = cli() + " bench " + kScene + " --precision double --repeat 1 " +
+                            "--warmup 0 --resolution 8x8 --mode ";
+  const CommandResult none = run_command(bench + "ao,diffuse --width 2");
+  expect_one_line(none, 2,
+                  "--width 2: the ao and diffuse modes trace through the library API, whose "
+                  "packets are 1, 4, 8 or 16 rays: nothing to run");
+  EXPECT_EQ(none.out.find("--mode kernel"), std::string::npos) << none.out;
+  const CommandResult some = run_command(bench + "ao --width 1,2");
+  EXPECT_EQ(some.status, 0) << some.out;
+  EXPECT_NE(some.out.find("lancer: --width 2: the ao mode traces through the library API, whose "
+                          "packets are 1, 4, 8 or 16 rays: no ao row at width 2 (double "
+                          "precision)\n"),
+            std::string::npos)
+      << some.out;
+  EXPECT_NE(some.out.find("  lancer   ao       double        1 "), std::string::npos) << some.out;
+}
+
 // A deep bound that overflows to infinity: 0 x infinity was NaN for the material that reflects
 // nothing, which then won the comparison and took the blame ("objects[1] ...: -nan").
 TEST(Messages, RadianceBoundBlamesTheReflectingObject) {
@@ -203,6 +255,36 @@ TEST(Garbage, EmbreeConfigRefusesWhatEmbreeWouldIgnore) {
   const CommandResult r = run_command("LANCER_EMBREE_CONFIG=isa=zzz " + cli() + " bench " + kScene +
                                       " --peer embree --repeat 1 --resolution 8x8");
   expect_one_line(r, 2, "LANCER_EMBREE_CONFIG: isa must be");
+}
+
+// The Embree peer's width check blamed "this CPU or OS" when LANCER_MAX_WIDTH was what left the
+// width out. The cap is read once per process: without it set, this test runs itself again in a
+// child with LANCER_MAX_WIDTH=4.
+TEST(Messages, EmbreePeerWidthLeftOutByLancerMaxWidthBlamesIt) {
+  if (!peer::embree_available()) GTEST_SKIP() << "built without Embree";
+  const char* cap = std::getenv("LANCER_MAX_WIDTH");
+  if (!cap) {
+    const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+    const CommandResult r =
+        run_command("LANCER_MAX_WIDTH=4 " + self +
+                    " --gtest_filter=Messages.EmbreePeerWidthLeftOutByLancerMaxWidthBlamesIt");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("[  PASSED  ] 1 test"), std::string::npos) << r.out;
+    return;
+  }
+  if (std::atoi(cap) >= 16) GTEST_SKIP() << "LANCER_MAX_WIDTH=" << cap << " leaves no width out";
+  const peer::EmbreeScene embree(load_scene(kScene));
+  try {
+    embree.primary(16, 1);
+    ADD_FAILURE() << "width 16 ran under LANCER_MAX_WIDTH=" << cap;
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("--peer embree: width 16 needs ", 0), 0u) << what;
+    EXPECT_NE(what.find("which LANCER_MAX_WIDTH=" + std::string(cap) + " leaves out"),
+              std::string::npos)
+        << what;
+    EXPECT_EQ(what.find("this CPU"), std::string::npos) << what;
+  }
 }
 
 // docs/scene-format.md: camera.type defaults to "pinhole".

@@ -1,7 +1,9 @@
 // The tools around the renderer: lancer compare, bench's spread and its Google Benchmark JSON.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -186,6 +188,55 @@ TEST(BenchGbench, HasTheFieldsCompareNeeds) {
   std::sort(t.begin(), t.end());
   EXPECT_DOUBLE_EQ(b[4]["real_time"].get<double>(), t[1]);
   EXPECT_EQ(b[4]["aggregate_name"], "median");
+}
+
+// context.git_commit was the commit CMake last configured at, with no mark of uncommitted
+// changes. Now cmake/git_commit.cmake writes it at every build: the commit, "-dirty" when tracked
+// files differ from it, "unknown" outside git; the header is rewritten only when that changes,
+// so that a build of the same commit recompiles nothing. Checked on a repository of its own.
+TEST(BenchGbench, GitCommitIsTheCommitBuilt) {
+  TempDir dir;
+  const std::string repo = dir.file("repo"), header = dir.file("commit.hpp");
+  std::filesystem::create_directories(repo);
+  const std::string git = "git -C " + repo + " -c user.name=t -c user.email=t@t ";
+  const std::string script = std::string(LANCER_CMAKE) + " -DGIT=git -DSOURCE_DIR=" + repo +
+                             " -DOUTPUT=" + header + " -P " + source_path("cmake/git_commit.cmake");
+  ASSERT_EQ(run_command(script).status, 0);
+  EXPECT_NE(slurp(header).find("LANCER_GIT_COMMIT \"unknown\""), std::string::npos)
+      << slurp(header);
+  std::ofstream(repo + "/a.txt") << "a\n";
+  ASSERT_EQ(run_command(git + "init -q && " + git + "add a.txt && " + git + "commit -qm a").status,
+            0);
+  const auto head = run_command(git + "rev-parse HEAD");
+  ASSERT_EQ(head.status, 0) << head.out;
+  const std::string commit = head.out.substr(0, head.out.find('\n'));
+  ASSERT_EQ(run_command(script).status, 0);
+  EXPECT_NE(slurp(header).find("LANCER_GIT_COMMIT \"" + commit + "\""), std::string::npos)
+      << slurp(header);
+  // The same commit again: the file is left alone (its time set back shows it).
+  const auto before = std::filesystem::last_write_time(header) - std::chrono::hours(1);
+  std::filesystem::last_write_time(header, before);
+  ASSERT_EQ(run_command(script).status, 0);
+  EXPECT_EQ(std::filesystem::last_write_time(header), before);
+  // A change to a tracked file not committed; an untracked file alone is not one.
+  std::ofstream(repo + "/b.txt") << "b\n";
+  ASSERT_EQ(run_command(script).status, 0);
+  EXPECT_EQ(std::filesystem::last_write_time(header), before);
+  std::ofstream(repo + "/a.txt") << "changed\n";
+  ASSERT_EQ(run_command(script).status, 0);
+  EXPECT_NE(slurp(header).find("LANCER_GIT_COMMIT \"" + commit + "-dirty\""), std::string::npos)
+      << slurp(header);
+
+  // And bench reports what its build's header says (this checkout's commit when built from it;
+  // the header, not `git rev-parse` now, so that a commit made since the build is no failure).
+  const auto r = run_command(cli() + " bench " + source_path("scenes/lorenzi-diffuse.json") +
+                             " --resolution 8x8 --width 1 --repeat 1 --warmup 0 --mode primary "
+                             "--format gbench > " +
+                             dir.file("g.json"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string got = nlohmann::json::parse(slurp(dir.file("g.json")))["context"]["git_commit"];
+  EXPECT_NE(slurp(LANCER_GIT_HEADER).find("LANCER_GIT_COMMIT \"" + got + "\""), std::string::npos)
+      << got << " in " << slurp(LANCER_GIT_HEADER);
 }
 
 // Ratios between scenes are taken round by round, per ray: a round where the machine ran slow

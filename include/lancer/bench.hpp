@@ -77,6 +77,10 @@ struct BenchOptions {
   // fraction of peak compares figures the machine's noise fell on alike.
   bool peak = false;
   Accel accel = Accel::automatic;  // lancer's structure over the spheres
+  // Told, before the first row runs, of each asked-for row that cannot run (e.g. the ao mode at
+  // double's width 2, which the library API has no packets of), one line each, so that the
+  // table does not miss a row without a word. Unset: not told.
+  std::function<void(const std::string&)> on_note;
 };
 
 // A ray set of the ao or diffuse mode (lancer/ray_sets.hpp), as made for the rows.

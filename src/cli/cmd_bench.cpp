@@ -437,6 +437,7 @@ void run_bench_cmd(const BenchArgs& a) {
   }
   opt.peak = a.peak;
   opt.accel = parse_accel(a.accel, "--accel");
+  opt.on_note = [](const std::string& note) { std::fprintf(stderr, "lancer: %s\n", note.c_str()); };
   const bool ray_sets = std::any_of(opt.modes.begin(), opt.modes.end(), [](const std::string& m) {
     return m == "ao" || m == "diffuse";
   });

@@ -1,10 +1,13 @@
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "commands.hpp"
 #include "lancer/error.hpp"
+#include "lancer/packet/api.hpp"
 #include "lancer/plot.hpp"
 #include "lancer/trade.hpp"
 #include "options.hpp"
@@ -32,6 +35,19 @@ void run_trade_cmd(const TradeArgs& a) {
   TradeOptions opt;
   opt.repeat = a.repeat;
   opt.accel = parse_accel(a.accel, "--accel");
+  // Every precision runs at each width it has here; fast has none without packets. Said before
+  // the runs, not left for the reader to notice in the table.
+  for (Precision p : opt.precisions)
+    if (packet::supported_widths(p).empty()) {
+      const char* cap = std::getenv("LANCER_MAX_WIDTH");
+      std::fprintf(stderr,
+                   "lancer trade: no %s rows: %s precision runs on packets of 4 lanes or "
+                   "more, which %s\n",
+                   to_string(p), to_string(p),
+                   cap && std::atoi(cap) < 4
+                       ? ("LANCER_MAX_WIDTH=" + std::string(cap) + " leaves out").c_str()
+                       : "this CPU or OS does not run");
+    }
   const std::vector<TradeRow> rows = run_trade(scene, opt);
   if (a.json) {
     nlohmann::json out;

@@ -37,9 +37,13 @@ void run_validate(const ValidateArgs& a, int& status) {
   } else {
     widths = parse_width_list(a.widths, "--width", precision);
   }
-  // A validate that compared no packet width proved nothing: it must not pass.
+  // A validate that compared no packet width proved nothing: it must not pass. With the default
+  // or "all", the machine (or the cap) offers none: not the user's widths to blame.
+  const std::vector<std::string> asked = split_list(a.widths);
+  const bool every_width =
+      std::all_of(asked.begin(), asked.end(), [](const std::string& w) { return w == "all"; });
   if (std::none_of(widths.begin(), widths.end(), [](int w) { return w > 1; }))
-    throw InputError(a.widths.empty()
+    throw InputError(every_width
                          ? "validate: no packet width to compare with the reference (this CPU "
                            "runs none, or LANCER_MAX_WIDTH=1)"
                          : "--width: validate compares packet widths with the reference (width "

@@ -59,7 +59,11 @@ std::vector<int> parse_width_list(const std::vector<std::string>& items, const s
   std::vector<int> out;
   for (const std::string& part : split_list(items)) {
     if (part == "all") {
-      for (int w : packet::supported_widths(precision)) out.push_back(w);
+      const std::vector<int> all = packet::supported_widths(precision);
+      // None only for fast precision without packets: resolve_width names the cause (the cap
+      // or the CPU) where "no width given" blamed the user.
+      if (all.empty()) resolve_width(0, precision, option);
+      out.insert(out.end(), all.begin(), all.end());
       continue;
     }
     const int w = parse_width(part, option);

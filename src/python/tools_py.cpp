@@ -40,7 +40,13 @@ void check_repeat(int repeat) {
 
 // None: every width this machine runs in `precision`; else each resolved as --width is.
 std::vector<int> widths_of(const std::optional<OneOrMany<int>>& asked, Precision precision) {
-  if (!asked) return packet::supported_widths(precision);
+  if (!asked) {
+    const std::vector<int> all = packet::supported_widths(precision);
+    // None only for fast precision without packets: one error naming the cause (the cap or the
+    // CPU), not an empty list that runs nothing.
+    if (all.empty()) resolve_width(0, precision, "widths");
+    return all;
+  }
   const std::vector<int> list = many(*asked);
   if (list.empty()) throw InputError("widths: no width given");
   std::vector<int> out;

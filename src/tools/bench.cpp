@@ -57,6 +57,42 @@ bool ray_set_mode(const std::string& mode) { return mode == "ao" || mode == "dif
 // The config of lancer's ao and diffuse rows that skip the library API (rays::KernelPackets).
 constexpr const char* kKernelsConfig = "kernels, prepared frame";
 
+// The library API's packets, which the ao and diffuse rows trace through: double's width 2 has
+// none (and its float kernels, the kernels-only rows, none of double at all).
+bool api_width(int width) { return width == 1 || width == 4 || width == 8 || width == 16; }
+
+// A row the options ask for that plan_rows leaves out: why, and which rows.
+struct LeftOut {
+  std::string cause, rows;
+  bool peer = false;
+};
+
+// The ao and diffuse modes at a width the library API has no packets of, and the peer at a width
+// Embree has no packets of (with lancer's first precision, the one it runs beside). The kernel
+// mode's width 1 and double rows are not here: "packets only" is what --mode kernel means.
+std::vector<LeftOut> rows_left_out(const BenchOptions& opt, bool with_peer) {
+  std::vector<std::string> ray_modes;
+  for (const std::string& m : opt.modes)
+    if (ray_set_mode(m) && std::find(ray_modes.begin(), ray_modes.end(), m) == ray_modes.end())
+      ray_modes.push_back(m);
+  const bool both = ray_modes.size() > 1;
+  std::vector<LeftOut> out;
+  for (std::size_t k = 0; k < opt.precisions.size(); ++k)
+    for (int width : opt.widths[k]) {
+      const std::string w = std::to_string(width);
+      const std::string at = " at width " + w + " (" + to_string(opt.precisions[k]) + " precision)";
+      if (!ray_modes.empty() && !api_width(width))
+        out.push_back({"--width " + w + ": the " +
+                           (both ? "ao and diffuse modes trace" : ray_modes[0] + " mode traces") +
+                           " through the library API, whose packets are 1, 4, 8 or 16 rays",
+                       "no " + (both ? std::string("ao or diffuse") : ray_modes[0]) + " row" + at});
+      if (with_peer && k == 0 && peer::embree_widths({width}).empty())
+        out.push_back({"--peer embree: Embree's packets are 1, 4, 8 or 16 rays on this machine",
+                       "no embree row" + at, true});
+    }
+  return out;
+}
+
 // The rows: every precision, mode, width and thread count, each peer setup's rows right after
 // lancer's of the same mode, width and threads. They depend on the options only.
 void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups, const BenchOptions& opt,
@@ -77,7 +113,7 @@ void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups, const
           const bool kernel = mode == "kernel";
           if (kernel && (width == 1 || precision == Precision::dbl)) continue;
           // The library API's packets are 1, 4, 8 or 16 rays (double's width 2 has none).
-          if (ray_set_mode(mode) && width != 1 && width != 4 && width != 8 && width != 16) continue;
+          if (ray_set_mode(mode) && !api_width(width)) continue;  // rows_left_out says so
           BenchRow r;
           r.mode = mode, r.width = width, r.threads = threads;
           r.precision = to_string(precision);
@@ -354,10 +390,18 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
     plan_rows(runs[i], setups, opt, ray_kernels);
   }
   const std::size_t n_rows = runs[0].out.rows.size();
-  if (n_rows == 0)
-    throw InputError(
-        "--mode kernel: the kernel alone runs float packets (exact or fast, width 4, 8 or 16): "
-        "nothing to run");
+  const std::vector<LeftOut> left_out = rows_left_out(opt, !setups.empty());
+  if (n_rows == 0) {
+    // Every asked-for row left out: one line with each cause, rather than a table of nothing.
+    std::string why;
+    if (std::find(opt.modes.begin(), opt.modes.end(), "kernel") != opt.modes.end())
+      why = "--mode kernel: the kernel alone runs float packets (exact or fast, width 4, 8 or 16)";
+    for (const LeftOut& gap : left_out)
+      if (!gap.peer) why += (why.empty() ? "" : "; ") + gap.cause;
+    throw InputError(why + ": nothing to run");
+  }
+  if (opt.on_note)
+    for (const LeftOut& gap : left_out) opt.on_note(gap.cause + ": " + gap.rows);
 
   // lancer's scenes first, then the peer's: lancer's structure is a fraction of Embree's six,
   // and built after them (a million spheres: some GB resident) lancer's build took 2.5 times as

@@ -12,10 +12,7 @@
 #include <string>
 
 #include "lancer/lancer.hpp"
-
-#ifndef LANCER_GIT_COMMIT
-#define LANCER_GIT_COMMIT "unknown"
-#endif
+#include "lancer_git_commit.hpp"  // generated at build time (src/CMakeLists.txt)
 
 namespace lancer {
 

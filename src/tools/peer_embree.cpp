@@ -46,9 +46,17 @@ namespace {
 void check_width(int width) {
   if (width != 1 && width != 4 && width != 8 && width != 16)
     throw InputError("--peer embree: width must be 1, 4, 8 or 16, not " + std::to_string(width));
-  if (width > 1 && !packet::kernels_for(width))
+  if (width > 1 && !packet::kernels_for(width)) {
+    // LANCER_MAX_WIDTH (checked valid by kernels_for) caps the float lanes: blame it, not the
+    // CPU, when it is what leaves this width out.
+    const char* cap = std::getenv("LANCER_MAX_WIDTH");
     throw InputError("--peer embree: width " + std::to_string(width) + " needs " +
-                     packet::isa_name(width) + ", which this CPU or OS does not run");
+                     packet::isa_name(width) + ", which " +
+                     (cap && std::atoi(cap) < width
+                          ? "LANCER_MAX_WIDTH=" + std::string(cap) + " leaves out (it caps the " +
+                                "packets at " + cap + " float lanes)"
+                          : std::string("this CPU or OS does not run")));
+  }
 }
 }  // namespace
 

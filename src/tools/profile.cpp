@@ -1,6 +1,8 @@
 #include "lancer/profile.hpp"
 
 #include <chrono>
+#include <cstdlib>
+#include <string>
 
 #include "lancer/cycles.hpp"
 #include "lancer/error.hpp"
@@ -20,8 +22,17 @@ const char* stage_name(int stage) {
 ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   ProfileResult res;
   res.width = resolve_width(width, Precision::exact);
-  if (res.width == 1)
-    throw InputError("--width: profile instruments the packet kernels: width 4, 8 or 16");
+  if (res.width == 1) {
+    std::string why = "width 4, 8 or 16";
+    // Width auto fell back to 1: no packet width runs here, and the cause is not the user's.
+    if (width == 0) {
+      const char* cap = std::getenv("LANCER_MAX_WIDTH");
+      why += cap && std::atoi(cap) < 4
+                 ? std::string(", which LANCER_MAX_WIDTH=") + cap + " leaves out"
+                 : std::string(", which this CPU or OS does not run");
+    }
+    throw InputError("--width: profile instruments the packet kernels: " + why);
+  }
   const packet::KernelTable<float>* k = packet::profiled_kernels(res.width);
   LANCER_CHECK(k != nullptr);
   res.isa = k->isa;
