@@ -95,8 +95,8 @@ std::vector<LeftOut> rows_left_out(const BenchOptions& opt, bool with_peer) {
 
 // The rows: every precision, mode, width and thread count, each peer setup's rows right after
 // lancer's of the same mode, width and threads. They depend on the options only.
-void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups, const BenchOptions& opt,
-               bool ray_kernels) {
+void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups,
+               const BenchOptions& opt) {
   std::vector<BenchRow>& rows = s.out.rows;
   bool peer_rows_added = false;
   for (std::size_t k = 0; k < opt.precisions.size(); ++k) {
@@ -122,7 +122,7 @@ void plan_rows(SceneRun& s, const std::vector<peer::EmbreeConfig>& setups, const
           s.row_precision.push_back(precision);
           s.row_setup.push_back(-1);
           // The same rays straight into the float packet kernels, beside the API's row.
-          if (ray_set_mode(mode) && ray_kernels && width > 1 && precision != Precision::dbl) {
+          if (ray_set_mode(mode) && width > 1 && precision != Precision::dbl) {
             r.config = kKernelsConfig;
             rows.push_back(r);
             s.row_precision.push_back(precision);
@@ -382,12 +382,9 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
     throw std::logic_error("run_bench: one list of widths per precision");
   if (scenes.empty()) throw std::logic_error("run_bench: no scene");
   std::vector<SceneRun> runs(scenes.size());
-  // The ao and diffuse modes' kernel rows need float packets: none when a scene has shapes.
-  const bool ray_kernels =
-      std::none_of(scenes.begin(), scenes.end(), [](const Scene* s) { return !s->shapes.empty(); });
   for (std::size_t i = 0; i < scenes.size(); ++i) {
     runs[i].scene = scenes[i];
-    plan_rows(runs[i], setups, opt, ray_kernels);
+    plan_rows(runs[i], setups, opt);
   }
   const std::size_t n_rows = runs[0].out.rows.size();
   const std::vector<LeftOut> left_out = rows_left_out(opt, !setups.empty());
