@@ -197,7 +197,18 @@ TEST(Prims, CliRunsShapesOnThePackets) {
   EXPECT_EQ(j["shapes"]["triangles"], 12);
   EXPECT_EQ(j["shapes"]["primitives"], 12);
   EXPECT_EQ(j["kinds"], "triangles");  // the kinds the kernels test: the cube's flat triangles
+  EXPECT_EQ(j["kernels_built_for"], "every kind (spheres, planes, triangles, meshes, cylinders)");
   std::filesystem::remove(out);
+  // Without shapes, the kernels compiled for spheres and planes alone; the reference at width 1.
+  const std::string course = testing::source_path("scenes/lorenzi-reflections.json");
+  for (const char* width : {"", " --width 1"}) {
+    r = testing::run_command(testing::cli() + " render " + course + width + " --json -o " + out +
+                             " 2>/dev/null");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["kernels_built_for"],
+              *width ? "every kind (the reference)" : "spheres and planes alone");
+    std::filesystem::remove(out);
+  }
   r = testing::run_command(testing::cli() + " render " + dir.file("s.json") + " --width 4 -o " +
                            out);
   EXPECT_EQ(r.status, 0) << r.out;

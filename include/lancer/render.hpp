@@ -39,6 +39,9 @@ struct StructureInfo {
   // The primitive kinds the kernels test for this scene, in id order ("spheres, planes,
   // triangles (smooth normals), cylinders"): a kind the scene lacks runs none of its code.
   std::string kinds;
+  // The kinds the kernels that ran were compiled for (packet::KernelTable::kinds): spheres and
+  // planes alone for a scene without triangles, meshes or cylinders, else every kind.
+  std::string built_for;
 };
 // One line for both: "closest hits one ray at a time; shadow rays packets, one ray alone at 1
 // lane" (each "packets", "one ray at a time" or "packets, one ray alone at N lanes or fewer").

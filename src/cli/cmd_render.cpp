@@ -47,7 +47,8 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
           : "";
   std::printf("  engine   width %d (%s), %s precision, %d thread%s%s\n", r.width, r.isa.c_str(),
               to_string(r.precision), r.threads, r.threads > 1 ? "s" : "", capped.c_str());
-  std::printf("  kinds    %s: the kernels test these and no other\n", r.structure.kinds.c_str());
+  std::printf("  kinds    %s; the kernels are built for %s\n", r.structure.kinds.c_str(),
+              r.structure.built_for.c_str());
   if (!scene.shapes.empty()) {
     std::size_t meshes = 0, cylinders = 0, dropped = 0;
     for (const Shape& sh : scene.shapes) {
@@ -138,6 +139,7 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                 {"gather_bytes", ranks->gather_bytes}};
   }
   j["kinds"] = r.structure.kinds;
+  j["kernels_built_for"] = r.structure.built_for;
   if (!scene.shapes.empty()) {
     std::size_t meshes = 0, cylinders = 0, dropped = 0;
     for (const Shape& sh : scene.shapes) {

@@ -60,13 +60,14 @@ const packet::OneRayTable<T>* one_ray_of() {
     return packet::one_ray_float();
 }
 
+// The kernels of a width built for the prepared scene's kinds.
 template <class T>
-const packet::KernelTable<T>* kernels_of(int width, Precision p) {
+const packet::KernelTable<T>* kernels_of(const PreparedScene<T>& s, int width, Precision p) {
   if (width == 1) return nullptr;  // the reference
   if constexpr (std::is_same_v<T, double>)
-    return packet::double_kernels(width);
+    return packet::double_kernels(width, s.features.shapes);
   else
-    return packet::float_kernels(width, p);
+    return packet::float_kernels(width, p, s.features.shapes);
 }
 
 constexpr int kQueryWidths[] = {1, 4, 8, 16};
@@ -477,9 +478,9 @@ void choose_widths(Engine<T>& e, const Info& info) {
         break;
       }
     e.query_width[query_slot(n)] = w;
-    e.query[query_slot(n)] = kernels_of<T>(w, info.precision);
+    e.query[query_slot(n)] = kernels_of<T>(e.scene, w, info.precision);
   }
-  e.render = kernels_of<T>(info.width, info.precision);
+  e.render = kernels_of<T>(e.scene, info.width, info.precision);
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1;
   // scenes with triangles, meshes or cylinders run there too). Fast mode has no lone lanes.
   if (info.width > 1 && info.precision != Precision::fast && !e.scene.shapes)

@@ -116,8 +116,10 @@ const OneRayTable<Real>* one_ray_for() {
 const OneRayTable<float>* one_ray_float() { return one_ray_for<float>(); }
 const OneRayTable<double>* one_ray_double() { return one_ray_for<double>(); }
 
-const KernelTable<float>* float_kernels(int width, Precision precision) {
-  if (precision == Precision::exact) return table_for<float, ExactMode>(width);
+const KernelTable<float>* float_kernels(int width, Precision precision, bool shapes) {
+  if (precision == Precision::exact)
+    return shapes ? table_for<float, ExactMode>(width)
+                  : table_for<float, SpheresAndPlanes<ExactMode>>(width);
   if (precision != Precision::fast) return nullptr;
   Isa isa;
   if (!runnable(width, false, isa)) return nullptr;
@@ -140,7 +142,10 @@ const KernelTable<float>* profiled_kernels(int width) {
   return table_for<float, ProfiledMode>(width);
 }
 
-const KernelTable<double>* double_kernels(int width) { return table_for<double, ExactMode>(width); }
+const KernelTable<double>* double_kernels(int width, bool shapes) {
+  return shapes ? table_for<double, ExactMode>(width)
+                : table_for<double, SpheresAndPlanes<ExactMode>>(width);
+}
 
 std::vector<int> supported_widths(Precision precision) {
   std::vector<int> w;

@@ -267,11 +267,12 @@ struct Rows {
   }
 };
 
-Rows<float> float_rows(int width, Precision p) {
-  return {width == 1 ? nullptr : packet::float_kernels(width, p)};
+// The kernels built for the prepared scene's kinds (packet/api.hpp float_kernels' `shapes`).
+Rows<float> float_rows(const PreparedScene<float>& s, int width, Precision p) {
+  return {width == 1 ? nullptr : packet::float_kernels(width, p, s.features.shapes)};
 }
-Rows<double> double_rows(int width) {
-  return {width == 1 ? nullptr : packet::double_kernels(width)};
+Rows<double> double_rows(const PreparedScene<double>& s, int width) {
+  return {width == 1 ? nullptr : packet::double_kernels(width, s.features.shapes)};
 }
 
 template <class Fn>
@@ -345,10 +346,10 @@ SampleOff measure_sample(const Scene& scene, int threads,
   {
     // One precision prepared at a time: the peak memory of a double render, not of both.
     const PreparedScene<double> d = prepare<double>(scene);
-    render_sample(d, double_rows(sample_width(scene, Precision::dbl)), dbl, threads);
+    render_sample(d, double_rows(d, sample_width(scene, Precision::dbl)), dbl, threads);
   }
   auto f = std::make_unique<PreparedScene<float>>(prepare<float>(scene));
-  render_sample(*f, float_rows(sample_width(scene, Precision::exact), Precision::exact), flt,
+  render_sample(*f, float_rows(*f, sample_width(scene, Precision::exact), Precision::exact), flt,
                 threads);
   if (keep) *keep = std::move(f);
   SampleOff s;
@@ -516,6 +517,7 @@ void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   res.threads = resolve_threads(threads);
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
+    res.structure.built_for = rows.kernels ? rows.kernels->kinds : "every kind (the reference)";
     // Only exact float packets read it: the reference walks one ray anyway; fast and double
     // packets stay packets.
     const bool packets = st.precision == Precision::exact && res.width > 1;
@@ -527,9 +529,9 @@ void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
     });
   };
   if (st.d)
-    run(*st.d, double_rows(res.width));
+    run(*st.d, double_rows(*st.d, res.width));
   else
-    run(*st.f, float_rows(res.width, st.precision));
+    run(*st.f, float_rows(*st.f, res.width, st.precision));
 }
 
 RenderResult PreparedRun::render(int width, int threads) const {

@@ -28,11 +28,11 @@ RowEngine::RowEngine(const Scene& scene, Precision precision, int width)
   s.isa = packet::isa_name(width, precision);
   if (precision == Precision::dbl) {
     s.d = prepare<double>(scene);
-    if (width != 1) s.dk = packet::double_kernels(width);
+    if (width != 1) s.dk = packet::double_kernels(width, s.d.features.shapes);
     LANCER_CHECK(width == 1 || s.dk);
   } else {
     s.f = prepare<float>(scene);
-    if (width != 1) s.fk = packet::float_kernels(width, precision);
+    if (width != 1) s.fk = packet::float_kernels(width, precision, s.f.features.shapes);
     LANCER_CHECK(width == 1 || s.fk);
   }
 }

@@ -29,7 +29,7 @@ PrimaryKernelRun::PrimaryKernelRun(const Scene& scene, const RenderOptions& opt)
   if (width == 1) throw InputError("--width: the kernel alone runs packets: 4, 8 or 16, not 1");
   State& st = *state_;
   st.scene = prepare_for<float>(scene, opt);
-  st.kernels = packet::float_kernels(width, opt.precision);
+  st.kernels = packet::float_kernels(width, opt.precision, st.scene.features.shapes);
   st.threads = resolve_threads(opt.threads);
   const int ny = scene.camera.ny;
   const std::size_t packets = st.kernels->camera_packet_count(st.scene, 0, ny);

@@ -69,7 +69,9 @@ struct KernelPackets::Impl {
 KernelPackets::KernelPackets(std::shared_ptr<const Prepared> scene, const RaySet& set, int width)
     : impl_(std::make_unique<Impl>()) {
   Impl& im = *impl_;
-  im.kernels = width > 1 ? packet::float_kernels(width, scene->precision) : nullptr;
+  im.kernels = width > 1
+                   ? packet::float_kernels(width, scene->precision, scene->scene.features.shapes)
+                   : nullptr;
   if (!im.kernels)
     throw InputError("ray set kernels: no float kernel of width " + std::to_string(width) +
                      " on this machine");

@@ -22,6 +22,22 @@ struct ExactMode {};
 struct FastMode {};
 // Exact arithmetic plus per-stage timing and counters (lancer profile); never used to render.
 struct ProfiledMode {};
+// A mode's kernels built for spheres and planes alone: the same arithmetic, without the
+// triangle, mesh and cylinder module, so that a scene without them runs the code it ran before
+// that module existed. Chosen per scene (float_kernels' `shapes`).
+template <class Mode>
+struct SpheresAndPlanes {};
+// A mode's arithmetic (ExactMode, FastMode or ProfiledMode) and whether its kernels model shapes.
+template <class Mode>
+struct ModeTraits {
+  using Arithmetic = Mode;
+  static constexpr bool kShapes = true;
+};
+template <class Mode>
+struct ModeTraits<SpheresAndPlanes<Mode>> {
+  using Arithmetic = Mode;
+  static constexpr bool kShapes = false;
+};
 
 // Where a packet's hit fields go (lancer.hpp's HitPacket, from some lane on): one array each.
 struct HitLanes {
@@ -36,8 +52,9 @@ struct HitLanes {
 // One kernel instantiation's entry points.
 template <class Real>
 struct KernelTable {
-  int width;        // lanes of Real per packet
-  const char* isa;  // "sse4.2", "avx2", "avx512f" (fast AVX2 reports "fma3<avx2>")
+  int width;          // lanes of Real per packet
+  const char* isa;    // "sse4.2", "avx2", "avx512f" (fast AVX2 reports "fma3<avx2>")
+  const char* kinds;  // what it was compiled for: "spheres and planes alone" or every kind
   // Whole render of rows [row_begin, row_end); in exact mode bit-identical to
   // reference::render_rows.
   void (*render_rows)(const PreparedScene<Real>&, Image&, int row_begin, int row_end, RayCounts&);
@@ -103,8 +120,10 @@ const KernelTable<Real>* table();
 
 // The kernels of a precision (exact, dbl or fast) at a width in lanes, if this CPU and OS run
 // them, else nullptr. Float widths are 4, 8, 16; double widths 2, 4, 8.
-const KernelTable<float>* float_kernels(int width, Precision precision);
-const KernelTable<double>* double_kernels(int width);
+// `shapes` false: the exact kernels built for spheres and planes alone (SpheresAndPlanes), for
+// scenes without triangles, meshes or cylinders (a scene with them needs `shapes` true).
+const KernelTable<float>* float_kernels(int width, Precision precision, bool shapes = true);
+const KernelTable<double>* double_kernels(int width, bool shapes = true);
 
 // Profiled exact float kernels, for lancer profile.
 const KernelTable<float>* profiled_kernels(int width);

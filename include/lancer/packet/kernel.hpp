@@ -145,6 +145,10 @@ const KernelTable<Real>* table() {
   using K = Kernel<Arch, Real, Mode>;
   static const KernelTable<Real> t{K::W,
                                    Arch::name(),
+                                   ModeTraits<Mode>::kShapes
+                                       ? "every kind (spheres, planes, triangles, meshes, "
+                                         "cylinders)"
+                                       : "spheres and planes alone",
                                    &K::render_rows,
                                    &K::primary_rows,
                                    &K::camera_packet_count,

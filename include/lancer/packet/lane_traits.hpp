@@ -33,13 +33,14 @@ struct Lanes {
   using I = xsimd::batch<Id, Arch>;
   using MI = xsimd::batch_bool<Id, Arch>;
   using Tr = Traversal<Arch, T>;
-  static constexpr bool kFast = std::is_same_v<Mode, FastMode>;
-  static constexpr bool kProfile = std::is_same_v<Mode, ProfiledMode>;
+  using Arithmetic = typename ModeTraits<Mode>::Arithmetic;
+  static constexpr bool kFast = std::is_same_v<Arithmetic, FastMode>;
+  static constexpr bool kProfile = std::is_same_v<Arithmetic, ProfiledMode>;
   using Mth = std::conditional_t<kFast, FastMath<Arch>, ExactMath>;
   static constexpr int W = static_cast<int>(B::size);
   using Prepared = PreparedScene<T>;
   static_assert(W <= kMaxLanes, "camera tables are padded for kMaxLanes lanes");
-  static_assert(std::is_same_v<Mode, ExactMode> || std::is_same_v<T, float>,
+  static_assert(std::is_same_v<Arithmetic, ExactMode> || std::is_same_v<T, float>,
                 "fast and profiled modes are for float");
 
   // Packets of kTileW x kTileH pixels (16: 4x4, 8: 4x2, 4: 2x2, 2: 2x1), lane k at column

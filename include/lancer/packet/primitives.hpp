@@ -11,6 +11,8 @@
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
+#include <type_traits>
+
 #include "lancer/packet/prim/plane.hpp"
 #include "lancer/packet/prim/shapes.hpp"
 #include "lancer/packet/prim/sphere.hpp"
@@ -27,17 +29,42 @@ struct KindList {
   }
 };
 
+// Kernels built without the shapes (SpheresAndPlanes<Mode>): no hit carries a primitive number
+// and every shading normal is the geometric one, known when the kernel is compiled.
+template <class Arch, class Real, class Mode>
+struct NoMeshes {
+  using L = Lanes<Arch, Real, Mode>;
+  static constexpr bool present(const typename L::Prepared&) noexcept { return false; }
+  static constexpr bool smooth(const typename L::Prepared&) noexcept { return false; }
+  static int first_id(const typename L::Prepared& s) noexcept {
+    return s.num_spheres + s.num_planes;
+  }
+  template <class Id>
+  static Id object_of(const typename L::Prepared&, const Id& hit_id) noexcept {
+    return hit_id;
+  }
+  static typename L::V shading_normal(const typename L::Prepared&, const typename L::M&,
+                                      const typename L::I&, const typename L::V&,
+                                      const typename L::V&, const typename L::V& n) noexcept {
+    return n;
+  }
+};
+
 template <class Arch, class Real, class Mode>
 struct Primitives {
-  using Bounded = SpherePackets<Arch, Real, Mode>;  // the hierarchy's leaves
+  static constexpr bool kShapes = ModeTraits<Mode>::kShapes;
+  using Spheres = SpherePackets<Arch, Real, Mode>;
+  using Planes = PlanePackets<Arch, Real, Mode>;
+  using Shapes = ShapePackets<Arch, Real, Mode>;
+  using Bounded = Spheres;  // the hierarchy's leaves
   // Triangles, meshes and cylinders: bounded, in a hierarchy of their own walked after the
   // planes (their ids are higher), so listed with the unbounded kinds.
-  using Unbounded = KindList<PlanePackets<Arch, Real, Mode>, ShapePackets<Arch, Real, Mode>>;
-  using All = KindList<SpherePackets<Arch, Real, Mode>, PlanePackets<Arch, Real, Mode>,
-                       ShapePackets<Arch, Real, Mode>>;
+  using Unbounded = std::conditional_t<kShapes, KindList<Planes, Shapes>, KindList<Planes>>;
+  using All =
+      std::conditional_t<kShapes, KindList<Spheres, Planes, Shapes>, KindList<Spheres, Planes>>;
   // The kind whose hits carry primitive numbers in their ids (object_of) and whose shading
   // normal may differ from the geometric one (smooth meshes).
-  using Meshes = ShapePackets<Arch, Real, Mode>;
+  using Meshes = std::conditional_t<kShapes, Shapes, NoMeshes<Arch, Real, Mode>>;
 };
 
 // The kind a KindList::each visit names.

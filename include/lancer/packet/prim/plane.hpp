@@ -77,8 +77,10 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
                                              const B& magnitude, V& p, V& n, B& delta) noexcept {
     const int first = first_id(s);
     const int np = s.num_planes;
-    // Clamped into the planes: lanes of later kinds read plane np - 1 (and are overwritten).
-    const I pid = xsimd::min(xsimd::max(id - I(Id(first)), I(0)), I(Id(np - 1)));
+    // Clamped into the planes: lanes of later kinds (shapes) read plane np - 1 (and are
+    // overwritten); kernels built without shapes have none.
+    I pid = xsimd::max(id - I(Id(first)), I(0));
+    if constexpr (ModeTraits<Mode>::kShapes) pid = xsimd::min(pid, I(Id(np - 1)));
     const V pn{gather(s.planes.nx, pid, np), gather(s.planes.ny, pid, np),
                gather(s.planes.nz, pid, np)};
     n = first > 0 ? select3(to_m(best_id < I(Id(first))), n, pn) : pn;
