@@ -33,7 +33,29 @@ void children(const Bvh<float>& h, std::int32_t i, std::vector<Slot>& out) {
 // The 8-wide node standing for 4-wide node i (and its subtree), appended to `out`: its children,
 // then, while they fit in eight, the inner child of largest surface replaced by its own
 // children (the usual collapse of a binary or 4-wide tree into a wider one). Returns its index.
-std::int32_t collapse(const Bvh<float>& h, std::int32_t i, std::vector<OneRayNode8>& out) {
+// The leaf of `count` spheres from leaf-order index `first` as blocks of eight appended to
+// one.leaves8 (ids in one.ids8); returns its first block.
+std::int32_t leaf_blocks(const Bvh<float>& h, std::int32_t first, std::int32_t count,
+                         OneRayScene<float>& one) {
+  const std::int32_t at = std::int32_t(one.leaves8.size());
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::int32_t b = 0; b < count; b += 8) {
+    OneRayLeaf8 l;
+    for (int q = 0; q < 8; ++q) {
+      const std::int32_t j = first + b + q;
+      const bool used = b + q < count;
+      const std::size_t u = std::size_t(j);
+      l.cx[q] = used ? h.cx[u] : nan, l.cy[q] = used ? h.cy[u] : nan;
+      l.cz[q] = used ? h.cz[u] : nan, l.r2[q] = used ? h.r2[u] : nan;
+      one.ids8.push_back(used ? h.id[u] : -1);
+    }
+    one.leaves8.push_back(l);
+  }
+  return at;
+}
+
+std::int32_t collapse(const Bvh<float>& h, std::int32_t i, OneRayScene<float>& one) {
+  std::vector<OneRayNode8>& out = one.nodes8;
   std::vector<Slot> slots;
   children(h, i, slots);
   for (;;) {
@@ -64,12 +86,12 @@ std::int32_t collapse(const Bvh<float>& h, std::int32_t i, std::vector<OneRayNod
     n.lo_x[k] = s.lo[0], n.lo_y[k] = s.lo[1], n.lo_z[k] = s.lo[2];
     n.hi_x[k] = s.hi[0], n.hi_y[k] = s.hi[1], n.hi_z[k] = s.hi[2];
     n.count[k] = s.count < 0 ? -1 : s.count;
-    n.child[k] = s.child;
+    n.child[k] = s.count < 0 ? s.child : leaf_blocks(h, s.child, s.count, one);
   }
   // Inner children after the node itself is written (the recursion grows `out`).
   for (int k = 0; k < int(slots.size()); ++k)
     if (slots[std::size_t(k)].count < 0) {
-      const std::int32_t c = collapse(h, slots[std::size_t(k)].child, out);
+      const std::int32_t c = collapse(h, slots[std::size_t(k)].child, one);
       out[std::size_t(at)].child[k] = c;
     }
   return at;
@@ -80,7 +102,7 @@ std::int32_t collapse(const Bvh<float>& h, std::int32_t i, std::vector<OneRayNod
 OneRayScene<float> one_ray_scene(const Bvh<float>& h) {
   OneRayScene<float> s;
   s.spheres = one_ray_spheres(h);
-  if (h.active()) collapse(h, 0, s.nodes8);
+  if (h.active()) collapse(h, 0, s);
   return s;
 }
 

@@ -151,8 +151,9 @@ struct OneRayKernel {
     }
     return r;
   }
-  template <bool kPadded, class Leaf>
-  static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf) noexcept {
+  template <bool kPadded, class Leaf, class Prefetch>
+  static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf,
+                    Prefetch&& prefetch_leaf) noexcept {
     struct Entry {
       std::int32_t child, count;
       float tnear;
@@ -188,11 +189,13 @@ struct OneRayKernel {
           for (; met; met &= met - 1) {  // insertion: the nearest on top
             const int k = __builtin_ctz(met);
             const Entry x{n.child[k], n.count[k], dist[k]};
-            // A node the walk may come back to: its lines on their way meanwhile.
+            // A node or leaf the walk may come back to: its lines on their way meanwhile.
             if (x.count < 0) {
               const char* p = reinterpret_cast<const char*>(nodes + x.child);
               for (int line = 0; line < int(sizeof(OneRayNode8)); line += 64)
                 _mm_prefetch(p + line, _MM_HINT_T0);
+            } else {
+              prefetch_leaf(x.child, x.count);
             }
             int q = sp++;
             for (; q > bottom && stack[q - 1].tnear < x.tnear; --q) stack[q] = stack[q - 1];
@@ -302,8 +305,43 @@ struct OneRayKernel {
     return false;
   }
 
+  // An object id read only when asked: a closest-hit walk needs a met sphere's id only where
+  // it ties the best t, or for the final hit, and the ids' line is then often not loaded.
+  struct LazyId {
+    const std::int32_t* at;
+    operator std::int32_t() const noexcept { return *at; }
+  };
+
+  // A float leaf's blocks (OneRayLeaf8) from `block`, eight spheres in one ymm each, as
+  // spheres() tests four: hit(LazyId, t) for each sphere met at eps < t <= tmax.
+  using B8 = xsimd::batch<float, xsimd::avx2>;
+  template <class Hit>
+  static bool leaf8(const OneRayScene<float>& one, std::int32_t block, std::int32_t count,
+                    const Vec3<B8>& o, const Vec3<B8>& d, const B8& eps, const float& tmax,
+                    Hit&& hit) noexcept {
+    for (; count > 0; ++block, count -= 8) {
+      const OneRayLeaf8& l = one.leaves8[std::size_t(block)];
+      const B8 r2 = B8::load_aligned(l.r2);
+      const Vec3<B8> f =
+          o - Vec3<B8>{B8::load_aligned(l.cx), B8::load_aligned(l.cy), B8::load_aligned(l.cz)};
+      const SphereDisc<B8> sd = sphere_disc(f, d, r2);
+      // Unused lanes: NaN centres, a NaN discriminant.
+      const B8 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = lane_bits((sd.disc >= B8(0.0f)) & (t > eps) & (t <= B8(tmax)));
+      if (!met) continue;
+      alignas(32) float tt[8];
+      t.store_aligned(tt);
+      for (; met; met &= met - 1) {
+        const int q = __builtin_ctz(met);
+        if (hit(LazyId{&one.ids8[8 * std::size_t(block) + std::size_t(q)]}, tt[q])) return true;
+      }
+    }
+    return false;
+  }
+
   // Over the hierarchy, or every sphere in id order where there is none or the ray starts
-  // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin.
+  // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin (id an
+  // std::int32_t or a LazyId).
   template <class Hit>
   static bool all_spheres(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o,
                           const T* d, T tmin, const T& tmax, Hit&& hit) noexcept {
@@ -318,18 +356,28 @@ struct OneRayKernel {
       return spheres(sp, 0, s.num_spheres, ov, dv, eps, tmax,
                      [&](int j, T t) { return hit(j, t); });
     }
+    if constexpr (std::is_same_v<T, float>) {
+      if (!one.nodes8.empty()) {
+        const Vec3<B8> o8{B8(o[0]), B8(o[1]), B8(o[2])}, d8{B8(d[0]), B8(d[1]), B8(d[2])};
+        const B8 eps8(tmin);
+        auto leaf = [&](std::int32_t block, std::int32_t count) {
+          return leaf8(one, block, count, o8, d8, eps8, tmax, hit);
+        };
+        const bool padded = m > h.origin_limit;
+        auto prefetch = [&](std::int32_t block, std::int32_t count) {
+          const char* p = reinterpret_cast<const char*>(one.leaves8.data() + block);
+          for (int line = 0; line < int(sizeof(OneRayLeaf8)) * ((count + 7) / 8); line += 64)
+            _mm_prefetch(p + line, _MM_HINT_T0);
+        };
+        const Slab8 r = slab8(o, d, padded);
+        return padded ? walk8<true>(one.nodes8.data(), r, tmax, leaf, prefetch)
+                      : walk8<false>(one.nodes8.data(), r, tmax, leaf, prefetch);
+      }
+    }
     auto leaf = [&](std::int32_t first, std::int32_t count) {
       return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
                           [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
     };
-    if constexpr (std::is_same_v<T, float>) {
-      if (!one.nodes8.empty()) {
-        const bool padded = m > h.origin_limit;
-        const Slab8 r = slab8(o, d, padded);
-        return padded ? walk8<true>(one.nodes8.data(), r, tmax, leaf)
-                      : walk8<false>(one.nodes8.data(), r, tmax, leaf);
-      }
-    }
     const Slab r = slab(h, o, d);
     return r.padded ? walk<true>(h, r, tmax, leaf) : walk<false>(h, r, tmax, leaf);
   }
@@ -361,10 +409,18 @@ struct OneRayKernel {
       if (t < best_t) best_t = t, best_id = id;
       return false;
     });
-    all_spheres(s, one, o, d, tmin, best_t, [&](std::int32_t id, T t) {
-      if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
+    const std::int32_t* best_at = nullptr;  // where best_id is, once a LazyId is the best
+    all_spheres(s, one, o, d, tmin, best_t, [&](auto id, T t) {
+      if (t < best_t || (t == best_t && std::int32_t(id) < (best_at ? *best_at : best_id))) {
+        best_t = t;
+        if constexpr (std::is_same_v<decltype(id), LazyId>)
+          best_at = id.at;
+        else
+          best_id = id, best_at = nullptr;
+      }
       return false;
     });
+    if (best_at) best_id = *best_at;
     if (best_id < 0) return false;
     t_out = best_t, id_out = best_id;
     return true;
@@ -372,7 +428,7 @@ struct OneRayKernel {
 
   static bool occluded(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
                        T tmin, T tfar) noexcept {
-    auto before = [&](std::int32_t, T t) { return t < tfar; };
+    auto before = [&](auto, T t) { return t < tfar; };
     // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
     return planes(s, o, d, tmin, before) || all_spheres(s, one, o, d, tmin, tfar, before);
   }

@@ -14,19 +14,30 @@ namespace lancer::packet {
 
 // An 8-wide node for float rays, the 4-wide hierarchy's nodes collapsed (one_ray_scene): its
 // children's boxes (those of the 4-wide nodes, padded alike) structure-of-arrays, eight in one
-// ymm per plane. Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres from
-// leaf-order index child[k]. Unused slots have empty boxes (lo +inf, hi -inf): never met.
+// ymm per plane. Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres
+// (OneRayScene::leaves8 from block child[k]). Unused slots have empty boxes (lo +inf, hi -inf):
+// never met.
 struct alignas(64) OneRayNode8 {
   float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
   std::int32_t child[8], count[8];
 };
 
+// A float leaf's spheres (up to eight; a larger leaf takes consecutive blocks), structure of
+// arrays, eight in one ymm per field: one test for the leaf, no transposes. Unused lanes have NaN
+// centres (never met). Their object ids: OneRayScene::ids8[8 * block + lane].
+struct alignas(64) OneRayLeaf8 {
+  float cx[8], cy[8], cz[8], r2[8];
+};
+
 // What the one-ray kernels read beside the prepared scene: the spheres as rows (below) and,
-// for float, the 8-wide nodes (nodes8[0] the root; empty without a hierarchy).
+// for float, the 8-wide nodes (nodes8[0] the root; empty without a hierarchy), whose leaf slots
+// name blocks of leaves8 (child[k] the first block, count[k] the spheres).
 template <class Real>
 struct OneRayScene {
   std::vector<Real> spheres;
   std::vector<OneRayNode8> nodes8;
+  std::vector<OneRayLeaf8> leaves8;
+  std::vector<std::int32_t> ids8;
 };
 OneRayScene<float> one_ray_scene(const Bvh<float>& h);
 OneRayScene<double> one_ray_scene(const Bvh<double>& h);
