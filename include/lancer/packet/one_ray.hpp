@@ -151,7 +151,7 @@ struct OneRayKernel {
     }
     return r;
   }
-  template <bool kPadded, class Leaf, class LeafAt>
+  template <bool kPadded, bool kSort, class Leaf, class LeafAt>
   static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf,
                     LeafAt&& leaf_at) noexcept {
     struct Entry {
@@ -194,7 +194,8 @@ struct OneRayKernel {
             const unsigned farther =
                 unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_GT_OQ)));
             const unsigned same = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_EQ_OQ)));
-            const int rank = __builtin_popcount(met & (farther | (same & ((1u << k) - 1u))));
+            const unsigned below = (1u << k) - 1u;
+            const int rank = __builtin_popcount(met & (kSort ? farther | (same & below) : below));
             Entry& x = stack[sp + rank];
             x.child = n.child[k], x.count = n.count[k], x.tnear = dist[k];
             // A node or leaf the walk may come back to: its lines on their way meanwhile (a
@@ -347,8 +348,9 @@ struct OneRayKernel {
 
   // Over the hierarchy, or every sphere in id order where there is none or the ray starts
   // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin (id an
-  // std::int32_t or a LazyId).
-  template <class Hit>
+  // std::int32_t or a LazyId). kAny (occlusion): any hit stops the walk, whose met children are
+  // then taken in slot order, unsorted (as Embree's any-hit traversal).
+  template <bool kAny = false, class Hit>
   static bool all_spheres(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o,
                           const T* d, T tmin, const T& tmax, Hit&& hit) noexcept {
     const T* aos = one.spheres.data();
@@ -375,8 +377,8 @@ struct OneRayKernel {
           return reinterpret_cast<const char*>(one.leaves8.data() + block);
         };
         const Slab8 r = slab8(o, d, padded);
-        return padded ? walk8<true>(one.nodes8.data(), r, tmax, leaf, prefetch)
-                      : walk8<false>(one.nodes8.data(), r, tmax, leaf, prefetch);
+        return padded ? walk8<true, !kAny>(one.nodes8.data(), r, tmax, leaf, prefetch)
+                      : walk8<false, !kAny>(one.nodes8.data(), r, tmax, leaf, prefetch);
       }
     }
     auto leaf = [&](std::int32_t first, std::int32_t count) {
@@ -418,9 +420,15 @@ struct OneRayKernel {
     all_spheres(s, one, o, d, tmin, best_t, [&](auto id, T t) {
       if (t < best_t || (t == best_t && std::int32_t(id) < (best_at ? *best_at : best_id))) {
         best_t = t;
-        if constexpr (std::is_same_v<decltype(id), LazyId>)
+        if constexpr (std::is_same_v<decltype(id), LazyId>) {
           best_at = id.at;
-        else
+          // The caller's normal reads the sphere by id next: its lines on their way while
+          // the walk goes on (out of its path: nothing waits on this load).
+          const std::size_t j = std::size_t(*id.at);
+          for (const T* a :
+               {s.spheres.cx.data(), s.spheres.cy.data(), s.spheres.cz.data(), s.spheres.r2.data()})
+            _mm_prefetch(reinterpret_cast<const char*>(a + j), _MM_HINT_T0);
+        } else
           best_id = id, best_at = nullptr;
       }
       return false;
@@ -435,7 +443,7 @@ struct OneRayKernel {
                        T tmin, T tfar) noexcept {
     auto before = [&](auto, T t) { return t < tfar; };
     // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
-    return planes(s, o, d, tmin, before) || all_spheres(s, one, o, d, tmin, tfar, before);
+    return planes(s, o, d, tmin, before) || all_spheres<true>(s, one, o, d, tmin, tfar, before);
   }
 };
 
