@@ -1,15 +1,16 @@
 // The one-ray kernels (one_ray_api.hpp): a single ray's closest hit and occlusion over the
 // sphere hierarchy and the planes, for the library API's one-ray queries. Kept apart from the
 // reference (traverse.hpp, reference.cpp), which stays the definition and which they equal bit
-// for bit. As Embree's single-ray BVH traversal: a wide node's children tested against the ray
-// in one SIMD operation per plane (float: the 4-wide hierarchy collapsed into 8-wide nodes, one
-// ymm; double: the 4-wide nodes, one ymm), the met ones visited nearest entry first, a popped
-// subtree culled where it starts beyond the best t; a leaf's spheres four at a time with the
-// reference's sphere formulas (formulas.hpp). The closest hit keeps the lexicographic minimum
-// of (t, object id), so the visiting order cannot change it; occlusion stops at the first
-// object met within (tmin, tfar). The boxes are the hierarchy's, padded for the sphere test's
-// rounding and, beyond origin_limit, for the origin's, as the reference pads them. Include only
-// from src/isa/one_ray_*.cpp.
+// for bit. As Embree's single-ray BVH8 traversal: the 4-wide hierarchy collapsed into 8-wide
+// float nodes (one_ray_scene), a node's eight children tested against the ray in one ymm per
+// plane, the met ones visited nearest entry first (occlusion: in slot order), a popped subtree
+// culled where it starts beyond the best t; a leaf's spheres with the reference's sphere formulas
+// (formulas.hpp), float's eight in one ymm, double's four at a time. The closest hit keeps the
+// lexicographic minimum of (t, object id), so the visiting order cannot change it; occlusion
+// stops at the first object met within (tmin, tfar). The boxes are the hierarchy's, padded for
+// the sphere test's rounding and, beyond origin_limit, for the origin's, as the reference pads
+// them (double's rounded outward to float and padded for the float slab test, one_ray_scene.cpp).
+// Include only from src/isa/one_ray_*.cpp.
 #pragma once
 
 #include <algorithm>
@@ -28,108 +29,22 @@
 
 namespace lancer::packet {
 
-// Arch names the translation unit (its flags). A leaf's four spheres and a 4-wide node's four
-// children run on 128-bit float or 256-bit double vectors, an 8-wide node's eight float children
-// on one ymm: all of it in every x86 ISA from AVX2 up.
+// Arch names the translation unit (its flags). An 8-wide node's eight float children and a float
+// leaf's eight spheres run on one ymm, a double leaf's four spheres on one: all of it in every
+// x86 ISA from AVX2 up.
 template <class Arch, class T>
 struct OneRayKernel {
   using A = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
   using B = xsimd::batch<T, A>;
-  static_assert(B::size == 4 && Bvh<T>::kWidth == 4, "a 4-wide node's children in one vector");
-  using Node = typename Bvh<T>::Node;
+  static_assert(B::size == 4, "four spheres in one vector");
 
-  // The ray's slab form, as the reference's (RayTraversal): a zero direction component becomes
-  // 2^-64; beyond origin_limit the boxes grow by kOriginPad |origin| (max-norm).
-  struct Slab {
-    B inv[3], oi[3], pad[3];
-    std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
-    bool padded;
-  };
-  static Slab slab(const Bvh<T>& h, const T* o, const T* d) noexcept {
-    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
-    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
-    Slab r;
-    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
-    r.padded = m > h.origin_limit;
-    const T far = r.padded ? m * T(Bvh<T>::kOriginPad) : T(0);
-    for (int a = 0; a < 3; ++a) {
-      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
-      r.inv[a] = B(inv);
-      r.oi[a] = B(o[a] * inv);
-      r.pad[a] = B(far * std::fabs(inv));
-      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known, and
-      // its slab value is the reference's min of the two.
-      r.near[a] = inv < T(0) ? hi[a] : lo[a];
-      r.far[a] = inv < T(0) ? lo[a] : hi[a];
-    }
-    return r;
-  }
-
-  // The children of n the ray meets before tmax (bit k: slot k), their entry distances in tn.
-  template <bool kPadded>
-  static unsigned meet(const Node& n, const Slab& r, T tmax, B& tn) noexcept {
-    const char* base = reinterpret_cast<const char*>(&n);
-    auto plane = [&](std::size_t off) {
-      return B::load_aligned(reinterpret_cast<const T*>(base + off));
-    };
-    tn = B(T(0));
-    B tf(tmax);
-    for (int a = 0; a < 3; ++a) {
-      B t0 = plane(r.near[a]) * r.inv[a] - r.oi[a];
-      B t1 = plane(r.far[a]) * r.inv[a] - r.oi[a];
-      if constexpr (kPadded) t0 = t0 - r.pad[a], t1 = t1 + r.pad[a];
-      tn = xsimd::max(tn, t0);
-      tf = xsimd::min(tf, t1);
-    }
-    return lane_bits(tn <= tf) & ((1u << n.arity) - 1u);
-  }
-
-  // The depth-first walk over the 4-wide nodes (double): the met children sorted on the stack by
-  // entry distance, the nearest on top (as Embree's single-ray traversal sorts them), the
-  // nearest taken at once; a popped entry is skipped where it starts beyond tmax (read afresh: a
-  // closest-hit leaf lowers it). leaf(first, count) -> true to stop; returns whether a leaf
-  // stopped it.
-  template <bool kPadded, class Leaf>
-  static bool walk(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
-    struct Entry {
-      std::int32_t child, count;
-      T tnear;
-    };
-    Entry stack[Bvh<T>::kStack];
-    int sp = 0;
-    Entry next{0, -1, T(0)};
-    for (;;) {
-      if (next.count < 0) {
-        const Node& n = h.nodes[std::size_t(next.child)];
-        B tnb;
-        unsigned met = meet<kPadded>(n, r, tmax, tnb);
-        if (met) {
-          alignas(32) T tn[4];
-          tnb.store_aligned(tn);
-          const int base = sp;
-          for (; met; met &= met - 1) {  // insertion, at most four entries
-            const int k = __builtin_ctz(met);
-            const Entry e{n.child[k], n.count[k], tn[k]};
-            int q = sp++;
-            for (; q > base && stack[q - 1].tnear < e.tnear; --q) stack[q] = stack[q - 1];
-            stack[q] = e;
-          }
-          next = stack[--sp];
-          continue;
-        }
-      } else if (leaf(next.child, next.count)) {
-        return true;
-      }
-      do {
-        if (sp == 0) return false;
-        next = stack[--sp];
-      } while (next.tnear > tmax);
-    }
-  }
-
-  // Float over the 8-wide nodes (OneRayNode8): a node's eight children tested against the ray
-  // in one ymm per plane, the met ones visited nearest entry first (sorted on the stack, the
-  // nearest taken at once), as Embree's BVH8 single-ray traversal.
+  // The walk over the 8-wide float nodes (OneRayNode8), for float and double rays alike: a
+  // node's eight children tested against the ray in one ymm per plane, the met ones visited
+  // nearest entry first (sorted on the stack, the nearest taken at once), as Embree's BVH8
+  // single-ray traversal. The ray's slab form, as the reference's (RayTraversal): a zero
+  // direction component becomes 2^-64; beyond origin_limit the boxes grow by float's
+  // kOriginPad |origin| (max-norm; twice that for double rays, whose float form rounds once
+  // more). near / far: byte offsets in a node of each axis' entry and exit planes.
   struct Slab8 {
     __m256 inv[3], oi[3], pad[3];
     std::size_t near[3], far[3];
@@ -140,12 +55,14 @@ struct OneRayKernel {
     const std::size_t hi[3] = {offsetof(N8, hi_x), offsetof(N8, hi_y), offsetof(N8, hi_z)};
     Slab8 r;
     const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
-    const T far = padded ? m * T(Bvh<T>::kOriginPad) : T(0);
+    const T pad = T(Bvh<float>::kOriginPad) * T(std::is_same_v<T, float> ? 1 : 2);
+    const T far = padded ? m * pad : T(0);
     for (int a = 0; a < 3; ++a) {
       const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
-      r.inv[a] = _mm256_set1_ps(inv);
-      r.oi[a] = _mm256_set1_ps(o[a] * inv);
-      r.pad[a] = _mm256_set1_ps(far * std::fabs(inv));
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
+      r.inv[a] = _mm256_set1_ps(float(inv));
+      r.oi[a] = _mm256_set1_ps(float(o[a] * inv));
+      r.pad[a] = _mm256_set1_ps(float(far * std::fabs(inv)));
       r.near[a] = inv < T(0) ? hi[a] : lo[a];
       r.far[a] = inv < T(0) ? lo[a] : hi[a];
     }
@@ -158,6 +75,12 @@ struct OneRayKernel {
       std::int32_t child, count;
       float tnear;
     };
+    // tmax (read afresh: a closest-hit leaf lowers it) as a float not below it: double's too
+    // cuts no box it meets.
+    auto tmax_up = [&] {
+      const float f = float(tmax);
+      return T(f) < tmax ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+    };
     // Every 8-wide level stands for one 4-wide level or more: at most seven entries each.
     Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2];
     int sp = 0;
@@ -168,7 +91,7 @@ struct OneRayKernel {
       auto plane = [&](std::size_t off) {
         return _mm256_load_ps(reinterpret_cast<const float*>(base + off));
       };
-      __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax);
+      __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax_up());
       for (int a = 0; a < 3; ++a) {
         __m256 t0 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
         __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
@@ -353,7 +276,6 @@ struct OneRayKernel {
   template <bool kAny = false, class Hit>
   static bool all_spheres(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o,
                           const T* d, T tmin, const T& tmax, Hit&& hit) noexcept {
-    const T* aos = one.spheres.data();
     const Vec3<B> ov{B(o[0]), B(o[1]), B(o[2])}, dv{B(d[0]), B(d[1]), B(d[2])};
     const B eps(tmin);
     const Bvh<T>& h = s.bvh;
@@ -364,29 +286,32 @@ struct OneRayKernel {
       return spheres(sp, 0, s.num_spheres, ov, dv, eps, tmax,
                      [&](int j, T t) { return hit(j, t); });
     }
-    if constexpr (std::is_same_v<T, float>) {
-      if (!one.nodes8.empty()) {
-        const Vec3<B8> o8{B8(o[0]), B8(o[1]), B8(o[2])}, d8{B8(d[0]), B8(d[1]), B8(d[2])};
-        const B8 eps8(tmin);
-        auto leaf = [&](std::int32_t block, std::int32_t count) {
-          return leaf8(one, block, count, o8, d8, eps8, tmax, hit);
-        };
-        const bool padded = m > h.origin_limit;
-        static_assert(sizeof(OneRayLeaf8) == 128, "a leaf block: two lines");
-        auto prefetch = [&](std::int32_t block) {
-          return reinterpret_cast<const char*>(one.leaves8.data() + block);
-        };
-        const Slab8 r = slab8(o, d, padded);
-        return padded ? walk8<true, !kAny>(one.nodes8.data(), r, tmax, leaf, prefetch)
-                      : walk8<false, !kAny>(one.nodes8.data(), r, tmax, leaf, prefetch);
-      }
-    }
-    auto leaf = [&](std::int32_t first, std::int32_t count) {
-      return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
-                          [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
+    const bool padded = m > h.origin_limit;
+    const Slab8 r = slab8(o, d, padded);
+    auto go = [&](auto&& leaf, auto&& leaf_at) {
+      return padded ? walk8<true, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at)
+                    : walk8<false, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at);
     };
-    const Slab r = slab(h, o, d);
-    return r.padded ? walk<true>(h, r, tmax, leaf) : walk<false>(h, r, tmax, leaf);
+    if constexpr (std::is_same_v<T, float>) {
+      const Vec3<B8> o8{B8(o[0]), B8(o[1]), B8(o[2])}, d8{B8(d[0]), B8(d[1]), B8(d[2])};
+      const B8 eps8(tmin);
+      static_assert(sizeof(OneRayLeaf8) == 128, "a leaf block: two lines");
+      return go(
+          [&](std::int32_t block, std::int32_t count) {
+            return leaf8(one, block, count, o8, d8, eps8, tmax, hit);
+          },
+          [&](std::int32_t block) {
+            return reinterpret_cast<const char*>(one.leaves8.data() + block);
+          });
+    } else {
+      const T* aos = one.spheres.data();
+      return go(
+          [&](std::int32_t first, std::int32_t count) {
+            return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
+                                [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
+          },
+          [&](std::int32_t first) { return reinterpret_cast<const char*>(aos + 4 * first); });
+    }
   }
 
   // The planes in id order, as the reference: hit(id, t) for each met at t > tmin.
