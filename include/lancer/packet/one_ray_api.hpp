@@ -12,11 +12,12 @@
 
 namespace lancer::packet {
 
-// An 8-wide node for float rays, the 4-wide hierarchy's nodes collapsed (one_ray_scene): its
-// children's boxes (those of the 4-wide nodes, padded alike) structure-of-arrays, eight in one
-// ymm per plane. Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres
-// (OneRayScene::leaves8 from block child[k]). Unused slots have empty boxes (lo +inf, hi -inf):
-// never met.
+// An 8-wide node, the 4-wide hierarchy's nodes collapsed (one_ray_scene), for float and double
+// rays: its children's boxes structure-of-arrays, eight in one ymm per plane (float's those of
+// the 4-wide nodes, padded alike; double's rounded outward to float and padded for the float
+// slab test). Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres (float:
+// OneRayScene::leaves8 from block child[k]; double: from leaf-order index child[k]). Unused
+// slots have empty boxes (lo +inf, hi -inf): never met.
 struct alignas(64) OneRayNode8 {
   float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
   std::int32_t child[8], count[8];
@@ -29,9 +30,9 @@ struct alignas(64) OneRayLeaf8 {
   float cx[8], cy[8], cz[8], r2[8];
 };
 
-// What the one-ray kernels read beside the prepared scene: the spheres as rows (below) and,
-// for float, the 8-wide nodes (nodes8[0] the root; empty without a hierarchy), whose leaf slots
-// name blocks of leaves8 (child[k] the first block, count[k] the spheres).
+// What the one-ray kernels read beside the prepared scene: the 8-wide nodes (nodes8[0] the root;
+// empty without a hierarchy); float's leaves as blocks of eight (leaves8, ids8), double's
+// spheres as rows (spheres, below).
 template <class Real>
 struct OneRayScene {
   std::vector<Real> spheres;
