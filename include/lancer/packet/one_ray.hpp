@@ -120,7 +120,8 @@ struct OneRayKernel {
             const unsigned below = (1u << k) - 1u;
             const int rank = __builtin_popcount(met & (kSort ? farther | (same & below) : below));
             Entry& x = stack[sp + rank];
-            x.child = n.child[k], x.count = n.count[k], x.tnear = dist[k];
+            x.child = n.child[k], x.count = n.count[k];
+            if constexpr (kSort) x.tnear = dist[k];
             // A node or leaf the walk may come back to: its lines on their way meanwhile (a
             // node's four; a leaf block's two, its first line twice).
             const bool inner = x.count < 0;
@@ -142,7 +143,8 @@ struct OneRayKernel {
       for (;;) {
         if (sp == 0) return false;
         const Entry e = stack[--sp];
-        if (e.tnear > tmax) continue;
+        // Unsorted (occlusion): tmax stays tfar, which every pushed entry starts before.
+        if (kSort && e.tnear > tmax) continue;
         if (e.count < 0) {
           node = e.child;
           break;
@@ -308,7 +310,7 @@ struct OneRayKernel {
       return go(
           [&](std::int32_t first, std::int32_t count) {
             return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
-                                [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
+                                [&](int j, T t) { return hit(LazyId{&h.id[std::size_t(j)]}, t); });
           },
           [&](std::int32_t first) { return reinterpret_cast<const char*>(aos + 4 * first); });
     }
