@@ -1,6 +1,6 @@
 // What the one-ray kernels read beside the prepared scene (packet/one_ray_api.hpp): the 4-wide
-// hierarchy collapsed into 8-wide float nodes; float's spheres in blocks of eight, double's as
-// rows.
+// hierarchy collapsed into 8-wide float nodes, the spheres in leaf blocks (float's eight,
+// double's four).
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -53,23 +53,25 @@ void children(const Bvh<T>& h, std::int32_t i, std::vector<Slot>& out) {
   }
 }
 
-// The leaf of `count` spheres from leaf-order index `first` as blocks of eight appended to
-// one.leaves8 (ids in one.ids8); returns its first block.
-std::int32_t leaf_blocks(const Bvh<float>& h, std::int32_t first, std::int32_t count,
-                         OneRayScene<float>& one) {
-  const std::int32_t at = std::int32_t(one.leaves8.size());
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (std::int32_t b = 0; b < count; b += 8) {
-    OneRayLeaf8 l;
-    for (int q = 0; q < 8; ++q) {
+// The leaf of `count` spheres from leaf-order index `first` as blocks appended to one.leaves
+// (ids in one.ids); returns its first block.
+template <class T>
+std::int32_t leaf_blocks(const Bvh<T>& h, std::int32_t first, std::int32_t count,
+                         OneRayScene<T>& one) {
+  constexpr int kLanes = OneRayLeaf<T>::kLanes;
+  const std::int32_t at = std::int32_t(one.leaves.size());
+  const T nan = std::numeric_limits<T>::quiet_NaN();
+  for (std::int32_t b = 0; b < count; b += kLanes) {
+    OneRayLeaf<T> l;
+    for (int q = 0; q < kLanes; ++q) {
       const std::int32_t j = first + b + q;
       const bool used = b + q < count;
       const std::size_t u = std::size_t(j);
       l.cx[q] = used ? h.cx[u] : nan, l.cy[q] = used ? h.cy[u] : nan;
       l.cz[q] = used ? h.cz[u] : nan, l.r2[q] = used ? h.r2[u] : nan;
-      one.ids8.push_back(used ? h.id[u] : -1);
+      one.ids.push_back(used ? h.id[u] : -1);
     }
-    one.leaves8.push_back(l);
+    one.leaves.push_back(l);
   }
   return at;
 }
@@ -77,7 +79,7 @@ std::int32_t leaf_blocks(const Bvh<float>& h, std::int32_t first, std::int32_t c
 // The 8-wide node standing for 4-wide node i (and its subtree), appended to one.nodes8: its
 // children, then, while they fit in eight, the inner child of largest surface replaced by its
 // own children (the usual collapse of a binary or 4-wide tree into a wider one). A leaf slot
-// names float's blocks (leaf_blocks), double's first leaf-order sphere. Returns its index.
+// names its first block (leaf_blocks). Returns its index.
 template <class T>
 std::int32_t collapse(const Bvh<T>& h, std::int32_t i, OneRayScene<T>& one) {
   std::vector<OneRayNode8>& out = one.nodes8;
@@ -111,10 +113,7 @@ std::int32_t collapse(const Bvh<T>& h, std::int32_t i, OneRayScene<T>& one) {
     n.lo_x[k] = s.lo[0], n.lo_y[k] = s.lo[1], n.lo_z[k] = s.lo[2];
     n.hi_x[k] = s.hi[0], n.hi_y[k] = s.hi[1], n.hi_z[k] = s.hi[2];
     n.count[k] = s.count < 0 ? -1 : s.count;
-    if constexpr (std::is_same_v<T, float>)
-      n.child[k] = s.count < 0 ? s.child : leaf_blocks(h, s.child, s.count, one);
-    else
-      n.child[k] = s.child;
+    n.child[k] = s.count < 0 ? s.child : leaf_blocks(h, s.child, s.count, one);
   }
   // Inner children after the node itself is written (the recursion grows `out`).
   for (int k = 0; k < int(slots.size()); ++k)
@@ -135,7 +134,6 @@ OneRayScene<float> one_ray_scene(const Bvh<float>& h) {
 
 OneRayScene<double> one_ray_scene(const Bvh<double>& h) {
   OneRayScene<double> s;
-  s.spheres = one_ray_spheres(h);
   if (h.active()) collapse(h, 0, s);
   return s;
 }

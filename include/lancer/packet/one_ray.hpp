@@ -197,46 +197,6 @@ struct OneRayKernel {
     return false;
   }
 
-  // Leaf-order spheres [first, first + n) from one_ray_spheres' array, four at a time (each
-  // four loaded as rows and transposed), as spheres() does.
-  template <class Hit>
-  static bool leaf_spheres(const T* aos, int first, int n, const Vec3<B>& o, const Vec3<B>& d,
-                           const B& eps, const T& tmax, Hit&& hit) noexcept {
-    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
-    const B lane = B::load_aligned(kLane);
-    for (int j = first; j < first + n; j += 4) {
-      const int m = std::min(4, first + n - j);
-      const T* p = aos + 4 * std::size_t(j);
-      B cx, cy, cz, r2;
-      if constexpr (std::is_same_v<T, float>) {
-        __m128 r0 = _mm_loadu_ps(p), r1 = _mm_loadu_ps(p + 4), r2v = _mm_loadu_ps(p + 8),
-               r3 = _mm_loadu_ps(p + 12);
-        _MM_TRANSPOSE4_PS(r0, r1, r2v, r3);
-        cx = B(r0), cy = B(r1), cz = B(r2v), r2 = B(r3);
-      } else {
-        const __m256d r0 = _mm256_loadu_pd(p), r1 = _mm256_loadu_pd(p + 4),
-                      r2v = _mm256_loadu_pd(p + 8), r3 = _mm256_loadu_pd(p + 12);
-        const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
-        const __m256d t2 = _mm256_unpacklo_pd(r2v, r3), t3 = _mm256_unpackhi_pd(r2v, r3);
-        cx = B(_mm256_permute2f128_pd(t0, t2, 0x20)), cy = B(_mm256_permute2f128_pd(t1, t3, 0x20));
-        cz = B(_mm256_permute2f128_pd(t0, t2, 0x31)), r2 = B(_mm256_permute2f128_pd(t1, t3, 0x31));
-      }
-      const Vec3<B> f = o - Vec3<B>{cx, cy, cz};
-      const SphereDisc<B> sd = sphere_disc(f, d, r2);
-      const auto live = (sd.disc >= B(T(0))) & (lane < B(T(m)));
-      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      unsigned met = lane_bits(live & (t > eps) & (t <= B(tmax)));
-      if (!met) continue;
-      alignas(32) T tt[4];
-      t.store_aligned(tt);
-      for (; met; met &= met - 1) {
-        const int q = __builtin_ctz(met);
-        if (hit(j + q, tt[q])) return true;
-      }
-    }
-    return false;
-  }
-
   // An object id read only when asked: a closest-hit walk needs a met sphere's id only where
   // it ties the best t, or for the final hit, and the ids' line is then often not loaded.
   struct LazyId {
@@ -244,28 +204,33 @@ struct OneRayKernel {
     operator std::int32_t() const noexcept { return *at; }
   };
 
-  // A float leaf's blocks (OneRayLeaf8) from `block`, eight spheres in one ymm each, as
-  // spheres() tests four: hit(LazyId, t) for each sphere met at eps < t <= tmax.
-  using B8 = xsimd::batch<float, xsimd::avx2>;
+  // A leaf's blocks (OneRayLeaf) from `block`, each in one vector a field (float: eight
+  // spheres in a ymm; double: four), as spheres() tests four: hit(LazyId, t) for each sphere
+  // met at eps < t <= tmax.
+  using BL = std::conditional_t<std::is_same_v<T, float>, xsimd::batch<float, xsimd::avx2>, B>;
+  static constexpr int kLanes = OneRayLeaf<T>::kLanes;
+  static_assert(BL::size == kLanes && sizeof(OneRayLeaf<T>) == 128, "a block: two lines");
   template <class Hit>
-  static bool leaf8(const OneRayScene<float>& one, std::int32_t block, std::int32_t count,
-                    const Vec3<B8>& o, const Vec3<B8>& d, const B8& eps, const float& tmax,
-                    Hit&& hit) noexcept {
-    for (; count > 0; ++block, count -= 8) {
-      const OneRayLeaf8& l = one.leaves8[std::size_t(block)];
-      const B8 r2 = B8::load_aligned(l.r2);
-      const Vec3<B8> f =
-          o - Vec3<B8>{B8::load_aligned(l.cx), B8::load_aligned(l.cy), B8::load_aligned(l.cz)};
-      const SphereDisc<B8> sd = sphere_disc(f, d, r2);
+  static bool leaf(const OneRayScene<T>& one, std::int32_t block, std::int32_t count,
+                   const Vec3<BL>& o, const Vec3<BL>& d, const BL& eps, const T& tmax,
+                   Hit&& hit) noexcept {
+    for (; count > 0; ++block, count -= kLanes) {
+      const OneRayLeaf<T>& l = one.leaves[std::size_t(block)];
+      const BL r2 = BL::load_aligned(l.r2);
+      const Vec3<BL> f =
+          o - Vec3<BL>{BL::load_aligned(l.cx), BL::load_aligned(l.cy), BL::load_aligned(l.cz)};
+      const SphereDisc<BL> sd = sphere_disc(f, d, r2);
       // Unused lanes: NaN centres, a NaN discriminant.
-      const B8 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      unsigned met = lane_bits((sd.disc >= B8(0.0f)) & (t > eps) & (t <= B8(tmax)));
+      const BL t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = lane_bits((sd.disc >= BL(T(0))) & (t > eps) & (t <= BL(tmax)));
       if (!met) continue;
-      alignas(32) float tt[8];
+      alignas(32) T tt[kLanes];
       t.store_aligned(tt);
       for (; met; met &= met - 1) {
         const int q = __builtin_ctz(met);
-        if (hit(LazyId{&one.ids8[8 * std::size_t(block) + std::size_t(q)]}, tt[q])) return true;
+        const std::int32_t* id =
+            &one.ids[std::size_t(kLanes) * std::size_t(block) + std::size_t(q)];
+        if (hit(LazyId{id}, tt[q])) return true;
       }
     }
     return false;
@@ -294,26 +259,13 @@ struct OneRayKernel {
       return padded ? walk8<true, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at)
                     : walk8<false, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at);
     };
-    if constexpr (std::is_same_v<T, float>) {
-      const Vec3<B8> o8{B8(o[0]), B8(o[1]), B8(o[2])}, d8{B8(d[0]), B8(d[1]), B8(d[2])};
-      const B8 eps8(tmin);
-      static_assert(sizeof(OneRayLeaf8) == 128, "a leaf block: two lines");
-      return go(
-          [&](std::int32_t block, std::int32_t count) {
-            return leaf8(one, block, count, o8, d8, eps8, tmax, hit);
-          },
-          [&](std::int32_t block) {
-            return reinterpret_cast<const char*>(one.leaves8.data() + block);
-          });
-    } else {
-      const T* aos = one.spheres.data();
-      return go(
-          [&](std::int32_t first, std::int32_t count) {
-            return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
-                                [&](int j, T t) { return hit(LazyId{&h.id[std::size_t(j)]}, t); });
-          },
-          [&](std::int32_t first) { return reinterpret_cast<const char*>(aos + 4 * first); });
-    }
+    const Vec3<BL> ol{BL(o[0]), BL(o[1]), BL(o[2])}, dl{BL(d[0]), BL(d[1]), BL(d[2])};
+    const BL epsl(tmin);
+    return go([&](std::int32_t block,
+                  std::int32_t count) { return leaf(one, block, count, ol, dl, epsl, tmax, hit); },
+              [&](std::int32_t block) {
+                return reinterpret_cast<const char*>(one.leaves.data() + block);
+              });
   }
 
   // The planes in id order, as the reference: hit(id, t) for each met at t > tmin.
