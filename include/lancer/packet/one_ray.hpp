@@ -44,15 +44,20 @@ struct OneRayKernel {
   // single-ray traversal. The ray's slab form, as the reference's (RayTraversal): a zero
   // direction component becomes 2^-64; beyond origin_limit the boxes grow by float's
   // kOriginPad |origin| (max-norm; twice that for double rays, whose float form rounds once
-  // more). near / far: byte offsets in a node of each axis' entry and exit planes.
+  // more). near: byte offsets in a node of each axis' entry plane; its exit plane is the other
+  // of the pair (Embree's near/far offsets), which keeps two of the walk's registers free.
   struct Slab8 {
     __m256 inv[3], oi[3], pad[3];
-    std::size_t near[3], far[3];
+    std::size_t near[3];  // an axis' exit plane: near ^ 32 (lo and hi adjacent, 32 bytes each)
   };
   static Slab8 slab8(const T* o, const T* d, bool padded) noexcept {
     using N8 = OneRayNode8;
     const std::size_t lo[3] = {offsetof(N8, lo_x), offsetof(N8, lo_y), offsetof(N8, lo_z)};
     const std::size_t hi[3] = {offsetof(N8, hi_x), offsetof(N8, hi_y), offsetof(N8, hi_z)};
+    static_assert(offsetof(N8, hi_x) == (offsetof(N8, lo_x) ^ 32u) &&
+                      offsetof(N8, hi_y) == (offsetof(N8, lo_y) ^ 32u) &&
+                      offsetof(N8, hi_z) == (offsetof(N8, lo_z) ^ 32u),
+                  "each axis' planes 32 bytes apart, the pair 64-byte aligned");
     Slab8 r;
     const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
     const T pad = T(Bvh<float>::kOriginPad) * T(std::is_same_v<T, float> ? 1 : 2);
@@ -64,7 +69,6 @@ struct OneRayKernel {
       r.oi[a] = _mm256_set1_ps(float(o[a] * inv));
       r.pad[a] = _mm256_set1_ps(float(far * std::fabs(inv)));
       r.near[a] = inv < T(0) ? hi[a] : lo[a];
-      r.far[a] = inv < T(0) ? lo[a] : hi[a];
     }
     return r;
   }
@@ -94,7 +98,7 @@ struct OneRayKernel {
       __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax_up());
       for (int a = 0; a < 3; ++a) {
         __m256 t0 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
-        __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a] ^ 32u), r.inv[a]), r.oi[a]);
         if constexpr (kPadded) t0 = _mm256_sub_ps(t0, r.pad[a]), t1 = _mm256_add_ps(t1, r.pad[a]);
         tn = _mm256_max_ps(tn, t0);
         tf = _mm256_min_ps(tf, t1);
