@@ -216,8 +216,11 @@ struct OneRayKernel {
   static_assert(BL::size == kLanes && sizeof(OneRayLeaf<T>) == 128, "a block: two lines");
   template <class Hit>
   static bool leaf(const OneRayScene<T>& one, std::int32_t block, std::int32_t count,
-                   const Vec3<BL>& o, const Vec3<BL>& d, const BL& eps, const T& tmax,
-                   Hit&& hit) noexcept {
+                   const T* ray_o, const T* ray_d, T tmin, const T& tmax, Hit&& hit) noexcept {
+    // The ray broadcast here, from memory, not held in registers the node tests need.
+    const Vec3<BL> o{BL(ray_o[0]), BL(ray_o[1]), BL(ray_o[2])};
+    const Vec3<BL> d{BL(ray_d[0]), BL(ray_d[1]), BL(ray_d[2])};
+    const BL eps(tmin);
     for (; count > 0; ++block, count -= kLanes) {
       const OneRayLeaf<T>& l = one.leaves[std::size_t(block)];
       const BL r2 = BL::load_aligned(l.r2);
@@ -263,10 +266,8 @@ struct OneRayKernel {
       return padded ? walk8<true, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at)
                     : walk8<false, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at);
     };
-    const Vec3<BL> ol{BL(o[0]), BL(o[1]), BL(o[2])}, dl{BL(d[0]), BL(d[1]), BL(d[2])};
-    const BL epsl(tmin);
     return go([&](std::int32_t block,
-                  std::int32_t count) { return leaf(one, block, count, ol, dl, epsl, tmax, hit); },
+                  std::int32_t count) { return leaf(one, block, count, o, d, tmin, tmax, hit); },
               [&](std::int32_t block) {
                 return reinterpret_cast<const char*>(one.leaves.data() + block);
               });
