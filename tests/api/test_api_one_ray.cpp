@@ -202,6 +202,18 @@ TEST(ApiOneRay, GeneratedCloudsGiveTheReferencesBits) {
   }
 }
 
+// Every sphere twice (the copy's id higher): each hit ties on t, and the lower id must win
+// wherever the walk meets the copy first (the copy in another leaf, or the same leaf's block).
+TEST(ApiOneRay, TwinSpheresTieToTheLowerId) {
+  for (long long n : {600LL, 9000LL}) {
+    Scene s = cloud(n, 3 + std::uint64_t(n));
+    const std::size_t count = s.spheres.size();
+    for (std::size_t k = 0; k < count; ++k) s.spheres.push_back(s.spheres[k]);
+    for (Precision p : {Precision::exact, Precision::dbl})
+      compare(s, p, 4000, std::uint64_t(n) + 1, "twins " + std::to_string(n));
+  }
+}
+
 TEST(ApiOneRay, InfoNamesThePath) {
   const Scene s = cloud(64, 3);
   const api::Scene ref = api::Scene::from_description(s, with(Precision::exact, 1));

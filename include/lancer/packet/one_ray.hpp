@@ -1,15 +1,16 @@
 // The one-ray kernels (one_ray_api.hpp): a single ray's closest hit and occlusion over the
 // sphere hierarchy and the planes, for the library API's one-ray queries. Kept apart from the
 // reference (traverse.hpp, reference.cpp), which stays the definition and which they equal bit
-// for bit. As Embree's single-ray BVH traversal: a wide node's children tested against the ray
-// in one SIMD operation per plane (float: the 4-wide hierarchy collapsed into 8-wide nodes, one
-// ymm; double: the 4-wide nodes, one ymm), the met ones visited nearest entry first, a popped
-// subtree culled where it starts beyond the best t; a leaf's spheres four at a time with the
-// reference's sphere formulas (formulas.hpp). The closest hit keeps the lexicographic minimum
-// of (t, object id), so the visiting order cannot change it; occlusion stops at the first
-// object met within (tmin, tfar). The boxes are the hierarchy's, padded for the sphere test's
-// rounding and, beyond origin_limit, for the origin's, as the reference pads them. Include only
-// from src/isa/one_ray_*.cpp.
+// for bit. As Embree's single-ray BVH8 traversal: the 4-wide hierarchy collapsed into 8-wide
+// float nodes (one_ray_scene), a node's eight children tested against the ray in one ymm per
+// plane, the met ones visited nearest entry first (occlusion: in slot order), a popped subtree
+// culled where it starts beyond the best t; a leaf's spheres with the reference's sphere formulas
+// (formulas.hpp), float's eight in one ymm, double's four at a time. The closest hit keeps the
+// lexicographic minimum of (t, object id), so the visiting order cannot change it; occlusion
+// stops at the first object met within (tmin, tfar). The boxes are the hierarchy's, padded for
+// the sphere test's rounding and, beyond origin_limit, for the origin's, as the reference pads
+// them (double's rounded outward to float and padded for the float slab test, one_ray_scene.cpp).
+// Include only from src/isa/one_ray_*.cpp.
 #pragma once
 
 #include <algorithm>
@@ -28,134 +29,61 @@
 
 namespace lancer::packet {
 
-// Arch names the translation unit (its flags). A leaf's four spheres and a 4-wide node's four
-// children run on 128-bit float or 256-bit double vectors, an 8-wide node's eight float children
-// on one ymm: all of it in every x86 ISA from AVX2 up.
+// Arch names the translation unit (its flags). An 8-wide node's eight float children and a float
+// leaf's eight spheres run on one ymm, a double leaf's four spheres on one: all of it in every
+// x86 ISA from AVX2 up.
 template <class Arch, class T>
 struct OneRayKernel {
   using A = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
   using B = xsimd::batch<T, A>;
-  static_assert(B::size == 4 && Bvh<T>::kWidth == 4, "a 4-wide node's children in one vector");
-  using Node = typename Bvh<T>::Node;
+  static_assert(B::size == 4, "four spheres in one vector");
 
-  // The ray's slab form, as the reference's (RayTraversal): a zero direction component becomes
-  // 2^-64; beyond origin_limit the boxes grow by kOriginPad |origin| (max-norm).
-  struct Slab {
-    B inv[3], oi[3], pad[3];
-    std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
-    bool padded;
-  };
-  static Slab slab(const Bvh<T>& h, const T* o, const T* d) noexcept {
-    const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
-    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
-    Slab r;
-    const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
-    r.padded = m > h.origin_limit;
-    const T far = r.padded ? m * T(Bvh<T>::kOriginPad) : T(0);
-    for (int a = 0; a < 3; ++a) {
-      const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
-      r.inv[a] = B(inv);
-      r.oi[a] = B(o[a] * inv);
-      r.pad[a] = B(far * std::fabs(inv));
-      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known, and
-      // its slab value is the reference's min of the two.
-      r.near[a] = inv < T(0) ? hi[a] : lo[a];
-      r.far[a] = inv < T(0) ? lo[a] : hi[a];
-    }
-    return r;
-  }
-
-  // The children of n the ray meets before tmax (bit k: slot k), their entry distances in tn.
-  template <bool kPadded>
-  static unsigned meet(const Node& n, const Slab& r, T tmax, B& tn) noexcept {
-    const char* base = reinterpret_cast<const char*>(&n);
-    auto plane = [&](std::size_t off) {
-      return B::load_aligned(reinterpret_cast<const T*>(base + off));
-    };
-    tn = B(T(0));
-    B tf(tmax);
-    for (int a = 0; a < 3; ++a) {
-      B t0 = plane(r.near[a]) * r.inv[a] - r.oi[a];
-      B t1 = plane(r.far[a]) * r.inv[a] - r.oi[a];
-      if constexpr (kPadded) t0 = t0 - r.pad[a], t1 = t1 + r.pad[a];
-      tn = xsimd::max(tn, t0);
-      tf = xsimd::min(tf, t1);
-    }
-    return lane_bits(tn <= tf) & ((1u << n.arity) - 1u);
-  }
-
-  // The depth-first walk over the 4-wide nodes (double): the met children sorted on the stack by
-  // entry distance, the nearest on top (as Embree's single-ray traversal sorts them), the
-  // nearest taken at once; a popped entry is skipped where it starts beyond tmax (read afresh: a
-  // closest-hit leaf lowers it). leaf(first, count) -> true to stop; returns whether a leaf
-  // stopped it.
-  template <bool kPadded, class Leaf>
-  static bool walk(const Bvh<T>& h, const Slab& r, const T& tmax, Leaf&& leaf) noexcept {
-    struct Entry {
-      std::int32_t child, count;
-      T tnear;
-    };
-    Entry stack[Bvh<T>::kStack];
-    int sp = 0;
-    Entry next{0, -1, T(0)};
-    for (;;) {
-      if (next.count < 0) {
-        const Node& n = h.nodes[std::size_t(next.child)];
-        B tnb;
-        unsigned met = meet<kPadded>(n, r, tmax, tnb);
-        if (met) {
-          alignas(32) T tn[4];
-          tnb.store_aligned(tn);
-          const int base = sp;
-          for (; met; met &= met - 1) {  // insertion, at most four entries
-            const int k = __builtin_ctz(met);
-            const Entry e{n.child[k], n.count[k], tn[k]};
-            int q = sp++;
-            for (; q > base && stack[q - 1].tnear < e.tnear; --q) stack[q] = stack[q - 1];
-            stack[q] = e;
-          }
-          next = stack[--sp];
-          continue;
-        }
-      } else if (leaf(next.child, next.count)) {
-        return true;
-      }
-      do {
-        if (sp == 0) return false;
-        next = stack[--sp];
-      } while (next.tnear > tmax);
-    }
-  }
-
-  // Float over the 8-wide nodes (OneRayNode8): a node's eight children tested against the ray
-  // in one ymm per plane, the met ones visited nearest entry first (sorted on the stack, the
-  // nearest taken at once), as Embree's BVH8 single-ray traversal.
+  // The walk over the 8-wide float nodes (OneRayNode8), for float and double rays alike: a
+  // node's eight children tested against the ray in one ymm per plane, the met ones visited
+  // nearest entry first (sorted on the stack, the nearest taken at once), as Embree's BVH8
+  // single-ray traversal. The ray's slab form, as the reference's (RayTraversal): a zero
+  // direction component becomes 2^-64; beyond origin_limit the boxes grow by float's
+  // kOriginPad |origin| (max-norm; twice that for double rays, whose float form rounds once
+  // more). near: byte offsets in a node of each axis' entry plane; its exit plane is the other
+  // of the pair (Embree's near/far offsets), which keeps two of the walk's registers free.
   struct Slab8 {
     __m256 inv[3], oi[3], pad[3];
-    std::size_t near[3], far[3];
+    std::size_t near[3];  // an axis' exit plane: near ^ 32 (lo and hi adjacent, 32 bytes each)
   };
   static Slab8 slab8(const T* o, const T* d, bool padded) noexcept {
     using N8 = OneRayNode8;
     const std::size_t lo[3] = {offsetof(N8, lo_x), offsetof(N8, lo_y), offsetof(N8, lo_z)};
     const std::size_t hi[3] = {offsetof(N8, hi_x), offsetof(N8, hi_y), offsetof(N8, hi_z)};
+    static_assert(offsetof(N8, hi_x) == (offsetof(N8, lo_x) ^ 32u) &&
+                      offsetof(N8, hi_y) == (offsetof(N8, lo_y) ^ 32u) &&
+                      offsetof(N8, hi_z) == (offsetof(N8, lo_z) ^ 32u),
+                  "each axis' planes 32 bytes apart, the pair 64-byte aligned");
     Slab8 r;
     const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
-    const T far = padded ? m * T(Bvh<T>::kOriginPad) : T(0);
+    const T pad = T(Bvh<float>::kOriginPad) * T(std::is_same_v<T, float> ? 1 : 2);
+    const T far = padded ? m * pad : T(0);
     for (int a = 0; a < 3; ++a) {
       const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
-      r.inv[a] = _mm256_set1_ps(inv);
-      r.oi[a] = _mm256_set1_ps(o[a] * inv);
-      r.pad[a] = _mm256_set1_ps(far * std::fabs(inv));
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
+      r.inv[a] = _mm256_set1_ps(float(inv));
+      r.oi[a] = _mm256_set1_ps(float(o[a] * inv));
+      r.pad[a] = _mm256_set1_ps(float(far * std::fabs(inv)));
       r.near[a] = inv < T(0) ? hi[a] : lo[a];
-      r.far[a] = inv < T(0) ? lo[a] : hi[a];
     }
     return r;
   }
-  template <bool kPadded, class Leaf>
-  static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf) noexcept {
+  template <bool kPadded, bool kSort, class Leaf, class LeafAt>
+  static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf,
+                    LeafAt&& leaf_at) noexcept {
     struct Entry {
       std::int32_t child, count;
       float tnear;
+    };
+    // tmax (read afresh: a closest-hit leaf lowers it) as a float not below it: double's too
+    // cuts no box it meets.
+    auto tmax_up = [&] {
+      const float f = float(tmax);
+      return T(f) < tmax ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
     };
     // Every 8-wide level stands for one 4-wide level or more: at most seven entries each.
     Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2];
@@ -167,10 +95,10 @@ struct OneRayKernel {
       auto plane = [&](std::size_t off) {
         return _mm256_load_ps(reinterpret_cast<const float*>(base + off));
       };
-      __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax);
+      __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(tmax_up());
       for (int a = 0; a < 3; ++a) {
         __m256 t0 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
-        __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        __m256 t1 = _mm256_sub_ps(_mm256_mul_ps(plane(r.near[a] ^ 32u), r.inv[a]), r.oi[a]);
         if constexpr (kPadded) t0 = _mm256_sub_ps(t0, r.pad[a]), t1 = _mm256_add_ps(t1, r.pad[a]);
         tn = _mm256_max_ps(tn, t0);
         tf = _mm256_min_ps(tf, t1);
@@ -184,20 +112,30 @@ struct OneRayKernel {
         } else {
           alignas(32) float dist[8];
           _mm256_store_ps(dist, tn);
-          const int bottom = sp;
-          for (; met; met &= met - 1) {  // insertion: the nearest on top
-            const int k = __builtin_ctz(met);
-            const Entry x{n.child[k], n.count[k], dist[k]};
-            // A node the walk may come back to: its lines on their way meanwhile.
-            if (x.count < 0) {
-              const char* p = reinterpret_cast<const char*>(nodes + x.child);
-              for (int line = 0; line < int(sizeof(OneRayNode8)); line += 64)
-                _mm_prefetch(p + line, _MM_HINT_T0);
-            }
-            int q = sp++;
-            for (; q > bottom && stack[q - 1].tnear < x.tnear; --q) stack[q] = stack[q - 1];
-            stack[q] = x;
+          // Each met child straight to its place, the nearest on top: below it the met children
+          // farther away (ties: the lower slot below). No branch on the distances, which a
+          // single ray's walk mispredicts.
+          for (unsigned m = met; m; m &= m - 1) {
+            const int k = __builtin_ctz(m);
+            const __m256 dk = _mm256_broadcast_ss(dist + k);
+            const unsigned farther =
+                unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_GT_OQ)));
+            const unsigned same = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_EQ_OQ)));
+            const unsigned below = (1u << k) - 1u;
+            const int rank = __builtin_popcount(met & (kSort ? farther | (same & below) : below));
+            Entry& x = stack[sp + rank];
+            x.child = n.child[k], x.count = n.count[k];
+            if constexpr (kSort) x.tnear = dist[k];
+            // A node or leaf the walk may come back to: its lines on their way meanwhile (a
+            // node's four; a leaf block's two, its first line twice).
+            const bool inner = x.count < 0;
+            const char* p =
+                inner ? reinterpret_cast<const char*>(nodes + x.child) : leaf_at(x.child);
+            const char* q = inner ? p + 128 : p;
+            _mm_prefetch(p, _MM_HINT_T0), _mm_prefetch(p + 64, _MM_HINT_T0);
+            _mm_prefetch(q, _MM_HINT_T0), _mm_prefetch(q + 64, _MM_HINT_T0);
           }
+          sp += __builtin_popcount(met);
           e = stack[--sp];
         }
         if (e.count < 0) {
@@ -209,7 +147,8 @@ struct OneRayKernel {
       for (;;) {
         if (sp == 0) return false;
         const Entry e = stack[--sp];
-        if (e.tnear > tmax) continue;
+        // Unsorted (occlusion): tmax stays tfar, which every pushed entry starts before.
+        if (kSort && e.tnear > tmax) continue;
         if (e.count < 0) {
           node = e.child;
           break;
@@ -262,52 +201,55 @@ struct OneRayKernel {
     return false;
   }
 
-  // Leaf-order spheres [first, first + n) from one_ray_spheres' array, four at a time (each
-  // four loaded as rows and transposed), as spheres() does.
+  // An object id read only when asked: a closest-hit walk needs a met sphere's id only where
+  // it ties the best t, or for the final hit, and the ids' line is then often not loaded.
+  struct LazyId {
+    const std::int32_t* at;
+    operator std::int32_t() const noexcept { return *at; }
+  };
+
+  // A leaf's blocks (OneRayLeaf) from `block`, each in one vector a field (float: eight
+  // spheres in a ymm; double: four), as spheres() tests four: hit(LazyId, t) for each sphere
+  // met at eps < t <= tmax.
+  using BL = std::conditional_t<std::is_same_v<T, float>, xsimd::batch<float, xsimd::avx2>, B>;
+  static constexpr int kLanes = OneRayLeaf<T>::kLanes;
+  static_assert(BL::size == kLanes && sizeof(OneRayLeaf<T>) == 128, "a block: two lines");
   template <class Hit>
-  static bool leaf_spheres(const T* aos, int first, int n, const Vec3<B>& o, const Vec3<B>& d,
-                           const B& eps, const T& tmax, Hit&& hit) noexcept {
-    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
-    const B lane = B::load_aligned(kLane);
-    for (int j = first; j < first + n; j += 4) {
-      const int m = std::min(4, first + n - j);
-      const T* p = aos + 4 * std::size_t(j);
-      B cx, cy, cz, r2;
-      if constexpr (std::is_same_v<T, float>) {
-        __m128 r0 = _mm_loadu_ps(p), r1 = _mm_loadu_ps(p + 4), r2v = _mm_loadu_ps(p + 8),
-               r3 = _mm_loadu_ps(p + 12);
-        _MM_TRANSPOSE4_PS(r0, r1, r2v, r3);
-        cx = B(r0), cy = B(r1), cz = B(r2v), r2 = B(r3);
-      } else {
-        const __m256d r0 = _mm256_loadu_pd(p), r1 = _mm256_loadu_pd(p + 4),
-                      r2v = _mm256_loadu_pd(p + 8), r3 = _mm256_loadu_pd(p + 12);
-        const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
-        const __m256d t2 = _mm256_unpacklo_pd(r2v, r3), t3 = _mm256_unpackhi_pd(r2v, r3);
-        cx = B(_mm256_permute2f128_pd(t0, t2, 0x20)), cy = B(_mm256_permute2f128_pd(t1, t3, 0x20));
-        cz = B(_mm256_permute2f128_pd(t0, t2, 0x31)), r2 = B(_mm256_permute2f128_pd(t1, t3, 0x31));
-      }
-      const Vec3<B> f = o - Vec3<B>{cx, cy, cz};
-      const SphereDisc<B> sd = sphere_disc(f, d, r2);
-      const auto live = (sd.disc >= B(T(0))) & (lane < B(T(m)));
-      const B t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
-      unsigned met = lane_bits(live & (t > eps) & (t <= B(tmax)));
+  static bool leaf(const OneRayScene<T>& one, std::int32_t block, std::int32_t count,
+                   const T* ray_o, const T* ray_d, T tmin, const T& tmax, Hit&& hit) noexcept {
+    // The ray broadcast here, from memory, not held in registers the node tests need.
+    const Vec3<BL> o{BL(ray_o[0]), BL(ray_o[1]), BL(ray_o[2])};
+    const Vec3<BL> d{BL(ray_d[0]), BL(ray_d[1]), BL(ray_d[2])};
+    const BL eps(tmin);
+    for (; count > 0; ++block, count -= kLanes) {
+      const OneRayLeaf<T>& l = one.leaves[std::size_t(block)];
+      const BL r2 = BL::load_aligned(l.r2);
+      const Vec3<BL> f =
+          o - Vec3<BL>{BL::load_aligned(l.cx), BL::load_aligned(l.cy), BL::load_aligned(l.cz)};
+      const SphereDisc<BL> sd = sphere_disc(f, d, r2);
+      // Unused lanes: NaN centres, a NaN discriminant.
+      const BL t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      unsigned met = lane_bits((sd.disc >= BL(T(0))) & (t > eps) & (t <= BL(tmax)));
       if (!met) continue;
-      alignas(32) T tt[4];
+      alignas(32) T tt[kLanes];
       t.store_aligned(tt);
       for (; met; met &= met - 1) {
         const int q = __builtin_ctz(met);
-        if (hit(j + q, tt[q])) return true;
+        const std::int32_t* id =
+            &one.ids[std::size_t(kLanes) * std::size_t(block) + std::size_t(q)];
+        if (hit(LazyId{id}, tt[q])) return true;
       }
     }
     return false;
   }
 
   // Over the hierarchy, or every sphere in id order where there is none or the ray starts
-  // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin.
-  template <class Hit>
+  // beyond kFarLimit (as the reference): hit(id, t) for the spheres met at t > tmin (id an
+  // std::int32_t or a LazyId). kAny (occlusion): any hit stops the walk, whose met children are
+  // then taken in slot order, unsorted (as Embree's any-hit traversal).
+  template <bool kAny = false, class Hit>
   static bool all_spheres(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o,
                           const T* d, T tmin, const T& tmax, Hit&& hit) noexcept {
-    const T* aos = one.spheres.data();
     const Vec3<B> ov{B(o[0]), B(o[1]), B(o[2])}, dv{B(d[0]), B(d[1]), B(d[2])};
     const B eps(tmin);
     const Bvh<T>& h = s.bvh;
@@ -318,20 +260,17 @@ struct OneRayKernel {
       return spheres(sp, 0, s.num_spheres, ov, dv, eps, tmax,
                      [&](int j, T t) { return hit(j, t); });
     }
-    auto leaf = [&](std::int32_t first, std::int32_t count) {
-      return leaf_spheres(aos, first, count, ov, dv, eps, tmax,
-                          [&](int j, T t) { return hit(h.id[std::size_t(j)], t); });
+    const bool padded = m > h.origin_limit;
+    const Slab8 r = slab8(o, d, padded);
+    auto go = [&](auto&& leaf, auto&& leaf_at) {
+      return padded ? walk8<true, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at)
+                    : walk8<false, !kAny>(one.nodes8.data(), r, tmax, leaf, leaf_at);
     };
-    if constexpr (std::is_same_v<T, float>) {
-      if (!one.nodes8.empty()) {
-        const bool padded = m > h.origin_limit;
-        const Slab8 r = slab8(o, d, padded);
-        return padded ? walk8<true>(one.nodes8.data(), r, tmax, leaf)
-                      : walk8<false>(one.nodes8.data(), r, tmax, leaf);
-      }
-    }
-    const Slab r = slab(h, o, d);
-    return r.padded ? walk<true>(h, r, tmax, leaf) : walk<false>(h, r, tmax, leaf);
+    return go([&](std::int32_t block,
+                  std::int32_t count) { return leaf(one, block, count, o, d, tmin, tmax, hit); },
+              [&](std::int32_t block) {
+                return reinterpret_cast<const char*>(one.leaves.data() + block);
+              });
   }
 
   // The planes in id order, as the reference: hit(id, t) for each met at t > tmin.
@@ -361,10 +300,24 @@ struct OneRayKernel {
       if (t < best_t) best_t = t, best_id = id;
       return false;
     });
-    all_spheres(s, one, o, d, tmin, best_t, [&](std::int32_t id, T t) {
-      if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
+    const std::int32_t* best_at = nullptr;  // where best_id is, once a LazyId is the best
+    all_spheres(s, one, o, d, tmin, best_t, [&](auto id, T t) {
+      if (t < best_t || (t == best_t && std::int32_t(id) < (best_at ? *best_at : best_id))) {
+        best_t = t;
+        if constexpr (std::is_same_v<decltype(id), LazyId>) {
+          best_at = id.at;
+          // The caller's normal reads the sphere by id next: its lines on their way while
+          // the walk goes on (out of its path: nothing waits on this load).
+          const std::size_t j = std::size_t(*id.at);
+          for (const T* a :
+               {s.spheres.cx.data(), s.spheres.cy.data(), s.spheres.cz.data(), s.spheres.r2.data()})
+            _mm_prefetch(reinterpret_cast<const char*>(a + j), _MM_HINT_T0);
+        } else
+          best_id = id, best_at = nullptr;
+      }
       return false;
     });
+    if (best_at) best_id = *best_at;
     if (best_id < 0) return false;
     t_out = best_t, id_out = best_id;
     return true;
@@ -372,9 +325,9 @@ struct OneRayKernel {
 
   static bool occluded(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
                        T tmin, T tfar) noexcept {
-    auto before = [&](std::int32_t, T t) { return t < tfar; };
+    auto before = [&](auto, T t) { return t < tfar; };
     // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
-    return planes(s, o, d, tmin, before) || all_spheres(s, one, o, d, tmin, tfar, before);
+    return planes(s, o, d, tmin, before) || all_spheres<true>(s, one, o, d, tmin, tfar, before);
   }
 };
 

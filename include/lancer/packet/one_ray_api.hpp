@@ -12,40 +12,38 @@
 
 namespace lancer::packet {
 
-// An 8-wide node for float rays, the 4-wide hierarchy's nodes collapsed (one_ray_scene): its
-// children's boxes (those of the 4-wide nodes, padded alike) structure-of-arrays, eight in one
-// ymm per plane. Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres from
-// leaf-order index child[k]. Unused slots have empty boxes (lo +inf, hi -inf): never met.
+// An 8-wide node, the 4-wide hierarchy's nodes collapsed (one_ray_scene), for float and double
+// rays: its children's boxes structure-of-arrays, eight in one ymm per plane (float's those of
+// the 4-wide nodes, padded alike; double's rounded outward to float and padded for the float
+// slab test). Slot k: count[k] < 0, child[k] is a node; else a leaf of count[k] spheres
+// (OneRayScene::leaves from block child[k]). Unused slots have empty boxes (lo +inf, hi -inf):
+// never met.
 struct alignas(64) OneRayNode8 {
   float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
   std::int32_t child[8], count[8];
 };
 
-// What the one-ray kernels read beside the prepared scene: the spheres as rows (below) and,
-// for float, the 8-wide nodes (nodes8[0] the root; empty without a hierarchy).
+// A leaf's spheres (up to kLanes; a larger leaf takes consecutive blocks), structure of arrays,
+// one vector a field (float: eight in a ymm; double: four): one test for the leaf's spheres, no
+// transposes. Unused lanes have NaN centres (never met). Their object ids:
+// OneRayScene::ids[kLanes * block + lane].
+template <class Real>
+struct alignas(64) OneRayLeaf {
+  static constexpr int kLanes = sizeof(Real) == 4 ? 8 : 4;
+  Real cx[kLanes], cy[kLanes], cz[kLanes], r2[kLanes];
+};
+
+// What the one-ray kernels read beside the prepared scene: the 8-wide nodes (nodes8[0] the root;
+// empty without a hierarchy) and the leaves as blocks (leaves, ids), in the order the collapse
+// meets them.
 template <class Real>
 struct OneRayScene {
-  std::vector<Real> spheres;
   std::vector<OneRayNode8> nodes8;
+  std::vector<OneRayLeaf<Real>> leaves;
+  std::vector<std::int32_t> ids;
 };
 OneRayScene<float> one_ray_scene(const Bvh<float>& h);
 OneRayScene<double> one_ray_scene(const Bvh<double>& h);
-
-// The hierarchy's spheres in leaf order as x, y, z, r^2 each (array of structures: a leaf's
-// spheres in one or two cache lines, where the hierarchy's four arrays take four or more), and
-// four zero spheres after them (a leaf's last four-sphere load reads no further). Empty without
-// a hierarchy.
-template <class Real>
-std::vector<Real> one_ray_spheres(const Bvh<Real>& h) {
-  std::vector<Real> out;
-  if (!h.active()) return out;
-  const std::size_t n = h.cx.size();
-  out.assign(4 * (n + 4), Real(0));
-  for (std::size_t j = 0; j < n; ++j)
-    out[4 * j] = h.cx[j], out[4 * j + 1] = h.cy[j], out[4 * j + 2] = h.cz[j],
-            out[4 * j + 3] = h.r2[j];
-  return out;
-}
 
 // One ray in the prepared frame (origin o, unit direction d), its hits counted at
 // tmin < t < tfar (tmin at least the scene's epsilon). Scenes of spheres and planes only: the
