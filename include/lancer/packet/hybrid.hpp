@@ -48,9 +48,9 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
       Sph::template spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t,
                                                      best_id, counts, leaving);
     };
-    // Exact float: where the scene says (WalkSettings::one_ray_lanes), secondary rays' lanes go on
-    // one ray at a time, unless they stay together.
-    if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
+    // Exact float and double: where the scene says (WalkSettings::one_ray_lanes), secondary rays'
+    // lanes go on one ray at a time, unless they stay together.
+    if constexpr (!kFromEye && !kFast) {
       if (s.walk.one_ray_lanes > 0 && !camera) {
         const bool whole = together(s, valid, o, d);
         walk_choice(counts, whole);

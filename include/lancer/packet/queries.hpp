@@ -229,7 +229,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   [[gnu::always_inline]] static Shadow occluded(const Prepared& s, M valid, const V& p, const V& l,
                                                 const B& dist, RayCounts& counts, const I& leaving,
                                                 bool secondary = false) noexcept {
-    if constexpr (kOneRay && !kFast && std::is_same_v<T, float>)
+    if constexpr (kOneRay && !kFast)
       if (__builtin_expect(secondary && s.walk.shadow_one_ray_lanes > 0, 0))
         return occluded_one_ray<kGlass>(s, valid, p, l, dist, counts);
     return occluded_as<kGlass, false>(s, valid, p, l, dist, counts, leaving);

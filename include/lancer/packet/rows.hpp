@@ -103,7 +103,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     // Shadow rays of secondary hits one ray at a time (exact float, by the scene): its own
     // instantiations, so that scenes without it keep their shading loops' code (lorenzi-diffuse,
     // width 16: 0.97x with the test in every loop).
-    if constexpr (!kFast && std::is_same_v<T, float>) {
+    if constexpr (!kFast) {
       if (s.walk.shadow_one_ray_lanes > 0) {
         if (blocks)
           render_rows_as<kGroup != 1, true>(s, image, row_begin, row_end, counts);
