@@ -24,16 +24,26 @@ struct OneRayWalk : PacketWalk<Arch, T> {
   using typename Base::Node;
 
   // One ray walks the subtree (child, count) alone: a node's four children tested at once (float:
-  // an xmm; double: two, the node's boxes being two lines of doubles), slab values
+  // an xmm; double: a ymm where the ISA has AVX, else two xmm), slab values
   // lo * inv - o * inv, as the reference's, padded by pad per axis; the met ones taken in the
   // node's order for the ray's own direction code, nearest first, depth first; a popped entry
   // is culled where it starts beyond the ray's best t.
   static constexpr bool kFloat = std::is_same_v<T, float>;
-  static constexpr int kHalves = kFloat ? 1 : 2;  // registers per four children
-  using Reg = std::conditional_t<kFloat, __m128, __m128d>;
+#if defined(__AVX__)
+  static constexpr bool kWide = !kFloat;  // four doubles in one ymm
+  using RegD = __m256d;
+#else
+  static constexpr bool kWide = false;
+  using RegD = __m128d;
+#endif
+  static constexpr int kHalves = kFloat || kWide ? 1 : 2;  // registers per four children
+  using Reg = std::conditional_t<kFloat, __m128, RegD>;
   static Reg set1(T x) noexcept {
-    if constexpr (kFloat)
-      return _mm_set1_ps(x);
+    if constexpr (kFloat) return _mm_set1_ps(x);
+#if defined(__AVX__)
+    else if constexpr (kWide)
+      return _mm256_set1_pd(x);
+#endif
     else
       return _mm_set1_pd(x);
   }
@@ -119,13 +129,25 @@ struct OneRayWalk : PacketWalk<Arch, T> {
         _mm_storeu_si128(reinterpret_cast<__m128i*>(st.tnear + st.sp),
                          push(_mm_castps_si128(tn[0])));
       } else {  // eight-byte lanes: the same permutation, entry by entry
-        alignas(16) T t[4];
-        _mm_store_pd(t, tn[0]), _mm_store_pd(t + 2, tn[1]);
+        alignas(32) T t[4];
+        store(t, tn);
         for (int q = 0; q < kPush.count[m]; ++q)
           st.tnear[st.sp + q] = t[kPush.reverse[order_byte][kPush.compress[m][4 * q]] >> 2];
       }
     }
     st.sp += kPush.count[m];
+  }
+  // Double entry distances to t[0..3].
+  static void store(T* t, const Reg* tn) noexcept {
+    if constexpr (!kFloat) {
+#if defined(__AVX__)
+      if constexpr (kWide) {
+        _mm256_store_pd(t, tn[0]);
+        return;
+      }
+#endif
+      if constexpr (!kWide) _mm_store_pd(t, tn[0]), _mm_store_pd(t + 2, tn[1]);
+    }
   }
   // The children of n that ray r meets within [0, best_t], as slot bits; tn: their entry t.
   template <bool kPadded>
@@ -148,6 +170,22 @@ struct OneRayWalk : PacketWalk<Arch, T> {
           _mm_and_ps(_mm_cmple_ps(tn[0], tf[0]),
                      _mm_castsi128_ps(
                          _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
+    } else if constexpr (kWide) {
+#if defined(__AVX__)
+      auto plane = [&](std::size_t off) {
+        return _mm256_load_pd(reinterpret_cast<const T*>(base + off));
+      };
+      tn[0] = _mm256_setzero_pd(), tf[0] = _mm256_set1_pd(best_t);
+      for (int a = 0; a < 3; ++a) {
+        __m256d t0 = _mm256_sub_pd(_mm256_mul_pd(plane(r.near[a]), r.inv[a]), r.oi[a]);
+        __m256d t1 = _mm256_sub_pd(_mm256_mul_pd(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        if constexpr (kPadded) t0 = _mm256_sub_pd(t0, r.pad[a]), t1 = _mm256_add_pd(t1, r.pad[a]);
+        tn[0] = _mm256_max_pd(tn[0], t0);
+        tf[0] = _mm256_min_pd(tf[0], t1);
+      }
+      return unsigned(_mm256_movemask_pd(_mm256_cmp_pd(tn[0], tf[0], _CMP_LE_OQ))) &
+             ((1u << n.arity) - 1);
+#endif
     } else {
       auto plane = [&](std::size_t off, int h) {
         return _mm_load_pd(reinterpret_cast<const T*>(base + off) + 2 * h);

@@ -162,21 +162,28 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
     for (; j < end; ++j) one(j);
   }
 
+  // The one-ray leaf tests' registers: four floats, or four doubles in a ymm where the ISA has
+  // AVX2 (else two in an xmm).
+#if LANCER_X86 && defined(__AVX2__)
+  using LeafArch = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
+#else
+  using LeafArch = Arch4;
+#endif
   // One ray (o, d) against leaf-order spheres [first, first + n), a register of spheres at a
-  // time (the lanes are spheres: four floats or two doubles): each lane computes the
+  // time (the lanes are spheres: four floats, or doubles as LeafArch holds): each lane computes the
   // reference's formulas for its sphere, IEEE operation by operation, so its t is the
   // reference's. hit(q, t) for each sphere met beyond epsilon, in leaf order, -> true to stop;
   // returns whether one did.
   template <class Hit>
   static bool spheres_one(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit&& hit) noexcept {
-    using B4 = xsimd::batch<T, Arch4>;
+    using B4 = xsimd::batch<T, LeafArch>;
     constexpr int K = int(B4::size);
     const Bvh<T>& h = s.bvh;
     const int total = int(h.cx.size());
     const Vec3<B4> ov{B4(o[0]), B4(o[1]), B4(o[2])}, dv{B4(d[0]), B4(d[1]), B4(d[2])};
     const B4 eps(s.epsilon);
-    alignas(16) static constexpr T kLane[4] = {0, 1, 2, 3};
+    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
     const B4 lane = B4::load_aligned(kLane);
     for (int j = first; j < first + n; j += K) {
       const int m = std::min(K, first + n - j);
@@ -185,7 +192,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
         cx = B4::load_unaligned(&h.cx[j]), cy = B4::load_unaligned(&h.cy[j]);
         cz = B4::load_unaligned(&h.cz[j]), r2 = B4::load_unaligned(&h.r2[j]);
       } else {  // the last leaf's last spheres: no reads past the arrays
-        alignas(16) T v[4][K] = {};
+        alignas(32) T v[4][K] = {};
         for (int q = 0; q < m; ++q)
           v[0][q] = h.cx[j + q], v[1][q] = h.cy[j + q], v[2][q] = h.cz[j + q],
           v[3][q] = h.r2[j + q];
@@ -199,7 +206,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
       const B4 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       unsigned met = lane_bits(live & (t > eps));
       if (!met) continue;
-      alignas(16) T tt[K];
+      alignas(32) T tt[K];
       t.store_aligned(tt);
       for (; met; met &= met - 1) {
         const int q = __builtin_ctz(met);
