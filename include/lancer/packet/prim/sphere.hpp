@@ -192,7 +192,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
         cx = B4::load_unaligned(&h.cx[j]), cy = B4::load_unaligned(&h.cy[j]);
         cz = B4::load_unaligned(&h.cz[j]), r2 = B4::load_unaligned(&h.r2[j]);
       } else {  // the last leaf's last spheres: no reads past the arrays
-        alignas(32) T v[4][K] = {};
+        alignas(sizeof(B4)) T v[4][K] = {};
         for (int q = 0; q < m; ++q)
           v[0][q] = h.cx[j + q], v[1][q] = h.cy[j + q], v[2][q] = h.cz[j + q],
           v[3][q] = h.r2[j + q];
@@ -206,7 +206,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
       const B4 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       unsigned met = lane_bits(live & (t > eps));
       if (!met) continue;
-      alignas(32) T tt[K];
+      alignas(sizeof(B4)) T tt[K];
       t.store_aligned(tt);
       for (; met; met &= met - 1) {
         const int q = __builtin_ctz(met);
