@@ -398,12 +398,44 @@ TEST(Bvh, FullRendersShadeTheCameraBlocksHits) {
     }
 }
 
+// The one-ray walks of expect_one_ray_walks_match below at every packet width of precision T.
+template <class T>
+void expect_one_ray_walks_match(const Scene& s, const RenderResult& truth, int nx, int ny) {
+  constexpr Precision p = std::is_same_v<T, float> ? Precision::exact : Precision::dbl;
+  SCOPED_TRACE(to_string(p));
+  auto prepared = prepare<T>(s, Accel::bvh);
+  EXPECT_EQ(prepared.walk.one_ray_lanes, 0);  // 1500 spheres: packets by default
+  EXPECT_EQ(prepared.walk.shadow_one_ray_lanes, kOneRayShadowLanes);
+  // Every packet apart (spread 0: the one-ray walks everywhere), and the scene's own choice,
+  // where packets whose rays stay together walk whole.
+  const T built_spread = prepared.bvh.coherent_spread;
+  for (const T spread : {T(0), built_spread})
+    for (int lanes : {1, 2, 16}) {
+      prepared.walk.one_ray_lanes = prepared.walk.shadow_one_ray_lanes = lanes;
+      prepared.bvh.coherent_spread = spread;
+      for (int w : testing::packet_widths(p)) {
+        Image img(nx, ny);
+        RayCounts counts;
+        if constexpr (std::is_same_v<T, float>)
+          packet::kernels_for(w)->render_rows(prepared, img, 0, ny, counts);
+        else
+          packet::double_kernels(w)->render_rows(prepared, img, 0, ny, counts);
+        const BitDiff d = bit_diff(truth.image, img);
+        EXPECT_TRUE(d.identical())
+            << "width " << w << ", one ray at " << lanes << " lanes, spread " << spread << ": "
+            << d.differing_pixels << " pixels differ, first at (" << d.first_i << ", " << d.first_j
+            << ")";
+        EXPECT_TRUE(counts == truth.rays) << "width " << w << ": other rays traced";
+      }
+    }
+}
+
 // Secondary rays' closest hits and their shadow rays one ray at a time (Bvh::one_ray_lanes,
 // shadow_one_ray_lanes: a lane alone below a subtree few lanes enter, or every lane from the
-// root): the plain loop's image and rays at every width, in reflective and glass clouds (shadow
-// rays through several transmitting spheres: the product's order) with ties (duplicates), the
-// camera inside the cloud, and reflections off a far ground plane (rays from beyond the origin
-// limit: padded boxes), at log-uniform scales.
+// root): the plain loop's image and rays at every width, float and double, in reflective and
+// glass clouds (shadow rays through several transmitting spheres: the product's order) with ties
+// (duplicates), the camera inside the cloud, and reflections off a far ground plane (rays from
+// beyond the origin limit: padded boxes), at log-uniform scales.
 TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
   std::mt19937_64 rng(77);
   for (int round = 0; round < 4; ++round) {
@@ -421,39 +453,20 @@ TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
     SCOPED_TRACE("round " + std::to_string(round) + ", scale " + std::to_string(o.scale));
     // Through glass, the reference's walk of the same hierarchy: shadow rays multiply their
     // transmits in its depth-first order, the plain loop in id order (docs/precision.md).
-    const RenderResult truth = run(s, 1, o.transmit > 0 ? Accel::bvh : Accel::none);
+    const Accel truth_accel = o.transmit > 0 ? Accel::bvh : Accel::none;
+    const RenderResult truth = run(s, 1, truth_accel);
     EXPECT_GT(truth.rays.reflected, 100u);
     if (o.transmit > 0) {
       const BitDiff loop = bit_diff(run(s, 1, Accel::none).image, truth.image);
       EXPECT_FALSE(loop.identical()) << "the transmits' order no longer shows in this scene";
     }
-    auto prepared = prepare<float>(s, Accel::bvh);
-    EXPECT_EQ(prepared.walk.one_ray_lanes, 0);  // 1500 spheres: packets by default
-    EXPECT_EQ(prepared.walk.shadow_one_ray_lanes, kOneRayShadowLanes);
-    // Every packet apart (spread 0: the one-ray walks everywhere), and the scene's own choice,
-    // where packets whose rays stay together walk whole.
-    const float built_spread = prepared.bvh.coherent_spread;
-    for (const float spread : {0.0f, built_spread})
-      for (int lanes : {1, 2, 16}) {
-        prepared.walk.one_ray_lanes = prepared.walk.shadow_one_ray_lanes = lanes;
-        prepared.bvh.coherent_spread = spread;
-        for (int w : testing::packet_widths(Precision::exact)) {
-          Image img(o.nx, o.ny);
-          RayCounts counts;
-          packet::kernels_for(w)->render_rows(prepared, img, 0, o.ny, counts);
-          const BitDiff d = bit_diff(truth.image, img);
-          EXPECT_TRUE(d.identical())
-              << "width " << w << ", one ray at " << lanes << " lanes, spread " << spread << ": "
-              << d.differing_pixels << " pixels differ, first at (" << d.first_i << ", "
-              << d.first_j << ")";
-          EXPECT_TRUE(counts == truth.rays) << "width " << w << ": other rays traced";
-        }
-      }
+    expect_one_ray_walks_match<float>(s, truth, o.nx, o.ny);
+    expect_one_ray_walks_match<double>(s, run(s, 1, truth_accel, Precision::dbl), o.nx, o.ny);
   }
 }
 
-// The sphere counts from which secondary rays and their shadow rays go one at a time (float;
-// double stays packets).
+// The sphere counts from which secondary rays and their shadow rays go one at a time (float and
+// double alike).
 TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
   for (const auto& [n, lanes, shadow] :
        std::vector<std::tuple<int, int, int>>{{kOneRayShadowMinSpheres - 1, 0, 0},
@@ -469,13 +482,13 @@ TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
     const auto d = prepare<double>(s, Accel::bvh);
     EXPECT_EQ(f.walk.one_ray_lanes, lanes) << n << " spheres";
     EXPECT_EQ(f.walk.shadow_one_ray_lanes, shadow) << n << " spheres";
-    EXPECT_EQ(d.walk.one_ray_lanes, 0) << n << " spheres";
-    EXPECT_EQ(d.walk.shadow_one_ray_lanes, 0) << n << " spheres";
+    EXPECT_EQ(d.walk.one_ray_lanes, lanes) << n << " spheres";
+    EXPECT_EQ(d.walk.shadow_one_ray_lanes, shadow) << n << " spheres";
   }
 }
 
-// The summary says how the secondary rays walked, as they ran: exact float packets by the
-// scene's thresholds, double packets and the reference as they always do.
+// The summary says how the secondary rays walked, as they ran: exact float and double packets by
+// the scene's thresholds, the reference as it always does.
 TEST(Bvh, SummaryReportsTheSecondaryWalkThatRan) {
   CloudOptions o;
   o.spheres = kOneRayShadowMinSpheres + 100;
@@ -490,7 +503,8 @@ TEST(Bvh, SummaryReportsTheSecondaryWalkThatRan) {
   }
   for (int w : testing::packet_widths(Precision::dbl)) {
     const RenderResult d = run(s, w, Accel::bvh, Precision::dbl);
-    EXPECT_EQ(secondary_walk(d.structure, d.width), "closest hits packets; shadow rays packets");
+    EXPECT_EQ(secondary_walk(d.structure, d.width),
+              "closest hits packets; shadow rays packets, one ray alone at 1 lane");
   }
   const RenderResult ref = run(s, 1, Accel::bvh);
   EXPECT_EQ(secondary_walk(ref.structure, ref.width), "one ray at a time (the reference)");

@@ -22,7 +22,7 @@ const char* to_string(Accel a);
 // Spheres from which the hierarchy beats the plain loop (measured, docs/accel.md).
 inline constexpr int kBvhMinSpheres = 16;
 
-// Secondary rays' closest hits (reflected, refracted; exact float packets): from
+// Secondary rays' closest hits (reflected, refracted; exact float and double packets): from
 // kOneRayMinSpheres spheres every lane walks alone from the root, a packet's walks interleaved
 // (Benthin et al.'s hybrid; threshold measured on random clouds: docs/accel.md, "Secondary rays
 // one at a time" and "Lone walks interleaved").
@@ -31,8 +31,9 @@ inline constexpr int kOneRayMinSpheres = 8192;
 // structure (a flat mirror's reflections, camera-like rays through the library API): it walks
 // as a packet (Bvh::coherent_spread; measured 4 to 16 alike, docs/accel.md thirteenth round).
 inline constexpr int kCoherentLeaves = 8;
-// The shadow rays of secondary hits (exact float packets): from kOneRayShadowMinSpheres, a lane
-// goes on alone into a subtree no other lane of its packet enters (docs/accel.md, tenth round).
+// The shadow rays of secondary hits (exact float and double packets): from
+// kOneRayShadowMinSpheres, a lane goes on alone into a subtree no other lane of its packet enters
+// (docs/accel.md, tenth round).
 // The camera hits' shadow rays, coherent, stay packets.
 inline constexpr int kOneRayShadowMinSpheres = 1024;
 inline constexpr int kOneRayShadowLanes = 1;

@@ -83,8 +83,8 @@ struct LightBlock {
   std::vector<T> intensity_rgb[3], ambient_rgb[3];
 };
 
-// How the packets walk the hierarchy (set by prepare() from the scene; read by exact float
-// packets only).
+// How the packets walk the hierarchy (set by prepare() from the scene; read by exact float and
+// double packets, not by fast ones).
 template <class T>
 struct WalkSettings {
   // Secondary packets' lanes go on one ray at a time into a subtree at most this many of them

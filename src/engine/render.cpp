@@ -518,9 +518,10 @@ void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
   auto run = [&](const auto& prepared, const auto& rows) {
     res.structure = structure_of(prepared);
     res.structure.built_for = rows.kernels ? rows.kernels->kinds : "every kind (the reference)";
-    // Only exact float packets read it: the reference walks one ray anyway; fast and double
+    // Only exact float and double packets read it: the reference walks one ray anyway; fast
     // packets stay packets.
-    const bool packets = st.precision == Precision::exact && res.width > 1;
+    const bool packets =
+        (st.precision == Precision::exact || st.precision == Precision::dbl) && res.width > 1;
     res.structure.one_ray_lanes = packets ? prepared.walk.one_ray_lanes : 0;
     res.structure.shadow_one_ray_lanes = packets ? prepared.walk.shadow_one_ray_lanes : 0;
     res.seconds = timed([&] {

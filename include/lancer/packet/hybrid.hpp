@@ -1,6 +1,6 @@
 // The hybrid switch (Benthin et al.): a packet's closest-hit walk through the hierarchy, whose
-// lanes go on one ray at a time where the scene says (exact float) and they do not stay
-// together; and the shadow rays' walk likewise.
+// lanes go on one ray at a time where the scene says (exact float and double) and they do not
+// stay together; and the shadow rays' walk likewise.
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
@@ -48,9 +48,9 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
       Sph::template spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t,
                                                      best_id, counts, leaving);
     };
-    // Exact float: where the scene says (WalkSettings::one_ray_lanes), secondary rays' lanes go on
-    // one ray at a time, unless they stay together.
-    if constexpr (!kFromEye && !kFast && std::is_same_v<T, float>) {
+    // Exact float and double: where the scene says (WalkSettings::one_ray_lanes), secondary rays'
+    // lanes go on one ray at a time, unless they stay together.
+    if constexpr (!kFromEye && !kFast) {
       if (s.walk.one_ray_lanes > 0 && !camera) {
         const bool whole = together(s, valid, o, d);
         walk_choice(counts, whole);
@@ -119,9 +119,9 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
       c.profile->sphere_tests += std::uint64_t(spheres);
     }
   }
-  // A secondary packet's lanes walking a subtree one ray at a time (exact float; the hybrid
-  // step of Traversal::closest): each lane's ray over the wide nodes alone, the lanes' walks
-  // interleaved (Traversal::closest_one), its leaves' spheres four at a time
+  // A secondary packet's lanes walking a subtree one ray at a time (exact float and double; the
+  // hybrid step of Traversal::closest): each lane's ray over the wide nodes alone, the lanes'
+  // walks interleaved (Traversal::closest_one), its leaves' spheres a register at a time
   // (spheres_closest_one).
   template <bool kPadded>
   struct OneRay {
@@ -155,12 +155,12 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
     }
   };
 
-  // A shadow packet's lanes walking a subtree one ray at a time (exact float; the hybrid step
-  // of Traversal::any): each pending lane's segment over the wide nodes alone in the fixed slot
-  // order, the lanes' walks interleaved (Traversal::any_one), its leaves' spheres four at a
-  // time; step(id, lane, pending) for each sphere a lane meets before the light, in leaf order
-  // for that lane, until the lane is no longer pending (steps of different lanes touch
-  // different lanes only, so their interleaving changes nothing).
+  // A shadow packet's lanes walking a subtree one ray at a time (exact float and double; the
+  // hybrid step of Traversal::any): each pending lane's segment over the wide nodes alone in the
+  // fixed slot order, the lanes' walks interleaved (Traversal::any_one), its leaves' spheres a
+  // register at a time; step(id, lane, pending) for each sphere a lane meets before the light,
+  // in leaf order for that lane, until the lane is no longer pending (steps of different lanes
+  // touch different lanes only, so their interleaving changes nothing).
   template <bool kPadded, class Step>
   struct OneShadow {
     static constexpr int kMaxLanes = W;

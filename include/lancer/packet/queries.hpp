@@ -229,7 +229,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   [[gnu::always_inline]] static Shadow occluded(const Prepared& s, M valid, const V& p, const V& l,
                                                 const B& dist, RayCounts& counts, const I& leaving,
                                                 bool secondary = false) noexcept {
-    if constexpr (kOneRay && !kFast && std::is_same_v<T, float>)
+    if constexpr (kOneRay && !kFast)
       if (__builtin_expect(secondary && s.walk.shadow_one_ray_lanes > 0, 0))
         return occluded_one_ray<kGlass>(s, valid, p, l, dist, counts);
     return occluded_as<kGlass, false>(s, valid, p, l, dist, counts, leaving);
@@ -248,9 +248,9 @@ struct Queries : Hybrid<Arch, Real, Mode> {
     return sh;
   }
   // Shadow rays of secondary hits through a hierarchy, lanes alone where the scene says (exact
-  // float). Out of line and by value: the shading loops that inline `occluded` keep their
-  // vectors in registers (a reference passed out would give them a home in memory; the course
-  // scenes ran 2-3% more instructions in render_rows, callgrind).
+  // float and double). Out of line and by value: the shading loops that inline `occluded` keep
+  // their vectors in registers (a reference passed out would give them a home in memory; the
+  // course scenes ran 2-3% more instructions in render_rows, callgrind).
   template <bool kGlass>
   [[gnu::noinline]] static Shadow occluded_one_ray(const Prepared& s, M valid, V p, V l, B dist,
                                                    RayCounts& counts) noexcept {

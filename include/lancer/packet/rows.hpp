@@ -100,10 +100,10 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
     const PreparedCamera<T>& cam = s.camera;
     const bool blocks =
         kGroup > 1 && cam.samples == 1 && !cam.orthographic && s.features.spheres && s.bvh.active();
-    // Shadow rays of secondary hits one ray at a time (exact float, by the scene): its own
-    // instantiations, so that scenes without it keep their shading loops' code (lorenzi-diffuse,
-    // width 16: 0.97x with the test in every loop).
-    if constexpr (!kFast && std::is_same_v<T, float>) {
+    // Shadow rays of secondary hits one ray at a time (exact float and double, by the scene): its
+    // own instantiations, so that scenes without it keep their shading loops' code
+    // (lorenzi-diffuse, width 16: 0.97x with the test in every loop).
+    if constexpr (!kFast) {
       if (s.walk.shadow_one_ray_lanes > 0) {
         if (blocks)
           render_rows_as<kGroup != 1, true>(s, image, row_begin, row_end, counts);

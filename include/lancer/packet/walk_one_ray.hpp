@@ -23,17 +23,37 @@ struct OneRayWalk : PacketWalk<Arch, T> {
   using Base = PacketWalk<Arch, T>;
   using typename Base::Node;
 
-  // One ray (float) walks the subtree (child, count) alone: a node's four children tested at
-  // once in an xmm (slab values lo * inv - o * inv, as the reference's, padded by pad per axis),
-  // the met ones taken in the node's order for the ray's own direction code, nearest first,
-  // depth first; a popped entry is culled where it starts beyond the ray's best t.
+  // One ray walks the subtree (child, count) alone: a node's four children tested at once (float:
+  // an xmm; double: a ymm where the ISA has AVX, else two xmm), slab values
+  // lo * inv - o * inv, as the reference's, padded by pad per axis; the met ones taken in the
+  // node's order for the ray's own direction code, nearest first, depth first; a popped entry
+  // is culled where it starts beyond the ray's best t.
+  static constexpr bool kFloat = std::is_same_v<T, float>;
+#if defined(__AVX__)
+  static constexpr bool kWide = !kFloat;  // four doubles in one ymm
+  using RegD = __m256d;
+#else
+  static constexpr bool kWide = false;
+  using RegD = __m128d;
+#endif
+  static constexpr int kHalves = kFloat || kWide ? 1 : 2;  // registers per four children
+  using Reg = std::conditional_t<kFloat, __m128, RegD>;
+  static Reg set1(T x) noexcept {
+    if constexpr (kFloat) return _mm_set1_ps(x);
+#if defined(__AVX__)
+    else if constexpr (kWide)
+      return _mm256_set1_pd(x);
+#endif
+    else
+      return _mm_set1_pd(x);
+  }
   struct OneRay4 {
-    __m128 inv[3], oi[3], pad[3];
+    Reg inv[3], oi[3], pad[3];
     std::size_t near[3], far[3];  // byte offsets in a Node of each axis' entry and exit planes
     unsigned code;
   };
   static OneRay4 one_ray(const T* o, const T* d, bool padded) noexcept {
-    static_assert(std::is_same_v<T, float> && Bvh<T>::kWidth == 4);
+    static_assert(Bvh<T>::kWidth == 4);
     const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
     const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
     OneRay4 r;
@@ -41,9 +61,9 @@ struct OneRayWalk : PacketWalk<Arch, T> {
     for (int a = 0; a < 3; ++a) {
       // As slab_ray: a zero direction component becomes 2^-64.
       const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
-      r.inv[a] = _mm_set1_ps(inv);
-      r.oi[a] = _mm_set1_ps(o[a] * inv);
-      r.pad[a] = _mm_set1_ps(padded ? m * T(Bvh<T>::kOriginPad) * std::fabs(inv) : T(0));
+      r.inv[a] = set1(inv);
+      r.oi[a] = set1(o[a] * inv);
+      r.pad[a] = set1(padded ? m * T(Bvh<T>::kOriginPad) * std::fabs(inv) : T(0));
       // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
       r.near[a] = inv < T(0) ? hi[a] : lo[a];
       r.far[a] = inv < T(0) ? lo[a] : hi[a];
@@ -90,21 +110,8 @@ struct OneRayWalk : PacketWalk<Arch, T> {
   // Tests node n's children for ray r and pushes the met ones (nearest on top; kAny: slot order).
   template <bool kPadded, bool kAny>
   static void push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
-    const char* base = reinterpret_cast<const char*>(&n);
-    auto plane = [&](std::size_t off) {
-      return _mm_load_ps(reinterpret_cast<const T*>(base + off));
-    };
-    __m128 tn = _mm_setzero_ps(), tf = _mm_set1_ps(best_t);
-    for (int a = 0; a < 3; ++a) {
-      __m128 t0 = _mm_sub_ps(_mm_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
-      __m128 t1 = _mm_sub_ps(_mm_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
-      if constexpr (kPadded) t0 = _mm_sub_ps(t0, r.pad[a]), t1 = _mm_add_ps(t1, r.pad[a]);
-      tn = _mm_max_ps(tn, t0);
-      tf = _mm_min_ps(tf, t1);
-    }
-    const unsigned met = unsigned(_mm_movemask_ps(_mm_and_ps(
-        _mm_cmple_ps(tn, tf),
-        _mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
+    Reg tn[kHalves], tf[kHalves];
+    const unsigned met = met_children<kPadded>(n, r, best_t, tn, tf);
     const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
     const __m128i order =
         _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.reverse[order_byte]));
@@ -117,9 +124,86 @@ struct OneRayWalk : PacketWalk<Arch, T> {
                      push(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child))));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(st.cnt + st.sp),
                      push(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(counts))));
-    if constexpr (!kAny)
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.tnear + st.sp), push(_mm_castps_si128(tn)));
+    if constexpr (!kAny) {
+      if constexpr (kFloat) {
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(st.tnear + st.sp),
+                         push(_mm_castps_si128(tn[0])));
+      } else {  // eight-byte lanes: the same permutation, entry by entry
+        alignas(32) T t[4];
+        store(t, tn);
+        for (int q = 0; q < kPush.count[m]; ++q)
+          st.tnear[st.sp + q] = t[kPush.reverse[order_byte][kPush.compress[m][4 * q]] >> 2];
+      }
+    }
     st.sp += kPush.count[m];
+  }
+  // Double entry distances to t[0..3].
+  static void store(T* t, const Reg* tn) noexcept {
+    if constexpr (!kFloat) {
+#if defined(__AVX__)
+      if constexpr (kWide) {
+        _mm256_store_pd(t, tn[0]);
+        return;
+      }
+#endif
+      if constexpr (!kWide) _mm_store_pd(t, tn[0]), _mm_store_pd(t + 2, tn[1]);
+    }
+  }
+  // The children of n that ray r meets within [0, best_t], as slot bits; tn: their entry t.
+  template <bool kPadded>
+  [[gnu::always_inline]] static unsigned met_children(const Node& n, const OneRay4& r, T best_t,
+                                                      Reg* tn, Reg* tf) noexcept {
+    const char* base = reinterpret_cast<const char*>(&n);
+    if constexpr (kFloat) {
+      auto plane = [&](std::size_t off) {
+        return _mm_load_ps(reinterpret_cast<const T*>(base + off));
+      };
+      tn[0] = _mm_setzero_ps(), tf[0] = _mm_set1_ps(best_t);
+      for (int a = 0; a < 3; ++a) {
+        __m128 t0 = _mm_sub_ps(_mm_mul_ps(plane(r.near[a]), r.inv[a]), r.oi[a]);
+        __m128 t1 = _mm_sub_ps(_mm_mul_ps(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        if constexpr (kPadded) t0 = _mm_sub_ps(t0, r.pad[a]), t1 = _mm_add_ps(t1, r.pad[a]);
+        tn[0] = _mm_max_ps(tn[0], t0);
+        tf[0] = _mm_min_ps(tf[0], t1);
+      }
+      return unsigned(_mm_movemask_ps(
+          _mm_and_ps(_mm_cmple_ps(tn[0], tf[0]),
+                     _mm_castsi128_ps(
+                         _mm_load_si128(reinterpret_cast<const __m128i*>(kPush.arity[n.arity]))))));
+    } else if constexpr (kWide) {
+#if defined(__AVX__)
+      auto plane = [&](std::size_t off) {
+        return _mm256_load_pd(reinterpret_cast<const T*>(base + off));
+      };
+      tn[0] = _mm256_setzero_pd(), tf[0] = _mm256_set1_pd(best_t);
+      for (int a = 0; a < 3; ++a) {
+        __m256d t0 = _mm256_sub_pd(_mm256_mul_pd(plane(r.near[a]), r.inv[a]), r.oi[a]);
+        __m256d t1 = _mm256_sub_pd(_mm256_mul_pd(plane(r.far[a]), r.inv[a]), r.oi[a]);
+        if constexpr (kPadded) t0 = _mm256_sub_pd(t0, r.pad[a]), t1 = _mm256_add_pd(t1, r.pad[a]);
+        tn[0] = _mm256_max_pd(tn[0], t0);
+        tf[0] = _mm256_min_pd(tf[0], t1);
+      }
+      return unsigned(_mm256_movemask_pd(_mm256_cmp_pd(tn[0], tf[0], _CMP_LE_OQ))) &
+             ((1u << n.arity) - 1);
+#endif
+    } else {
+      auto plane = [&](std::size_t off, int h) {
+        return _mm_load_pd(reinterpret_cast<const T*>(base + off) + 2 * h);
+      };
+      unsigned met = 0;
+      for (int h = 0; h < 2; ++h) {
+        tn[h] = _mm_setzero_pd(), tf[h] = _mm_set1_pd(best_t);
+        for (int a = 0; a < 3; ++a) {
+          __m128d t0 = _mm_sub_pd(_mm_mul_pd(plane(r.near[a], h), r.inv[a]), r.oi[a]);
+          __m128d t1 = _mm_sub_pd(_mm_mul_pd(plane(r.far[a], h), r.inv[a]), r.oi[a]);
+          if constexpr (kPadded) t0 = _mm_sub_pd(t0, r.pad[a]), t1 = _mm_add_pd(t1, r.pad[a]);
+          tn[h] = _mm_max_pd(tn[h], t0);
+          tf[h] = _mm_min_pd(tf[h], t1);
+        }
+        met |= unsigned(_mm_movemask_pd(_mm_cmple_pd(tn[h], tf[h]))) << (2 * h);
+      }
+      return met & ((1u << n.arity) - 1);
+    }
   }
   template <bool kPadded, bool kAny, int kN, class Leaf>
   static void walk_one(const Bvh<T>& h, const OneRay4* r, int n, std::int32_t child,

@@ -410,10 +410,20 @@ struct PacketWalk {
 
   // The greatest of x's live lanes less the least (valid: some lane live).
   static T live_span(const M& valid, const B& x) noexcept {
-    const M v[1] = {valid};
-    auto get = [&](int) { return x; };
-    return _mm_cvtss_f32((lane_bound<true, 1>(v, get))) -
-           _mm_cvtss_f32((lane_bound<false, 1>(v, get)));
+    if constexpr (std::is_same_v<T, float>) {
+      const M v[1] = {valid};
+      auto get = [&](int) { return x; };
+      return _mm_cvtss_f32((lane_bound<true, 1>(v, get))) -
+             _mm_cvtss_f32((lane_bound<false, 1>(v, get)));
+    } else {  // double: lane by lane (once per secondary packet)
+      constexpr T inf = std::numeric_limits<T>::infinity();
+      alignas(64) T hi[B::size], lo[B::size];
+      xsimd::select(valid, x, B(-inf)).store_aligned(hi);
+      xsimd::select(valid, x, B(inf)).store_aligned(lo);
+      T h = -inf, l = inf;
+      for (std::size_t k = 0; k < B::size; ++k) h = std::max(h, hi[k]), l = std::min(l, lo[k]);
+      return h - l;
+    }
   }
 };
 

@@ -162,27 +162,37 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
     for (; j < end; ++j) one(j);
   }
 
-  // One ray (o, d) against leaf-order spheres [first, first + n), four spheres a register (the
-  // lanes are spheres): each lane computes the reference's formulas for its sphere, IEEE
-  // operation by operation, so its t is the reference's. hit(q, t) for each sphere met beyond
-  // epsilon, in leaf order, -> true to stop; returns whether one did.
+  // The one-ray leaf tests' registers: four floats, or four doubles in a ymm where the ISA has
+  // AVX2 (else two in an xmm).
+#if LANCER_X86 && defined(__AVX2__)
+  using LeafArch = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
+#else
+  using LeafArch = Arch4;
+#endif
+  // One ray (o, d) against leaf-order spheres [first, first + n), a register of spheres at a
+  // time (the lanes are spheres: four floats, or doubles as LeafArch holds): each lane computes the
+  // reference's formulas for its sphere, IEEE operation by operation, so its t is the
+  // reference's. hit(q, t) for each sphere met beyond epsilon, in leaf order, -> true to stop;
+  // returns whether one did.
   template <class Hit>
   static bool spheres_one(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit&& hit) noexcept {
-    using B4 = xsimd::batch<float, Arch4>;
+    using B4 = xsimd::batch<T, LeafArch>;
+    constexpr int K = int(B4::size);
     const Bvh<T>& h = s.bvh;
     const int total = int(h.cx.size());
     const Vec3<B4> ov{B4(o[0]), B4(o[1]), B4(o[2])}, dv{B4(d[0]), B4(d[1]), B4(d[2])};
     const B4 eps(s.epsilon);
-    const B4 lane(_mm_setr_ps(0.f, 1.f, 2.f, 3.f));
-    for (int j = first; j < first + n; j += 4) {
-      const int m = std::min(4, first + n - j);
+    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
+    const B4 lane = B4::load_aligned(kLane);
+    for (int j = first; j < first + n; j += K) {
+      const int m = std::min(K, first + n - j);
       B4 cx, cy, cz, r2;
-      if (j + 4 <= total) {
+      if (j + K <= total) {
         cx = B4::load_unaligned(&h.cx[j]), cy = B4::load_unaligned(&h.cy[j]);
         cz = B4::load_unaligned(&h.cz[j]), r2 = B4::load_unaligned(&h.r2[j]);
       } else {  // the last leaf's last spheres: no reads past the arrays
-        alignas(16) T v[4][4] = {};
+        alignas(sizeof(B4)) T v[4][K] = {};
         for (int q = 0; q < m; ++q)
           v[0][q] = h.cx[j + q], v[1][q] = h.cy[j + q], v[2][q] = h.cz[j + q],
           v[3][q] = h.r2[j + q];
@@ -191,12 +201,12 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
       }
       const Vec3<B4> f = ov - Vec3<B4>{cx, cy, cz};
       const SphereDisc<B4> sd = sphere_disc(f, dv, r2);
-      const auto live = (sd.disc >= B4(0.f)) & (lane < B4(float(m)));
+      const auto live = (sd.disc >= B4(T(0))) & (lane < B4(T(m)));
       if (!xsimd::any(live)) continue;
       const B4 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       unsigned met = lane_bits(live & (t > eps));
       if (!met) continue;
-      alignas(16) T tt[4];
+      alignas(sizeof(B4)) T tt[K];
       t.store_aligned(tt);
       for (; met; met &= met - 1) {
         const int q = __builtin_ctz(met);
