@@ -18,6 +18,26 @@
 
 namespace lancer::packet {
 
+// The register of a lone ray's four children, chosen by a number (0 float, 1 double in two
+// xmm, 2 double in a ymm): a vector type as a template argument loses its attributes (GCC's
+// -Wignored-attributes).
+template <int K>
+struct OneRayReg;
+template <>
+struct OneRayReg<0> {
+  using type = __m128;
+};
+template <>
+struct OneRayReg<1> {
+  using type = __m128d;
+};
+#if defined(__AVX__)
+template <>
+struct OneRayReg<2> {
+  using type = __m256d;
+};
+#endif
+
 template <class Arch, class T>
 struct OneRayWalk : PacketWalk<Arch, T> {
   using Base = PacketWalk<Arch, T>;
@@ -31,13 +51,11 @@ struct OneRayWalk : PacketWalk<Arch, T> {
   static constexpr bool kFloat = std::is_same_v<T, float>;
 #if defined(__AVX__)
   static constexpr bool kWide = !kFloat;  // four doubles in one ymm
-  using RegD = __m256d;
 #else
   static constexpr bool kWide = false;
-  using RegD = __m128d;
 #endif
   static constexpr int kHalves = kFloat || kWide ? 1 : 2;  // registers per four children
-  using Reg = std::conditional_t<kFloat, __m128, RegD>;
+  using Reg = typename OneRayReg<kFloat ? 0 : kWide ? 2 : 1>::type;
   static Reg set1(T x) noexcept {
     if constexpr (kFloat) return _mm_set1_ps(x);
 #if defined(__AVX__)
