@@ -113,14 +113,20 @@ void check_ray(const char* what, const RayPacket<N>& r, int k) {
 // Every active lane, before any is traced: on an error nothing has been written. Only where
 // some lane fails does check_ray find the first and say what. Returns whether the packet is
 // plain (scan_rays' bit 1).
-template <class T, int N>
-bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps,
-                const packet::KernelTable<T>* k) {
+// The caller's valid mask, or every lane on where it gave none.
+template <int N>
+const int* on_lanes(const int* valid) {
   static constexpr auto kAll = [] {
     std::array<int, N> a{};
     for (int& x : a) x = 1;
     return a;
   }();
+  return valid ? valid : kAll.data();
+}
+
+template <class T, int N>
+bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps,
+                const packet::KernelTable<T>* k) {
   int live = N;
   if (valid) {
     live = 0;
@@ -131,7 +137,7 @@ bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps
   const int scan = 4 * live < N
                        ? 1
                        : scan_rays(N, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear,
-                                   r.tfar, r.mask, valid ? valid : kAll.data(), kAllObjects, eps);
+                                   r.tfar, r.mask, on_lanes<N>(valid), kAllObjects, eps);
   if (scan & 1)
     for (int l = 0; l < N; ++l)
       if (valid == nullptr || valid[l] != 0) check_ray(what, r, l);
@@ -176,7 +182,7 @@ void to_frame(const PreparedScene<T>& s, const RayPacket<N>& r, int k, Vec3<T>& 
 // cost the API more than tracing them: frame_rays does it in vectors, with the kernel's ISA.
 template <class T, int N>
 int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int c, int w,
-         const packet::KernelTable<T>* k, bool plain, Chunk<T>& ch) {
+         const packet::KernelTable<T>* k, Chunk<T>& ch) {
   const bool kernel = k != nullptr;
   // n lanes from lane c of the caller's packet into the chunk's six arrays, from its lane l.
   const auto move = [&](int l, int n) {
@@ -188,19 +194,6 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
   };
   T* rays = ch.rays;
   const int n = std::min(w, N - c);  // fast mode's narrowest kernel is wider than N = 1
-  if (plain && kernel && n == w) {
-    // Every lane active, seeing every object, from epsilon: all to the kernel.
-    for (int l = 0; l < w; ++l) ch.t[l] = T(r.tfar[c + l]);
-    std::fill(ch.tmin, ch.tmin + w, s.epsilon);
-    std::fill(ch.active, ch.active + w, true);
-    std::fill(ch.valid, ch.valid + w, true);
-    std::fill(ch.alone, ch.alone + w, false);
-    std::fill(ch.out, ch.out + w, false);
-    std::fill(ch.id, ch.id + w, -1);
-    move(0, n);
-    if (s.shapes) std::fill(ch.shape.at, ch.shape.at + w, ShapeHit<T>{});
-    return w;
-  }
   int active = 0;
   for (int l = 0; l < w; ++l) {
     const int i = c + l;
@@ -382,13 +375,8 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
 // A caller's packet, straight from its arrays (valid may be null: every lane on).
 template <int N>
 packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
-  static constexpr auto kAll = [] {
-    std::array<int, N> a{};
-    for (int& x : a) x = 1;
-    return a;
-  }();
   return {r.org_x,    r.org_y, r.org_z, r.dir_x, r.dir_y,
-          r.dir_z,    r.tnear, r.tfar,  r.mask,  valid ? valid : kAll.data(),
+          r.dir_z,    r.tnear, r.tfar,  r.mask,  on_lanes<N>(valid),
           kAllObjects};
 }
 
@@ -406,7 +394,7 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
+    if (fill(s, valid, r, c, w, k, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out,
                             s.shapes ? ch.prim : nullptr);
@@ -433,7 +421,7 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
   const bool plain = check_rays("occluded", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
-    if (fill(s, valid, r, c, w, k, plain, ch) == 0) continue;
+    if (fill(s, valid, r, c, w, k, ch) == 0) continue;
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->occluded_packet(s, ch.valid, ch.rays, ch.t, ch.out);  // false where not valid
     // The reference answers by its closest hit: something lies in (tmin, tfar) exactly when

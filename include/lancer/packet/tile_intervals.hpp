@@ -18,19 +18,6 @@
 
 namespace lancer::packet {
 
-// The camera tiles' register of kBytes bytes (Traversal::TileBounds), named here rather than as
-// a template argument, which would drop the vector type's attributes (-Wignored-attributes).
-template <int kBytes>
-struct TileReg;
-template <>
-struct TileReg<32> {
-  using type = __m256;
-};
-template <>
-struct TileReg<64> {
-  using type = __m512;
-};
-
 template <class Arch, class T>
 struct TileIntervals : OneRayWalk<Arch, T> {
   using Base = OneRayWalk<Arch, T>;
@@ -172,7 +159,7 @@ struct TileIntervals : OneRayWalk<Arch, T> {
   // (L::greatest).
   template <class L, int kBytes, int kG>
   struct TileBounds {
-    using F = typename TileReg<kBytes>::type;
+    using F = typename VecReg<float, kBytes>::type;
     struct Axes {
       F inv_lo[3], inv_hi[3], oi_lo[3], oi_hi[3];
     } f[kG];

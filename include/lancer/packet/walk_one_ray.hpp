@@ -18,25 +18,30 @@
 
 namespace lancer::packet {
 
-// The register of a lone ray's four children, chosen by a number (0 float, 1 double in two
-// xmm, 2 double in a ymm): a vector type as a template argument loses its attributes (GCC's
-// -Wignored-attributes).
-template <int K>
-struct OneRayReg;
+// The x86 register of kBytes bytes of T, named here rather than passed as a template argument,
+// which would drop the vector type's attributes (GCC's -Wignored-attributes).
+template <class T, int kBytes>
+struct VecReg;
 template <>
-struct OneRayReg<0> {
+struct VecReg<float, 16> {
   using type = __m128;
 };
 template <>
-struct OneRayReg<1> {
+struct VecReg<double, 16> {
   using type = __m128d;
 };
-#if defined(__AVX__)
 template <>
-struct OneRayReg<2> {
+struct VecReg<float, 32> {
+  using type = __m256;
+};
+template <>
+struct VecReg<double, 32> {
   using type = __m256d;
 };
-#endif
+template <>
+struct VecReg<float, 64> {
+  using type = __m512;
+};
 
 template <class Arch, class T>
 struct OneRayWalk : PacketWalk<Arch, T> {
@@ -55,7 +60,7 @@ struct OneRayWalk : PacketWalk<Arch, T> {
   static constexpr bool kWide = false;
 #endif
   static constexpr int kHalves = kFloat || kWide ? 1 : 2;  // registers per four children
-  using Reg = typename OneRayReg<kFloat ? 0 : kWide ? 2 : 1>::type;
+  using Reg = typename VecReg<T, kWide ? 32 : 16>::type;
   static Reg set1(T x) noexcept {
     if constexpr (kFloat) return _mm_set1_ps(x);
 #if defined(__AVX__)
