@@ -68,7 +68,8 @@ Image read_image(const std::string& path);
 // picks the format tried first). Throws InputError naming the path, one line.
 Image decode_image(const std::string& bytes, const std::string& path);
 
-// Removes any temporary file a write in progress left (called from signal handlers).
+// Removes any temporary file a write in progress left, and keeps any thread from creating
+// another: the process is ending (called from termination signals' handlers, on any thread).
 void remove_pending_outputs() noexcept;
 
 }  // namespace lancer

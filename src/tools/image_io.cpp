@@ -74,6 +74,19 @@ std::string known_extensions() {
 // per process is all lancer does.
 char g_pending[4096];
 std::atomic<bool> g_has_pending{false};
+// A process-directed signal may run its handler on any thread that does not block it (a thread
+// pool's worker), while the writing thread, which holds the signals back, is between creating
+// its temporary file and naming it in g_pending. The writer says it is creating one, the handler
+// that it is ending the process (both sequentially consistent, so at least one sees the other):
+// a writer that sees the ending creates nothing, a handler that sees a creation waits for its
+// name (remove_pending_outputs).
+std::atomic<bool> g_creating{false};
+std::atomic<bool> g_ending{false};
+
+// Removes the pending file (async-signal-safe).
+void drop_pending() noexcept {
+  if (g_has_pending.exchange(false)) unlink(g_pending);
+}
 
 void set_pending(const std::string& path) {
   std::snprintf(g_pending, sizeof g_pending, "%s", path.c_str());
@@ -120,14 +133,20 @@ Pending make_pending_beside(const std::string& target, const std::string& given,
   std::vector<char> buf(pattern.begin(), pattern.end());
   buf.push_back('\0');
   const HoldTerminationSignals hold;
-  int fd = mkostemp(buf.data(), O_CLOEXEC);
+  g_creating = true;
+  int fd = -1, err = EINTR;  // EINTR: a termination signal is ending the process
+  if (!g_ending) {
+    fd = mkostemp(buf.data(), O_CLOEXEC);
+    err = errno;
+    if (fd >= 0) set_pending(buf.data());
+  }
+  g_creating = false;
   if (fd < 0) {
     const std::string why =
-        given + ": cannot create a file in " + dir.string() + ": " + std::strerror(errno);
+        given + ": cannot create a file in " + dir.string() + ": " + std::strerror(err);
     if (std::strcmp(kind, "lancer-") == 0) throw OutputError(why);
     throw InputError(why);
   }
-  set_pending(buf.data());
   return {buf.data(), fd};
 }
 
@@ -240,7 +259,10 @@ void write_oiio(const Image& im, const std::string& format_path, OutputFile& out
 }  // namespace
 
 void remove_pending_outputs() noexcept {
-  if (g_has_pending.exchange(false)) unlink(g_pending);  // async-signal-safe
+  g_ending = true;
+  while (g_creating) {  // another thread's mkostemp and its naming: a few system calls
+  }
+  drop_pending();
 }
 
 std::string output_target(const std::string& path) {
@@ -292,7 +314,7 @@ void check_writable_target(const std::string& given, const std::string& scene_pa
   // file the write will create (and remove it), so that the failure comes before the work.
   const Pending probe = make_pending_beside(path, given, "lancer-probe-");
   close(probe.fd);
-  remove_pending_outputs();
+  drop_pending();
 }
 
 const std::vector<ImageFormat>& image_formats() {
@@ -367,7 +389,7 @@ void write_file_atomically(const std::string& given,
     clear_pending();
   } catch (...) {
     if (fd >= 0) close(fd);
-    remove_pending_outputs();
+    drop_pending();
     throw;
   }
   // And the rename itself on disk. The new file is in place whatever happens here; a failure is

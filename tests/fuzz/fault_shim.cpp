@@ -3,6 +3,9 @@
 // rename on a temporary output file (`.<name>.lancer-XXXXXX`, not the path probe) fail: pwrite
 // with ENOSPC (a full disk), fsync and close with EIO, rename with EIO. When it fires it appends
 // "<call>:<n>" to the file LANCER_FAULT_LOG, so that the test knows the call was reached.
+// LANCER_SLOW_CREATE=<ms> keeps mkostemp from returning for that long after it has created a
+// temporary output file: a writer descheduled right after the creation, when a signal comes
+// (tests/fuzz/test_output.cpp).
 #include <dlfcn.h>
 #include <unistd.h>
 
@@ -10,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 
 namespace {
 
@@ -87,6 +91,18 @@ int close(int fd) {
     return -1;
   }
   return r;
+}
+
+int mkostemp(char* pattern, int flags) {
+  const int fd = real<int (*)(char*, int)>("mkostemp")(pattern, flags);
+  const char* ms = getenv("LANCER_SLOW_CREATE");
+  if (fd >= 0 && ms && strstr(pattern, ".lancer-") && !strstr(pattern, ".lancer-probe-")) {
+    const long n = atol(ms);
+    timespec t{n / 1000, (n % 1000) * 1000000L};
+    while (nanosleep(&t, &t) != 0 && errno == EINTR) {
+    }
+  }
+  return fd;
 }
 
 int rename(const char* from, const char* to) noexcept {
