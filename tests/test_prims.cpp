@@ -184,6 +184,7 @@ TEST(Prims, CliRefusesBadMeshesWithStatus2AndNoOutput) {
 // Scenes with shapes run on the packets like any other: auto takes the widest width, the summary
 // names the shapes' hierarchy, and validate and profile run them.
 TEST(Prims, CliRunsShapesOnThePackets) {
+  LANCER_SKIP_WITHOUT_PACKETS();
   TempDir dir;
   write(dir.file("c.obj"), kCube);
   write(dir.file("s.json"),
@@ -234,6 +235,7 @@ TEST(Prims, CliRunsShapesOnThePackets) {
 // A regression case: the camera blocks once handed shading object ids where it reads a mesh hit's
 // triangle from the hit id, which only a scene with both a sphere hierarchy and a mesh showed.
 TEST(Prims, ValidateMixedGeneratedScenes) {
+  LANCER_SKIP_WITHOUT_PACKETS();
   TempDir dir;
   const std::string scene = dir.file("g.json");
   for (const char* extra : {" --reflect 0.4", " --transmit 0.7 --transmit-spread 0.6 --ior 1.3"}) {

@@ -399,6 +399,7 @@ TEST(ApiRays, PacketNormalsOfEverySphereKindAreTheScalarOnes) {
 // (prim_id, u, v and the normal from the kernel's primitive; t and id its own) against the
 // same ray alone at width 1, on the shape scene above and on the shipped ones, exact and double.
 TEST(ApiRays, PacketsOfTrianglesMeshesAndCylindersGiveTheReferencesFields) {
+  LANCER_SKIP_WITHOUT_PACKETS();
   const ShapeScene file;
   for (const std::string& path : {file.path, testing::source_path("scenes/prims/glass-mesh.json"),
                                   testing::source_path("scenes/prims/cylinders.json")}) {

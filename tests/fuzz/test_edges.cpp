@@ -48,6 +48,7 @@ const std::string kSmall = " --resolution 24x16 ";
 // --- 2. threads ---------------------------------------------------------------------------------
 
 TEST(Threads, AbsurdCountsAreRefusedNotCrashed) {
+  LANCER_SKIP_WITHOUT_PACKETS();
   TempDir dir;
   for (const char* t : {"2147483647", "99999999", "4097", "-1"}) {
     SCOPED_TRACE(t);
@@ -198,6 +199,7 @@ TEST(Memory, AnImageBeyondTheProcessMemoryIsRefusedBeforeWork) {
 // An allocation that fails anyway (bench's kernel mode holds 24 bytes of ray per sample) is one
 // line and exit status 3, not std::bad_alloc's abort.
 TEST(Memory, AllocationFailureIsACleanError) {
+  LANCER_SKIP_WITHOUT_PACKETS();
 #ifdef LANCER_TEST_UNDER_ASAN
   GTEST_SKIP() << "caps the address space, which AddressSanitizer's shadow memory needs";
 #endif
@@ -227,6 +229,7 @@ TEST(Memory, RayDiagramIsBounded) {
 // --- 6. lost output -----------------------------------------------------------------------------
 
 TEST(Stdout, WritesToAFullDeviceFail) {
+  LANCER_SKIP_WITHOUT_PACKETS();
   for (const std::string& args :
        {"validate " + scene("lorenzi-shadows.json") + kSmall,
         "profile " + scene("lorenzi-shadows.json") + kSmall + "--json",
@@ -410,6 +413,7 @@ TEST(ExitStatus, UnknownCommandIsNamed) {
 }
 
 TEST(ExitStatus, TableIsInHelpAndValidatePassesWithZero) {
+  LANCER_SKIP_WITHOUT_PACKETS();
   std::string help = lancer("--help").out;
   std::replace(help.begin(), help.end(), '\n', ' ');
   for (const char* s : {"0 done", "1 validate", "2 bad input", "3 out of memory", "4 output lost",

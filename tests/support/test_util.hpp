@@ -121,3 +121,11 @@ inline Image render_with(const Scene& scene, int width, Precision precision = Pr
 }
 
 }  // namespace lancer::testing
+
+// Skips a test that runs the packets (a tool given a width, validate, profile, a packet-width
+// loop) where this run offers none: a CPU without SSE4.2, or LANCER_MAX_WIDTH=1, under which the
+// tools rightly refuse with exit 2. A macro, as GTEST_SKIP must return from the test body.
+#define LANCER_SKIP_WITHOUT_PACKETS()                                      \
+  if (::lancer::testing::packet_widths().empty())                          \
+  GTEST_SKIP() << "no packet width in this run (a CPU without SSE4.2, or " \
+                  "LANCER_MAX_WIDTH=1)"
