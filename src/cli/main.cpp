@@ -17,10 +17,17 @@
 
 namespace {
 
-// An interrupted render leaves no partial file: remove the temporary one, then die as asked.
+// An interrupted render leaves no partial file: remove the temporary one, then die as asked, at
+// once. The handler may run on a worker thread while the writing thread goes on: the signal is
+// raised unblocked (a handler's own signal is blocked until it returns), so that the writer does
+// not reach its rename, find its file gone and report a lost output instead of the signal.
 extern "C" void on_signal(int sig) {
   lancer::remove_pending_outputs();
   std::signal(sig, SIG_DFL);
+  sigset_t own;
+  sigemptyset(&own);
+  sigaddset(&own, sig);
+  pthread_sigmask(SIG_UNBLOCK, &own, nullptr);
   std::raise(sig);
 }
 
