@@ -26,7 +26,6 @@ extern template ShapeFields<float> shape_fields<float>(const PreparedShapes<floa
                                                        const Vec3<float>&, float, std::int64_t);
 extern template ShapeFields<double> shape_fields<double>(const PreparedShapes<double>&,
                                                          const Vec3<double>&, const Vec3<double>&,
-                                                         const Vec3<double>&, double,
-                                                         std::int64_t);
+                                                         const Vec3<double>&, double, std::int64_t);
 
 }  // namespace lancer

@@ -570,7 +570,7 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const Vec3<T>& o, const 
   template void shapes_normals<T>(const PreparedShapes<T>&, const ShapeHit<T>&, const Vec3<T>&,    \
                                   const Vec3<T>&, const Vec3<T>&, Vec3<T>&, Vec3<T>&);             \
   template ShapeSurface<T> shapes_surface<T>(const PreparedShapes<T>&, const ShapeHit<T>&,         \
-                                             const Vec3<T>&, const Vec3<T>&);      \
+                                             const Vec3<T>&, const Vec3<T>&);                      \
   template ShapeFields<T> shape_fields<T>(const PreparedShapes<T>&, const Vec3<T>&,                \
                                           const Vec3<T>&, const Vec3<T>&, T, std::int64_t);
 LANCER_SHAPES(float)
