@@ -20,6 +20,7 @@
 #include "lancer/shapes.hpp"
 #include "lancer/tiles.hpp"
 #include "scene_rules.hpp"
+#include "shape_fields.hpp"
 
 namespace lancer {
 
@@ -236,16 +237,6 @@ Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
   return {ch.rays[first * w + l], ch.rays[(first + 1) * w + l], ch.rays[(first + 2) * w + l]};
 }
 
-// The kernel's lanes that hit a triangle, mesh or cylinder: their primitive's whole hit (object,
-// cylinder part) from its number, for the normal, prim_id, u and v the reference would give.
-template <class T>
-void shape_hits(const PreparedScene<T>& s, int w, Chunk<T>& ch) {
-  for (int l = 0; l < w; ++l)
-    if (ch.valid[l] && ch.out[l] && ch.prim[l] >= 0)
-      ch.shape.at[l] =
-          shape_hit(*s.shapes, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), s.epsilon, ch.prim[l]);
-}
-
 // The reference's nearest hit beyond tmin of each lane traced alone. It counts where it lies
 // before tfar (ch.t), which it then replaces. With `one`, the one-ray kernels give the same
 // answer (any: whether something lies before tfar, ch.t then unchanged).
@@ -317,6 +308,21 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
   h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
 }
 
+// Lane k of a hit packet where the kernel's lane hit primitive `prim` of a triangle, mesh or
+// cylinder (object id): store_hit's fields, from the primitive's number (shape_fields).
+template <class T, int N>
+void store_shape_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
+                     std::int64_t prim, HitPacket<N>& h, int k) {
+  const ShapeFields<T> f = shape_fields(*s.shapes, o, d, along(o, d, t), s.epsilon, prim);
+  h.id[k] = id;
+  h.t[k] = static_cast<float>(t);
+  h.prim_id[k] = f.surface.prim_in_object;
+  h.u[k] = static_cast<float>(f.surface.u), h.v[k] = static_cast<float>(f.surface.v);
+  const Vec3<T>& n = f.geometric;
+  const Vec3<double> ng = s.frame.world_direction({double(n.x), double(n.y), double(n.z)});
+  h.ng_x[k] = float(ng.x), h.ng_y[k] = float(ng.y), h.ng_z[k] = float(ng.z);
+}
+
 // Lanes [c, c + w) of a hit packet from a chunk on kernel k, every field by its ISA a packet at
 // a time (packet/api_hits.hpp; the sphere and plane normals world_normal's bits), straight into
 // the caller's packet where every lane is active, else through a packet of our own; then the
@@ -344,9 +350,14 @@ void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, cons
   }
   if (s.shapes)
     for (int l = 0; l < n; ++l)
-      if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes)
-        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
-                  ch.shape.at[l], h, c + l);
+      if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes) {
+        if (ch.valid[l])  // the kernel's: its primitive
+          store_shape_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+                          ch.prim[l], h, c + l);
+        else  // the reference's: its whole hit
+          store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+                    ch.shape.at[l], h, c + l);
+      }
 }
 
 // A query of one ray on the one-ray kernels, without a chunk: closest hit (hit non-null) or
@@ -398,7 +409,6 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     if (k && std::any_of(ch.valid, ch.valid + w, [](bool v) { return v; }))
       k->closest_hit_packet(s, ch.valid, ch.rays, ch.t, ch.id, ch.out,
                             s.shapes ? ch.prim : nullptr);
-    if (k && s.shapes) shape_hits(s, w, ch);
     if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
     if (k) {
       store_hits(s, *k, ch, w, c, h);
@@ -469,10 +479,20 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.query[query_slot(n)] = kernels_of<T>(e.scene, w, info.precision);
   }
   e.render = kernels_of<T>(e.scene, info.width, info.precision);
-  // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1;
-  // scenes with triangles, meshes or cylinders run there too). Fast mode has no lone lanes.
+  // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1).
+  // Fast mode has no lone lanes. The one-ray kernels model spheres and planes only: scenes with
+  // triangles, meshes or cylinders answer Ray1 on the narrowest packet kernel instead, whose
+  // lone lane walks the shapes' hierarchy one ray at a time (packet/prim/shapes_lone.hpp); a
+  // ray with its own tnear there stays with the reference.
   if (info.width > 1 && info.precision != Precision::fast && !e.scene.shapes)
     e.one = one_ray_of<T>();
+  if (info.width > 1 && e.scene.shapes && e.query_width[query_slot(1)] == 1) {
+    int w = 1;
+    for (int cand : widths)
+      if (cand > 1 && cand <= info.width) w = cand;  // widest first: the last is the narrowest
+    e.query_width[query_slot(1)] = w;
+    e.query[query_slot(1)] = kernels_of<T>(e.scene, w, info.precision);
+  }
   if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
 }
 

@@ -9,6 +9,7 @@
 
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
+#include "shape_fields.hpp"
 
 namespace lancer {
 
@@ -533,6 +534,30 @@ ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hi
   return out;
 }
 
+template <class T>
+ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
+                            const Vec3<T>& p, T epsilon, std::int64_t prim) {
+  ShapeFields<T> out;
+  const std::int32_t ref = s.prim[std::size_t(prim)];
+  if (ref < 0) {  // a cylinder: no surface coordinates; the normal by the hit's part
+    const std::size_t c = std::size_t(~ref);
+    const T part = shape_hit(s, o, d, epsilon, prim).part;
+    out.geometric = prim::cylinder_normal(p, s.cyl_base[c], s.cyl_axis[c], part);
+    return out;
+  }
+  const std::size_t t = std::size_t(ref);
+  const auto& objects = s.tri_object;
+  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[t]);
+  out.surface.prim_in_object = static_cast<int>(ref - (first - objects.begin()));
+  const PrimRay<T> ray(s, o, d, T(0));
+  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
+  out.surface.u = bary.y, out.surface.v = bary.z;
+  const std::uint32_t* v = &s.tri[3 * t];
+  auto vertex = [&](std::uint32_t k) { return Vec3<T>{s.vx[k], s.vy[k], s.vz[k]}; };
+  out.geometric = prim::triangle_normal(vertex(v[0]), vertex(v[1]), vertex(v[2]));
+  return out;
+}
+
 #define LANCER_SHAPES(T)                                                                           \
   template struct PreparedShapes<T>;                                                               \
   template PreparedShapes<T> prepare_shapes<T>(const Scene&, const Frame&, int);                   \
@@ -545,7 +570,9 @@ ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hi
   template void shapes_normals<T>(const PreparedShapes<T>&, const ShapeHit<T>&, const Vec3<T>&,    \
                                   const Vec3<T>&, const Vec3<T>&, Vec3<T>&, Vec3<T>&);             \
   template ShapeSurface<T> shapes_surface<T>(const PreparedShapes<T>&, const ShapeHit<T>&,         \
-                                             const Vec3<T>&, const Vec3<T>&);
+                                             const Vec3<T>&, const Vec3<T>&);                      \
+  template ShapeFields<T> shape_fields<T>(const PreparedShapes<T>&, const Vec3<T>&,                \
+                                          const Vec3<T>&, const Vec3<T>&, T, std::int64_t);
 LANCER_SHAPES(float)
 LANCER_SHAPES(double)
 #undef LANCER_SHAPES

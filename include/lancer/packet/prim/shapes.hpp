@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "lancer/packet/lane_traits.hpp"
+#include "lancer/packet/prim/shapes_lone.hpp"
 #include "lancer/packet/prim/shapes_walk.hpp"
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
@@ -104,23 +105,82 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     const Ray r(o, d, valid);
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
-    walk(
-        sh, r, valid, [&] { return best_t; },
-        [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-          for (std::uint32_t j = begin; j < begin + n; ++j) {
-            const std::uint32_t p = sh.leaf[j].prim;
-            tests(counts, at, false);
-            const B t = prim_t(sh, j, sh.leaf[j].ref, r, at, eps);
-            const I pid(Id(first + Id(p)));
-            const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
-            const M take = at & ((t < best_t) | tie);
-            best_t = xsimd::select(take, t, best_t);
-            best_id = xsimd::select(to_mi(take), pid, best_id);
-          }
-          return false;
-        });
+    auto limit = [&] { return best_t; };
+    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
+      for (std::uint32_t j = begin; j < begin + n; ++j) {
+        const std::uint32_t p = sh.leaf[j].prim;
+        tests(counts, at, false);
+        const B t = prim_t(sh, j, sh.leaf[j].ref, r, at, eps);
+        const I pid(Id(first + Id(p)));
+        const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
+        const M take = at & ((t < best_t) | tie);
+        best_t = xsimd::select(take, t, best_t);
+        best_id = xsimd::select(to_mi(take), pid, best_id);
+      }
+      return false;
+    };
+    if (coherent(r, valid, kLoneClosest)) {
+      walk(sh, r, valid, limit, leaf);
+      return {best_t, best_id};
+    }
+    LoneRays rays(o, d);
+    auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
+      alignas(64) T bt[W];
+      alignas(64) Id bi[W];
+      best_t.store_aligned(bt);
+      best_id.store_aligned(bi);
+      for (unsigned lanes = bits(at); lanes; lanes &= lanes - 1) {
+        const int k = __builtin_ctz(lanes);
+        std::int64_t id = bi[k];
+        if (Lone::closest(sh, rays.lane(k), s.epsilon, first, bt[k], id, std::int32_t(child),
+                          count))
+          bi[k] = Id(id);
+      }
+      best_t = B::load_aligned(bt), best_id = I::load_aligned(bi);
+      return false;
+    };
+    hybrid(sh, r, valid, limit, leaf, alone, kLoneClosest);
     return {best_t, best_id};
   }
+
+  // The live lanes at or below which a subtree's lanes go on alone (closest hit, opaque any
+  // hit), tuned on incoherent rays over a mesh (bench's diffuse and ao sets), widths 8 and 16.
+  static constexpr int kLoneClosest = 2, kLoneAny = 2;
+  // Whether the packet walks whole (the packet walk alone): more than `lone` live lanes, each
+  // with the same shear axes and the same direction signs, as camera rays and a flat mirror's
+  // have. Else the hybrid walk, lanes going on alone (ShapeLone) where few reach a subtree.
+  static bool coherent(const Ray& r, const M& live, int lone) noexcept {
+    return r.uniform && r.fast && __builtin_popcount(bits(live)) > lone;
+  }
+  using Lone = ShapeLone<Arch, T>;
+  using Hybrid = ShapeHybrid<Arch, T>;
+  template <class Limit, class Leaf, class Alone>
+  static void hybrid(const Shapes& sh, const Ray& r, const M& lanes, Limit& limit, Leaf& leaf,
+                     Alone& alone, int lone) noexcept {
+    if (sh.wide.empty()) return;
+    if (r.fast)
+      Hybrid::template walk<true>(sh, r, lanes, limit, leaf, alone, lone);
+    else
+      Hybrid::template walk<false>(sh, r, lanes, limit, leaf, alone, lone);
+  }
+  // A packet's rays lane by lane, each made ready for ShapeLone when it first goes alone.
+  struct LoneRays {
+    alignas(64) T o[3][W], d[3][W];
+    typename Lone::Ray ray[W];
+    unsigned made = 0;
+    LoneRays(const V& org, const V& dir) noexcept {
+      org.x.store_aligned(o[0]), org.y.store_aligned(o[1]), org.z.store_aligned(o[2]);
+      dir.x.store_aligned(d[0]), dir.y.store_aligned(d[1]), dir.z.store_aligned(d[2]);
+    }
+    const typename Lone::Ray& lane(int k) noexcept {
+      if (!(made >> k & 1u)) {
+        const T ok[3] = {o[0][k], o[1][k], o[2][k]}, dk[3] = {d[0][k], d[1][k], d[2][k]};
+        ray[k] = typename Lone::Ray(ok, dk);
+        made |= 1u << k;
+      }
+      return ray[k];
+    }
+  };
 
   // The object id of one hit id (unchanged below first_id).
   static std::int32_t object_of(const Prepared& s, std::int32_t hit_id) noexcept {
@@ -184,25 +244,45 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     const bool first_only = !s.features.transparency;
     thread_local std::vector<Met> met;
     met.clear();
-    walk(
-        sh, r, pending, [&] { return dist; },
-        [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-          for (std::uint32_t j = begin; j < begin + n; ++j) {
-            const M lanes = at & pending;
-            tests(counts, lanes, false);
-            const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
-            if (!xsimd::any(hit)) continue;
-            const int obj = object(sh, sh.leaf[j].ref);
-            auto it =
-                std::find_if(met.begin(), met.end(), [&](const Met& m) { return m.object == obj; });
-            if (it == met.end()) it = met.insert(met.end(), Met{obj, 0u});
-            it->lanes |= bits(hit);
-            if (!first_only) continue;
-            pending = pending & ~hit;
-            if (!xsimd::any(pending)) return true;
+    auto add = [&](int obj, unsigned lanes) {
+      auto it = std::find_if(met.begin(), met.end(), [&](const Met& m) { return m.object == obj; });
+      if (it == met.end()) it = met.insert(met.end(), Met{obj, 0u});
+      it->lanes |= lanes;
+    };
+    auto limit = [&] { return dist; };
+    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
+      for (std::uint32_t j = begin; j < begin + n; ++j) {
+        const M lanes = at & pending;
+        tests(counts, lanes, false);
+        const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
+        if (!xsimd::any(hit)) continue;
+        add(object(sh, sh.leaf[j].ref), bits(hit));
+        if (!first_only) continue;
+        pending = pending & ~hit;
+        if (!xsimd::any(pending)) return true;
+      }
+      return false;
+    };
+    if (!first_only || coherent(r, pending, kLoneAny)) {
+      walk(sh, r, pending, limit, leaf);
+    } else {
+      // Opaque: a lane alone stops at its first occluder.
+      LoneRays rays(p, l);
+      alignas(64) T dd[W];
+      dist.store_aligned(dd);
+      auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
+        for (unsigned lanes = bits(at & pending); lanes; lanes &= lanes - 1) {
+          const int k = __builtin_ctz(lanes);
+          int obj = -1;
+          if (Lone::any(sh, rays.lane(k), s.epsilon, dd[k], obj, std::int32_t(child), count)) {
+            add(obj, 1u << k);
+            pending = pending & ~from_bits(1u << k);
           }
-          return false;
-        });
+        }
+        return !xsimd::any(pending);
+      };
+      hybrid(sh, r, pending, limit, leaf, alone, kLoneAny);
+    }
     std::sort(met.begin(), met.end(),
               [](const Met& a, const Met& b) { return a.object < b.object; });
     return {met.data(), met.size()};

@@ -1,0 +1,382 @@
+// One ray alone over the shapes' wide hierarchy (PreparedShapes::wide), for a packet's lanes that
+// do not stay together (secondary rays: diffuse bounces, ambient occlusion): the packet walk
+// (shapes_walk.hpp) tests one primitive at a time across every lane, and where the lanes diverge
+// most of that work is for lanes that left the subtree long ago.
+//
+// A node's four children are tested at once, one register of four T (float: 128 bits; double:
+// 256 where the ISA has AVX, else two registers of two), by the packet walk's own conservative
+// slab form with the ray's values in every lane, so a box it turns away the packet walk turns
+// away too (shapes_walk.hpp's header gives the margins). Children are taken nearest first by the
+// ray's direction code; popped subtrees beyond the best t are culled. A leaf's triangles are
+// tested several at a time, the triangles across the register's lanes, by the reference's
+// watertight formula (prim/triangle.hpp on batches; one ray has one shear permutation, so picking
+// the vertices' components is a scalar choice) and the same operations in the same order, so each
+// lane computes the reference's bits. Cylinders are tested by the reference's scalar formula.
+// The closest hit is the least (t, primitive), so the order of the tests changes nothing.
+// Include only from code built for the batch's ISA (packet/kernel.hpp).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+#include <utility>
+#include <xsimd/xsimd.hpp>
+
+#include "lancer/packet/lanes.hpp"
+#include "lancer/packet/prim/shapes_walk.hpp"
+#include "lancer/prim/cylinder.hpp"
+#include "lancer/prim/triangle.hpp"
+#include "lancer/shapes.hpp"
+
+namespace lancer::packet {
+
+// The register of four T, or of two doubles where no 256-bit one is there. Templated on the
+// kernels' Arch, as everything built per ISA is: each ISA's unit has its own instantiations.
+template <class Arch, class T>
+struct LoneArch {
+#if defined(__aarch64__)
+  using type = xsimd::neon64;
+#elif defined(__AVX__)
+  using type = std::conditional_t<sizeof(T) == 8, xsimd::avx, xsimd::sse4_2>;
+#else
+  using type = xsimd::sse4_2;
+#endif
+};
+
+template <class Arch, class T>
+struct ShapeLone {
+  using Shapes = PreparedShapes<T>;
+  using Wide = typename Shapes::WideNode;
+  using C = xsimd::batch<T, typename LoneArch<Arch, T>::type>;
+  using CM = xsimd::batch_bool<T, typename LoneArch<Arch, T>::type>;
+  using CV = Vec3<C>;
+  static constexpr int kC = static_cast<int>(C::size);
+  static constexpr int kW = Shapes::kWide;
+  static constexpr int kParts = kW / kC;  // registers per node's children
+  static constexpr T kWiden = sizeof(T) == 4 ? T(0x1p-20) : T(0x1p-49);
+  static_assert(kW % kC == 0);
+
+  // One ray as the tests see it: the reference's shear, and the packet walk's slab form.
+  struct Ray {
+    T o[3], d[3];
+    prim::RayShear<T> shear;
+    T o_perm[3];  // o in the shear's axis order
+    T inv[3];     // 1 / d, 1 where d is 0
+    bool zero[3];
+    T o_pad, o_lo[3], o_hi[3], o_near[3], o_far[3];
+    int near[3], far[3];  // offsets (in T) in a WideNode of each axis' entry and exit planes
+    unsigned code = 0;
+    bool fast = true;  // every |d| at least 2^-60: entry and exit planes known per axis
+
+    Ray() = default;
+    Ray(const T* org, const T* dir) noexcept {
+      for (int a = 0; a < 3; ++a) o[a] = org[a], d[a] = dir[a];
+      shear = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
+      o_perm[0] = o[shear.kx], o_perm[1] = o[shear.ky], o_perm[2] = o[shear.kz];
+      T mag = 0;
+      for (int a = 0; a < 3; ++a) {
+        const T m = o[a] < T(0) ? -o[a] : o[a];
+        mag = m > mag ? m : mag;
+      }
+      o_pad = T(Shapes::kWidePad) * mag;
+      for (int a = 0; a < 3; ++a) {
+        zero[a] = d[a] == T(0);
+        inv[a] = T(1) / (zero[a] ? T(1) : d[a]);
+        o_lo[a] = o[a] + o_pad, o_hi[a] = o[a] - o_pad;
+        const bool down = d[a] < T(0);
+        const T ad = down ? -d[a] : d[a];
+        fast = fast && ad >= T(0x1p-60);
+        near[a] = 8 * a + (down ? 4 : 0), far[a] = 8 * a + (down ? 0 : 4);
+        o_near[a] = down ? o_hi[a] : o_lo[a], o_far[a] = down ? o_lo[a] : o_hi[a];
+        code |= unsigned(d[a] >= T(0)) << a;
+      }
+    }
+  };
+
+  // The children of n (slot bits) whose boxes [0, lim_w] may meet, and their entry t (widened):
+  // shapes_walk.hpp's child_lanes with one ray in every lane and the children across lanes.
+  static unsigned met_children(const Wide& n, const Ray& r, T lim_w, T* t0_out) noexcept {
+    unsigned met = 0;
+    const T* base = &n.lo_x[0];
+    for (int h = 0; h < kParts; ++h) {
+      auto plane = [&](int off) { return C::load_aligned(base + off + h * kC); };
+      C t0;
+      CM in;
+      if (r.fast) {
+        const C nx = (plane(r.near[0]) - C(r.o_near[0])) * C(r.inv[0]);
+        const C fx = (plane(r.far[0]) - C(r.o_far[0])) * C(r.inv[0]);
+        const C ny = (plane(r.near[1]) - C(r.o_near[1])) * C(r.inv[1]);
+        const C fy = (plane(r.far[1]) - C(r.o_far[1])) * C(r.inv[1]);
+        const C nz = (plane(r.near[2]) - C(r.o_near[2])) * C(r.inv[2]);
+        const C fz = (plane(r.far[2]) - C(r.o_far[2])) * C(r.inv[2]);
+        t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, C(T(0)))) * C(T(1) - kWiden);
+        const C t1 = xsimd::min(xsimd::min(fx, fy), fz) * C(T(1) + kWiden);
+        in = t0 <= xsimd::min(t1, C(lim_w));
+      } else {
+        const C inf(std::numeric_limits<T>::infinity());
+        C near(T(0)), far(lim_w);
+        CM out(false);
+        for (int a = 0; a < 3; ++a) {
+          const C lo_t = plane(8 * a), hi_t = plane(8 * a + 4);
+          if (r.zero[a]) {
+            const C lo = lo_t - C(r.o_pad), hi = hi_t + C(r.o_pad);
+            out = out | (C(r.o[a]) < lo) | (C(r.o[a]) > hi);
+            continue;
+          }
+          const C ea = (lo_t - C(r.o_lo[a])) * C(r.inv[a]);
+          const C eb = (hi_t - C(r.o_hi[a])) * C(r.inv[a]);
+          near = xsimd::max(near, xsimd::min(ea, eb));
+          far = xsimd::min(far, xsimd::max(ea, eb) * C(T(1) + kWiden));
+        }
+        t0 = near * C(T(1) - kWiden);
+        in = ~out & (t0 <= far);
+      }
+      t0.store_unaligned(t0_out + h * kC);
+      met |= lane_bits(in) << (h * kC);
+    }
+    return met & ((1u << n.arity) - 1);
+  }
+
+  static void prefetch(const Shapes& sh, std::int32_t child, unsigned count) noexcept {
+    const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
+                               : reinterpret_cast<const char*>(&sh.leaf[std::size_t(child)]);
+    const std::size_t bytes = count == 0 ? sizeof(Wide) : count * sizeof(sh.leaf[0]);
+    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+  }
+  // Visits the leaves whose boxes the ray may meet before limit() (re-read after each leaf),
+  // children nearest first: leaf(first, count) returns true to stop.
+  template <class Limit, class Leaf>
+  static void walk(const Shapes& sh, const Ray& r, Limit&& limit, Leaf&& leaf,
+                   std::int32_t child = 0, unsigned count = 0) noexcept {
+    if (sh.wide.empty()) return;
+    std::int32_t st_child[Shapes::kWideStack];
+    std::uint8_t st_count[Shapes::kWideStack];
+    T st_t0[Shapes::kWideStack];
+    int sp = 0;
+    const T widen = T(1) + kWiden;
+    for (;;) {
+      if (count == 0) {
+        const Wide& n = sh.wide[std::size_t(child)];
+        alignas(32) T t0[kW];
+        const unsigned met = met_children(n, r, limit() * widen, t0);
+        if (met != 0) {
+          const unsigned order = n.order[r.code];
+          int slots[kW], c = 0;
+          for (int p = 0; p < kW; ++p) {
+            const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
+            if (met >> s & 1u) slots[c++] = s;
+          }
+          for (int q = c - 1; q >= 0; --q) {
+            const int s = slots[q];
+            prefetch(sh, n.child[s], n.count[s]);
+            if (q == 0) break;
+            st_child[sp] = n.child[s], st_count[sp] = n.count[s], st_t0[sp] = t0[s];
+            ++sp;
+          }
+          child = n.child[slots[0]], count = n.count[slots[0]];
+          continue;
+        }
+      } else if (leaf(std::uint32_t(child), count)) {
+        return;
+      }
+      for (;;) {
+        if (sp == 0) return;
+        --sp;
+        if (st_t0[sp] <= limit() * widen) {
+          child = st_child[sp], count = st_count[sp];
+          break;
+        }
+      }
+    }
+  }
+
+  // Component q of the vertices at v[0], v[1], ... across the lanes.
+  template <std::size_t... K>
+  static C lanes_of(const T* const* v, int q, std::index_sequence<K...>) noexcept {
+    return C{v[K][q]...};
+  }
+
+  // Leaf-order primitives [j, j + n) (n <= kC), triangles only in lanes: their hits t beyond
+  // eps, in t_out. Returns the lanes hit (none past n or on a cylinder).
+  static unsigned triangles_t(const Shapes& sh, std::uint32_t j, unsigned n, const Ray& r, T eps,
+                              T* t_out) noexcept {
+    const T* v[kC];
+    unsigned tri = 0;
+    for (unsigned k = 0; k < n; ++k)
+      if (sh.leaf[j + k].ref >= 0) tri |= 1u << k, v[k] = sh.leaf[j + k].v;
+    if (tri == 0) return 0;
+    // Lanes without a triangle repeat the first (masked out below), so that no zero edge
+    // function sends the register through the exact recomputation.
+    const T* first = v[__builtin_ctz(tri)];
+    for (int k = 0; k < kC; ++k)
+      if (!(tri >> k & 1u)) v[k] = first;
+    const int perm[3] = {r.shear.kx, r.shear.ky, r.shear.kz};
+    auto vertex = [&](int c) {
+      CV p;
+      C* out[3] = {&p.x, &p.y, &p.z};
+      for (int a = 0; a < 3; ++a)
+        *out[a] = lanes_of(v, 3 * c + perm[a], std::make_index_sequence<kC>{}) - C(r.o_perm[a]);
+      return p;
+    };
+    const CV a = vertex(0), b = vertex(1), c = vertex(2);
+    prim::TriangleEdges<C> e = prim::triangle_uvw<T>(a, b, c, C(r.shear.sx), C(r.shear.sy));
+    const unsigned in = lane_bits(CM(prim::triangle_inside(e))) & tri;
+    if (in == 0) return 0;
+    prim::triangle_depth(e, a, b, c, C(r.shear.sz));
+    const C t = prim::triangle_t(e);
+    t.store_aligned(t_out);
+    unsigned hit = 0;
+    for (unsigned m = in; m; m &= m - 1) {
+      const int k = __builtin_ctz(m);
+      if (t_out[k] > eps) hit |= 1u << k;
+    }
+    return hit;
+  }
+
+  // The cylinder ~ref's nearest hit beyond eps (infinity where none): the reference's.
+  static T cylinder_t(const Shapes& sh, std::int32_t ref, const Ray& r, T eps) noexcept {
+    const std::size_t c = std::size_t(~ref);
+    const Vec3<T> o{r.o[0], r.o[1], r.o[2]}, d{r.d[0], r.d[1], r.d[2]};
+    return prim::cylinder_closest(o - sh.cyl_base[c], d, sh.cyl_axis[c], sh.cyl_h[c], sh.cyl_r2[c],
+                                  sh.cyl_caps[c] != 0, eps)
+        .t;
+  }
+
+  // The closest hit over the shapes, from best_t / best_hit (a hit id: first_hit + primitive for
+  // a shape, lower for anything else, -1 for none): a nearer t wins, an equal t only over a shape
+  // of a higher primitive number. Returns whether it changed.
+  static bool closest(const Shapes& sh, const Ray& r, T eps, std::int64_t first_hit, T& best_t,
+                      std::int64_t& best_hit, std::int32_t child = 0, unsigned count = 0) noexcept {
+    bool changed = false;
+    auto consider = [&](T t, std::uint32_t prim) {
+      const std::int64_t id = first_hit + std::int64_t(prim);
+      if (t < best_t || (t == best_t && best_hit >= first_hit && id < best_hit))
+        best_t = t, best_hit = id, changed = true;
+    };
+    walk(
+        sh, r, [&] { return best_t; },
+        [&](std::uint32_t begin, unsigned count) {
+          for (unsigned j = 0; j < count; j += unsigned(kC)) {
+            const unsigned n = count - j < unsigned(kC) ? count - j : unsigned(kC);
+            alignas(32) T t[kC];
+            for (unsigned hit = triangles_t(sh, begin + j, n, r, eps, t); hit; hit &= hit - 1) {
+              const int k = __builtin_ctz(hit);
+              consider(t[k], sh.leaf[begin + j + unsigned(k)].prim);
+            }
+            for (unsigned k = 0; k < n; ++k) {
+              const auto& p = sh.leaf[begin + j + k];
+              if (p.ref < 0) consider(cylinder_t(sh, p.ref, r, eps), p.prim);
+            }
+          }
+          return false;
+        },
+        child, count);
+    return changed;
+  }
+
+  // Whether the segment meets a shape with eps < t < dist; object: that shape's object (the
+  // first one found: opaque scenes need no other).
+  static bool any(const Shapes& sh, const Ray& r, T eps, T dist, int& object,
+                  std::int32_t child = 0, unsigned count = 0) noexcept {
+    bool found = false;
+    walk(
+        sh, r, [&] { return dist; },
+        [&](std::uint32_t begin, unsigned count) {
+          for (unsigned j = 0; j < count; j += unsigned(kC)) {
+            const unsigned n = count - j < unsigned(kC) ? count - j : unsigned(kC);
+            alignas(32) T t[kC];
+            for (unsigned hit = triangles_t(sh, begin + j, n, r, eps, t); hit; hit &= hit - 1) {
+              const int k = __builtin_ctz(hit);
+              if (t[k] < dist) {
+                const std::int32_t ref = sh.leaf[begin + j + unsigned(k)].ref;
+                object = sh.tri_object[std::size_t(ref)];
+                return found = true;
+              }
+            }
+            for (unsigned k = 0; k < n; ++k) {
+              const auto& p = sh.leaf[begin + j + k];
+              if (p.ref < 0 && cylinder_t(sh, p.ref, r, eps) < dist) {
+                object = sh.cyl_object[std::size_t(~p.ref)];
+                return found = true;
+              }
+            }
+          }
+          return false;
+        },
+        child, count);
+    return found;
+  }
+};
+
+// The packet walk (shapes_walk.hpp) with the hybrid switch (Benthin et al.): a subtree (a node or
+// a leaf) that `lone` live lanes or fewer reach goes to alone(child, count, lanes), which walks
+// it for them one ray at a time (ShapeLone) and returns true to stop the walk.
+template <class Arch, class T>
+struct ShapeHybrid {
+  using Walk = ShapeWalk<Arch, T>;
+  using Shapes = PreparedShapes<T>;
+  using Wide = typename Shapes::WideNode;
+  using B = typename Walk::B;
+  using M = typename Walk::M;
+  static constexpr int kW = Shapes::kWide;
+
+  template <bool kFast, class Limit, class Leaf, class Alone>
+  static void walk(const Shapes& sh, const typename Walk::Ray& r, const M& lanes, Limit& limit,
+                   Leaf& leaf, Alone& alone, int lone) noexcept {
+    std::int32_t st_child[Shapes::kWideStack];
+    std::uint8_t st_count[Shapes::kWideStack];
+    M st_mask[Shapes::kWideStack];
+    B st_t0[Shapes::kWideStack];
+    int sp = 0;
+    std::int32_t child = 0;
+    unsigned count = 0;
+    M mask = lanes;
+    const B widen(T(1) + Walk::kWiden);
+    for (;;) {
+      if (__builtin_popcount(lane_bits(mask)) <= lone) {
+        if (alone(child, count, mask)) return;
+      } else if (count == 0) {
+        const Wide& n = sh.wide[std::size_t(child)];
+        const B lim_w = limit() * widen;
+        M m[kW];
+        B t0[kW];
+        unsigned met = 0;
+        for (int k = 0; k < kW; ++k) {
+          m[k] = Walk::template child_lanes<kFast>(n, k, r, mask, lim_w, t0[k]);
+          met |= unsigned(xsimd::any(m[k])) << k;
+        }
+        met &= (1u << n.arity) - 1;
+        if (met != 0) {
+          const unsigned order = n.order[r.code];
+          int slots[kW], c = 0;
+          for (int p = 0; p < kW; ++p) {
+            const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
+            if (met >> s & 1u) slots[c++] = s;
+          }
+          for (int q = c - 1; q > 0; --q) {
+            const int s = slots[q];
+            Walk::prefetch(sh, n.child[s], n.count[s]);
+            st_child[sp] = n.child[s], st_count[sp] = n.count[s];
+            st_mask[sp] = m[s], st_t0[sp] = t0[s];
+            ++sp;
+          }
+          child = n.child[slots[0]], count = n.count[slots[0]], mask = m[slots[0]];
+          continue;
+        }
+      } else if (leaf(std::uint32_t(child), count, mask)) {
+        return;
+      }
+      for (;;) {
+        if (sp == 0) return;
+        --sp;
+        mask = st_mask[sp] & (st_t0[sp] <= limit() * widen);
+        if (xsimd::any(mask)) {
+          child = st_child[sp], count = st_count[sp];
+          break;
+        }
+      }
+    }
+  }
+};
+
+}  // namespace lancer::packet
