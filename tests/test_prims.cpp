@@ -252,6 +252,23 @@ TEST(Prims, ValidateMixedGeneratedScenes) {
   }
 }
 
+// Camera rays reach a mesh in square tiles also where the spheres have no hierarchy (fewer than
+// kBvhMinSpheres): the spheres' camera blocks, which need that hierarchy, must not take them. A
+// regression case: primary mode once crashed on such a scene (a sphere of glass over a mesh).
+TEST(Prims, ValidateAMeshBesideSpheresWithoutAHierarchy) {
+  TempDir dir;
+  const std::string scene = dir.file("few.json");
+  auto r = testing::run_command(testing::cli() +
+                                " generate --spheres 3 --mesh-triangles 2000 --resolution 64x48"
+                                " --seed 5 -o " +
+                                scene);
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* precision : {"exact", "double"}) {
+    r = testing::run_command(testing::cli() + " validate --precision " + precision + " " + scene);
+    EXPECT_EQ(r.status, 0) << precision << ": " << r.out;
+  }
+}
+
 // The reference against the independent oracle (tests/oracle: Moller-Trumbore, the textbook
 // cylinder quadratic, double throughout) on a scene of triangle and cylinder objects with
 // shadows, a mirror and glass: as the shipped scenes are held to it (test_oracle.cpp).

@@ -3,6 +3,7 @@
 // shadow rays through a mesh.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -321,6 +322,67 @@ TEST(Prims, WatertightStanfordBunny) {
 }
 
 // Log-uniform in [lo, hi].
+// Coherent packets, as a camera's tiles make them: one origin, directions of one sign per axis
+// within a small cone, aimed at a mesh's vertices and edge points, where the rays pass exactly
+// through the corners and faces of the hierarchy's boxes. Their closest hits are the
+// reference's at every width: the packet-wide culling of the shapes' walk never turns away a
+// box some lane would meet.
+template <class T>
+void expect_coherent_packets_agree(const Shape& mesh, const Vec3<double>& eye, const char* what) {
+  Scene s = empty_scene();
+  s.shapes.push_back(mesh);
+  const PreparedScene<T> p = prepare<T>(s);
+  const Mesh& m = s.shapes[0].mesh;
+  const Vec3<T> o = Vec3<T>::from(eye);
+  std::vector<std::pair<Vec3<double>, Vec3<T>>> keyed;  // (cell, direction)
+  auto aim = [&](const Vec3<double>& at) {
+    const Vec3<double> d = normalize(at - Vec3<double>{double(o.x), double(o.y), double(o.z)});
+    // Cells of the image plane 1/64 of a unit wide: a packet's rays lie in one or two.
+    keyed.push_back(
+        {{std::floor(d.x / -d.z * 64), std::floor(d.y / -d.z * 64), 0}, Vec3<T>::from(d)});
+  };
+  for (std::size_t t = 0; t < m.triangles(); ++t) {
+    const std::uint32_t* v = &m.indices[3 * t];
+    for (int c = 0; c < 3; ++c) {
+      const Vec3<double> a = m.vertices[v[c]], b = m.vertices[v[(c + 1) % 3]];
+      aim(a), aim((a + b) * 0.5);
+    }
+  }
+  std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+    return std::tie(a.first.y, a.first.x) < std::tie(b.first.y, b.first.x);
+  });
+  std::vector<std::pair<Vec3<T>, Vec3<T>>> rays;
+  for (const auto& [cell, d] : keyed) rays.push_back({o, d});
+  std::size_t checked = 0;
+  for (const int width :
+       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
+    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
+    if (!k) continue;
+    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
+    std::size_t differ = 0, hit = 0;
+    for (std::size_t r = 0; r < rays.size(); ++r) {
+      const reference::Hit<T> ref = reference::closest_hit(p, rays[r].first, rays[r].second);
+      hit += ref.id >= 0;
+      differ += hits[r].id != ref.id || (ref.id >= 0 && std::memcmp(&hits[r].t, &ref.t, sizeof(T)));
+    }
+    EXPECT_GT(hit, rays.size() / 3) << what;
+    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
+                          << " hits not the reference's";
+    ++checked;
+  }
+  EXPECT_GT(checked, 0u) << what << ": no packet width ran";
+}
+
+TEST(Prims, CoherentPacketsGetTheReferencesHits) {
+  for (const Vec3<double> c : {Vec3<double>{0.5, -0.25, -6}, Vec3<double>{1e3, -2e3, -3e3}}) {
+    const Vec3<double> eye = c + Vec3<double>{-0.3, 0.2, 6};
+    expect_coherent_packets_agree<float>(uv_sphere(c, 1.5, 48, 96), eye, "float sphere");
+    expect_coherent_packets_agree<double>(uv_sphere(c, 1.5, 48, 96), eye, "double sphere");
+    expect_coherent_packets_agree<float>(
+        grid_box(c - Vec3<double>{1, 2, 0.5}, c + Vec3<double>{1, 0.3, 2}, 12), eye, "float box");
+  }
+}
+
 double log_uniform(std::mt19937_64& rng, double lo, double hi) {
   std::uniform_real_distribution<double> u(std::log(lo), std::log(hi));
   return std::exp(u(rng));

@@ -130,6 +130,9 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
   static bool kernel_blocks(const Prepared& s) noexcept {
     return kGroup > 1 && s.bvh.active() && !s.camera.orthographic && s.features.spheres;
   }
+  // Square packets (tiles) wherever a hierarchy is walked, the spheres' or the shapes': their
+  // rays diverge less than a row's, so they share more of the nodes and leaves they visit.
+  static bool tiled(const Prepared& s) noexcept { return s.bvh.active() || s.features.shapes; }
   // Packets camera_packets makes for rows [row_begin, row_end), row_begin a multiple of
   // kBlockRows (run_tiles' rows).
   static std::size_t camera_packet_count(const Prepared& s, int row_begin, int row_end) noexcept {
@@ -140,7 +143,7 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
              samples * std::size_t(packets);
     };
     if (kernel_blocks(s)) return blocks(kGroupPx, kBlockRows, kGroup);
-    if (s.bvh.active()) return blocks(kTileW, kTileH, 1);
+    if (tiled(s)) return blocks(kTileW, kTileH, 1);
     return blocks(W, 1, 1);
   }
   // Per packet the origin then the direction, component by component, W lanes each (6 W
@@ -186,7 +189,7 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
     using One = std::integral_constant<int, 1>;
     if (kernel_blocks(s))
       return blocks(std::integral_constant<int, kGroupX>{}, std::integral_constant<int, kGroupY>{});
-    if (s.bvh.active()) return blocks(One{}, One{});
+    if (tiled(s)) return blocks(One{}, One{});
     for (int j = row_begin; j < row_end; ++j)
       for (int b = 0; b < cam.samples; ++b)
         for (int a = 0; a < cam.samples; ++a)

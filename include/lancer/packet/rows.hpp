@@ -20,6 +20,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   using Ca = CameraRays<Arch, Real, Mode>;
   using Ca::camera_packet;
   using Ca::kernel_blocks;
+  using Ca::tiled;
   using Ra::bits;
   using Ra::closest_hit;
   using Ra::count;
@@ -190,9 +191,9 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
 
   static void primary_rows(const Prepared& s, float* t_out, std::int32_t* id_out, int row_begin,
                            int row_end, RayCounts& counts) noexcept {
-    // Through a hierarchy, square packets: their rays diverge less than a row's, so they share
-    // more of the nodes and leaves they visit. The plain loop (the course scenes) keeps rows.
-    if (s.bvh.active())
+    // Through a hierarchy, square packets (tiled()). The plain loop (the course scenes) keeps
+    // rows.
+    if (tiled(s))
       primary_tiles(s, t_out, id_out, row_begin, row_end, counts);
     else
       primary_packet_rows(s, t_out, id_out, row_begin, row_end, counts);
@@ -247,7 +248,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
 
   static void primary_tiles(const Prepared& s, float* t_out, std::int32_t* id_out, int row_begin,
                             int row_end, RayCounts& counts) noexcept {
-    if (kGroup > 1 && !s.camera.orthographic && s.features.spheres)
+    if (kernel_blocks(s))
       primary_blocks<kGroupX, kGroupY>(s, t_out, id_out, row_begin, row_end, 0, counts);
     else
       primary_blocks<1, 1>(s, t_out, id_out, row_begin, row_end, 0, counts);
