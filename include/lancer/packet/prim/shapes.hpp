@@ -153,15 +153,14 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return r.uniform && r.fast && __builtin_popcount(bits(live)) > lone;
   }
   using Lone = ShapeLone<Arch, T>;
-  using Hybrid = ShapeHybrid<Arch, T>;
   template <class Limit, class Leaf, class Alone>
   static void hybrid(const Shapes& sh, const Ray& r, const M& lanes, Limit& limit, Leaf& leaf,
                      Alone& alone, int lone) noexcept {
     if (sh.wide.empty()) return;
     if (r.fast)
-      Hybrid::template walk<true>(sh, r, lanes, limit, leaf, alone, lone);
+      Walk::template walk_lanes<true, true>(sh, r, lanes, limit, leaf, alone, lone);
     else
-      Hybrid::template walk<false>(sh, r, lanes, limit, leaf, alone, lone);
+      Walk::template walk_lanes<false, true>(sh, r, lanes, limit, leaf, alone, lone);
   }
   // A packet's rays lane by lane, each made ready for ShapeLone when it first goes alone.
   struct LoneRays {

@@ -255,9 +255,9 @@ struct ShapeLone {
     };
     walk(
         sh, r, [&] { return best_t; },
-        [&](std::uint32_t begin, unsigned count) {
-          for (unsigned j = 0; j < count; j += unsigned(kC)) {
-            const unsigned n = count - j < unsigned(kC) ? count - j : unsigned(kC);
+        [&](std::uint32_t begin, unsigned size) {
+          for (unsigned j = 0; j < size; j += unsigned(kC)) {
+            const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
             alignas(32) T t[kC];
             for (unsigned hit = triangles_t(sh, begin + j, n, r, eps, t); hit; hit &= hit - 1) {
               const int k = __builtin_ctz(hit);
@@ -281,9 +281,9 @@ struct ShapeLone {
     bool found = false;
     walk(
         sh, r, [&] { return dist; },
-        [&](std::uint32_t begin, unsigned count) {
-          for (unsigned j = 0; j < count; j += unsigned(kC)) {
-            const unsigned n = count - j < unsigned(kC) ? count - j : unsigned(kC);
+        [&](std::uint32_t begin, unsigned size) {
+          for (unsigned j = 0; j < size; j += unsigned(kC)) {
+            const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
             alignas(32) T t[kC];
             for (unsigned hit = triangles_t(sh, begin + j, n, r, eps, t); hit; hit &= hit - 1) {
               const int k = __builtin_ctz(hit);
@@ -305,77 +305,6 @@ struct ShapeLone {
         },
         child, count);
     return found;
-  }
-};
-
-// The packet walk (shapes_walk.hpp) with the hybrid switch (Benthin et al.): a subtree (a node or
-// a leaf) that `lone` live lanes or fewer reach goes to alone(child, count, lanes), which walks
-// it for them one ray at a time (ShapeLone) and returns true to stop the walk.
-template <class Arch, class T>
-struct ShapeHybrid {
-  using Walk = ShapeWalk<Arch, T>;
-  using Shapes = PreparedShapes<T>;
-  using Wide = typename Shapes::WideNode;
-  using B = typename Walk::B;
-  using M = typename Walk::M;
-  static constexpr int kW = Shapes::kWide;
-
-  template <bool kFast, class Limit, class Leaf, class Alone>
-  static void walk(const Shapes& sh, const typename Walk::Ray& r, const M& lanes, Limit& limit,
-                   Leaf& leaf, Alone& alone, int lone) noexcept {
-    std::int32_t st_child[Shapes::kWideStack];
-    std::uint8_t st_count[Shapes::kWideStack];
-    M st_mask[Shapes::kWideStack];
-    B st_t0[Shapes::kWideStack];
-    int sp = 0;
-    std::int32_t child = 0;
-    unsigned count = 0;
-    M mask = lanes;
-    const B widen(T(1) + Walk::kWiden);
-    for (;;) {
-      if (__builtin_popcount(lane_bits(mask)) <= lone) {
-        if (alone(child, count, mask)) return;
-      } else if (count == 0) {
-        const Wide& n = sh.wide[std::size_t(child)];
-        const B lim_w = limit() * widen;
-        M m[kW];
-        B t0[kW];
-        unsigned met = 0;
-        for (int k = 0; k < kW; ++k) {
-          m[k] = Walk::template child_lanes<kFast>(n, k, r, mask, lim_w, t0[k]);
-          met |= unsigned(xsimd::any(m[k])) << k;
-        }
-        met &= (1u << n.arity) - 1;
-        if (met != 0) {
-          const unsigned order = n.order[r.code];
-          int slots[kW], c = 0;
-          for (int p = 0; p < kW; ++p) {
-            const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
-            if (met >> s & 1u) slots[c++] = s;
-          }
-          for (int q = c - 1; q > 0; --q) {
-            const int s = slots[q];
-            Walk::prefetch(sh, n.child[s], n.count[s]);
-            st_child[sp] = n.child[s], st_count[sp] = n.count[s];
-            st_mask[sp] = m[s], st_t0[sp] = t0[s];
-            ++sp;
-          }
-          child = n.child[slots[0]], count = n.count[slots[0]], mask = m[slots[0]];
-          continue;
-        }
-      } else if (leaf(std::uint32_t(child), count, mask)) {
-        return;
-      }
-      for (;;) {
-        if (sp == 0) return;
-        --sp;
-        mask = st_mask[sp] & (st_t0[sp] <= limit() * widen);
-        if (xsimd::any(mask)) {
-          child = st_child[sp], count = st_count[sp];
-          break;
-        }
-      }
-    }
   }
 };
 

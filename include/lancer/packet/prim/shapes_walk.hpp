@@ -179,6 +179,17 @@ struct ShapeWalk {
   template <bool kFast, class Limit, class Leaf>
   [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
                                           Limit& limit, Leaf& leaf) noexcept {
+    auto never = [](std::int32_t, unsigned, const M&) { return false; };
+    walk_lanes<kFast, false>(sh, r, lanes, limit, leaf, never, 0);
+  }
+
+  // The same walk with the hybrid switch (Benthin et al.) where kHybrid: a subtree (a node or a
+  // leaf) that `lone` live lanes or fewer reach goes to alone(child, count, lanes), which walks
+  // it for them one ray at a time (prim/shapes_lone.hpp) and returns true to stop the walk.
+  template <bool kFast, bool kHybrid, class Limit, class Leaf, class Alone>
+  [[gnu::always_inline]] static void walk_lanes(const Shapes& sh, const Ray& r, const M& lanes,
+                                                Limit& limit, Leaf& leaf, Alone& alone,
+                                                int lone) noexcept {
     std::int32_t st_child[Shapes::kWideStack];
     std::uint8_t st_count[Shapes::kWideStack];
     M st_mask[Shapes::kWideStack];
@@ -189,7 +200,11 @@ struct ShapeWalk {
     M mask = lanes;
     const B widen(T(1) + kWiden);
     for (;;) {
-      if (count == 0) {
+      bool few = false;
+      if constexpr (kHybrid) few = __builtin_popcount(lane_bits(mask)) <= lone;
+      if (few) {
+        if (alone(child, count, mask)) return;
+      } else if (count == 0) {
         const Wide& n = sh.wide[std::size_t(child)];
         const B lim_w = limit() * widen;
         M m[kW];
