@@ -72,7 +72,8 @@ RaySet make_set(const api::Scene& scene, Kind kind, const SetOptions& options = 
 
 // What answers packets of `width` rays through the library API, for the summaries: the ISA of
 // the widest kernel up to that width ("avx512f"), or, one ray at a
-// time, "one-ray avx2" / "one-ray avx512f" where Info::one_ray names the one-ray kernels.
+// time, "one-ray avx2" / "one-ray avx512f" where Info::one_ray names the one-ray kernels,
+// "lone lane, sse4.2 packet" where a scene with shapes answers one ray on a packet kernel.
 std::string api_isa(const api::Scene& scene, int width);
 
 // Every ray's answer: occluded (AO sets) or the closest hit's object id and t (diffuse sets;

@@ -496,6 +496,17 @@ void choose_widths(Engine<T>& e, const Info& info) {
   if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
 }
 
+// What answers Ray1 (Info::one_ray): the one-ray kernels' ISA, or, in a scene with shapes, the
+// narrowest packet kernel's ("sse4.2 packet"), or the reference ("scalar").
+template <class T>
+std::string one_ray_name(const Engine<T>& e, Precision p) {
+  if (e.one) return e.one->isa;
+  const int w = e.query_width[query_slot(1)];
+  if (e.scene.shapes && w > 1 && e.query[query_slot(1)])
+    return std::string(packet::isa_name(w, p)) + " packet";
+  return "scalar";
+}
+
 // Options a scene cannot be made with, refused before anything is read: an enumerator outside
 // Precision (a cast integer) and thread counts the CLI refuses too.
 void check_options(const Options& o) {
@@ -551,11 +562,11 @@ Scene Scene::make(SceneDescription description, const Options& options) {
   if (impl->dbl) {
     impl->d.scene = prepare<double>(s);
     choose_widths(impl->d, info);
-    if (impl->d.one) info.one_ray = impl->d.one->isa;
+    info.one_ray = one_ray_name(impl->d, info.precision);
   } else {
     impl->f.scene = prepare<float>(s);
     choose_widths(impl->f, info);
-    if (impl->f.one) info.one_ray = impl->f.one->isa;
+    info.one_ray = one_ray_name(impl->f, info.precision);
   }
   return Scene(std::move(impl));
 }

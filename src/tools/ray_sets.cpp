@@ -264,7 +264,10 @@ Agreement compare(const RaySet& set, const Answers& reference, const Answers& ot
 std::string api_isa(const api::Scene& scene, int width) {
   const api::Info& info = scene.info();
   if (width > 1) return packet::isa_name(std::min(width, info.width), info.precision);
-  return info.one_ray == "scalar" ? info.one_ray : "one-ray " + info.one_ray;
+  if (info.one_ray == "scalar") return info.one_ray;
+  const bool packet =
+      info.one_ray.size() > 7 && info.one_ray.compare(info.one_ray.size() - 7, 7, " packet") == 0;
+  return packet ? "lone lane, " + info.one_ray : "one-ray " + info.one_ray;
 }
 
 }  // namespace lancer::rays
