@@ -137,12 +137,7 @@ struct ShapeLone {
     return met & ((1u << n.arity) - 1);
   }
 
-  static void prefetch(const Shapes& sh, std::int32_t child, unsigned count) noexcept {
-    const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
-                               : reinterpret_cast<const char*>(&sh.leaf[std::size_t(child)]);
-    const std::size_t bytes = count == 0 ? sizeof(Wide) : count * sizeof(sh.leaf[0]);
-    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
-  }
+  using Packet = ShapeWalk<Arch, T>;  // its node order and prefetch serve one ray too
   // Visits the leaves whose boxes the ray may meet before limit() (re-read after each leaf),
   // children nearest first: leaf(first, count) returns true to stop.
   template <class Limit, class Leaf>
@@ -160,15 +155,11 @@ struct ShapeLone {
         alignas(32) T t0[kW];
         const unsigned met = met_children(n, r, limit() * widen, t0);
         if (met != 0) {
-          const unsigned order = n.order[r.code];
-          int slots[kW], c = 0;
-          for (int p = 0; p < kW; ++p) {
-            const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
-            if (met >> s & 1u) slots[c++] = s;
-          }
+          int slots[kW];
+          const int c = Packet::near_first(n, r.code, met, slots);
           for (int q = c - 1; q >= 0; --q) {
             const int s = slots[q];
-            prefetch(sh, n.child[s], n.count[s]);
+            Packet::prefetch(sh, n.child[s], n.count[s]);
             if (q == 0) break;
             st_child[sp] = n.child[s], st_count[sp] = n.count[s], st_t0[sp] = t0[s];
             ++sp;
@@ -242,6 +233,27 @@ struct ShapeLone {
         .t;
   }
 
+  // Leaf-order primitives [begin, begin + size), kC at a time: hit(j, t) for each triangle the
+  // ray meets beyond eps (t its hit), then each cylinder of those kC (t its nearest hit beyond
+  // eps, infinity where none); true from hit stops.
+  template <class Hit>
+  static bool leaf_hits(const Shapes& sh, const Ray& r, T eps, std::uint32_t begin, unsigned size,
+                        Hit&& hit) noexcept {
+    for (unsigned j = 0; j < size; j += unsigned(kC)) {
+      const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
+      alignas(32) T t[kC];
+      for (unsigned m = triangles_t(sh, begin + j, n, r, eps, t); m; m &= m - 1) {
+        const unsigned k = unsigned(__builtin_ctz(m));
+        if (hit(begin + j + k, t[k])) return true;
+      }
+      for (unsigned k = 0; k < n; ++k) {
+        const auto& p = sh.leaf[begin + j + k];
+        if (p.ref < 0 && hit(begin + j + k, cylinder_t(sh, p.ref, r, eps))) return true;
+      }
+    }
+    return false;
+  }
+
   // The closest hit over the shapes, from best_t / best_hit (a hit id: first_hit + primitive for
   // a shape, lower for anything else, -1 for none): a nearer t wins, an equal t only over a shape
   // of a higher primitive number. Returns whether it changed.
@@ -256,19 +268,10 @@ struct ShapeLone {
     walk(
         sh, r, [&] { return best_t; },
         [&](std::uint32_t begin, unsigned size) {
-          for (unsigned j = 0; j < size; j += unsigned(kC)) {
-            const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
-            alignas(32) T t[kC];
-            for (unsigned hit = triangles_t(sh, begin + j, n, r, eps, t); hit; hit &= hit - 1) {
-              const int k = __builtin_ctz(hit);
-              consider(t[k], sh.leaf[begin + j + unsigned(k)].prim);
-            }
-            for (unsigned k = 0; k < n; ++k) {
-              const auto& p = sh.leaf[begin + j + k];
-              if (p.ref < 0) consider(cylinder_t(sh, p.ref, r, eps), p.prim);
-            }
-          }
-          return false;
+          return leaf_hits(sh, r, eps, begin, size, [&](std::uint32_t j, T t) {
+            consider(t, sh.leaf[j].prim);
+            return false;
+          });
         },
         child, count);
     return changed;
@@ -282,26 +285,12 @@ struct ShapeLone {
     walk(
         sh, r, [&] { return dist; },
         [&](std::uint32_t begin, unsigned size) {
-          for (unsigned j = 0; j < size; j += unsigned(kC)) {
-            const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
-            alignas(32) T t[kC];
-            for (unsigned hit = triangles_t(sh, begin + j, n, r, eps, t); hit; hit &= hit - 1) {
-              const int k = __builtin_ctz(hit);
-              if (t[k] < dist) {
-                const std::int32_t ref = sh.leaf[begin + j + unsigned(k)].ref;
-                object = sh.tri_object[std::size_t(ref)];
-                return found = true;
-              }
-            }
-            for (unsigned k = 0; k < n; ++k) {
-              const auto& p = sh.leaf[begin + j + k];
-              if (p.ref < 0 && cylinder_t(sh, p.ref, r, eps) < dist) {
-                object = sh.cyl_object[std::size_t(~p.ref)];
-                return found = true;
-              }
-            }
-          }
-          return false;
+          return leaf_hits(sh, r, eps, begin, size, [&](std::uint32_t j, T t) {
+            if (!(t < dist)) return false;
+            const std::int32_t ref = sh.leaf[j].ref;
+            object = ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
+            return found = true;
+          });
         },
         child, count);
     return found;

@@ -173,6 +173,18 @@ struct ShapeWalk {
     for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
   }
 
+  // The slots of node n's met children (bits of `met`), nearest first for direction code
+  // `code`, into slots: their count.
+  static int near_first(const Wide& n, unsigned code, unsigned met, int (&slots)[kW]) noexcept {
+    const unsigned order = n.order[code];
+    int c = 0;
+    for (int p = 0; p < kW; ++p) {
+      const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
+      if (met >> s & 1u) slots[c++] = s;
+    }
+    return c;
+  }
+
   // Visits the leaves of the wide hierarchy that some lane of `lanes` may reach before limit()
   // (re-read after each leaf: popped subtrees are culled by it), children nearest first by the
   // packet's direction code: leaf(first, count, lanes_at_leaf) returns true to stop.
@@ -216,12 +228,8 @@ struct ShapeWalk {
         }
         met &= (1u << n.arity) - 1;
         if (met != 0) {
-          const unsigned order = n.order[r.code];
-          int slots[kW], c = 0;
-          for (int p = 0; p < kW; ++p) {
-            const int s = int(order >> (Shapes::kOrderBits * p)) & (kW - 1);
-            if (met >> s & 1u) slots[c++] = s;
-          }
+          int slots[kW];
+          const int c = near_first(n, r.code, met, slots);
           for (int q = c - 1; q > 0; --q) {
             const int s = slots[q];
             prefetch(sh, n.child[s], n.count[s]);
