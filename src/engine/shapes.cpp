@@ -493,21 +493,29 @@ void shapes_met(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& l, 
   std::sort(objects.begin(), objects.end());
 }
 
+namespace {
+// The geometric normal at p of the primitive `ref` (a triangle >= 0, else ~cylinder; part: the
+// cylinder's part hit).
+template <class T>
+Vec3<T> geometric_normal(const PreparedShapes<T>& s, std::int32_t ref, const Vec3<T>& p, T part) {
+  if (ref < 0) {
+    const std::size_t c = std::size_t(~ref);
+    return prim::cylinder_normal(p, s.cyl_base[c], s.cyl_axis[c], part);
+  }
+  const std::uint32_t* v = &s.tri[3 * std::size_t(ref)];
+  auto vertex = [&](std::uint32_t k) { return Vec3<T>{s.vx[k], s.vy[k], s.vz[k]}; };
+  return prim::triangle_normal(vertex(v[0]), vertex(v[1]), vertex(v[2]));
+}
+}  // namespace
+
 template <class T>
 void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
                     const Vec3<T>& d, const Vec3<T>& p, Vec3<T>& geometric, Vec3<T>& shading) {
   const std::int32_t ref = s.prim[std::size_t(hit.prim)];
-  if (ref < 0) {
-    const std::size_t c = std::size_t(~ref);
-    geometric = prim::cylinder_normal(p, s.cyl_base[c], s.cyl_axis[c], hit.part);
-    shading = geometric;
-    return;
-  }
-  const std::size_t t = std::size_t(ref);
-  const std::uint32_t* v = &s.tri[3 * t];
-  auto vertex = [&](std::uint32_t k) { return Vec3<T>{s.vx[k], s.vy[k], s.vz[k]}; };
-  geometric = prim::triangle_normal(vertex(v[0]), vertex(v[1]), vertex(v[2]));
+  geometric = geometric_normal(s, ref, p, hit.part);
   shading = geometric;
+  if (ref < 0) return;
+  const std::size_t t = std::size_t(ref);
   if (s.tri_normals.empty() || s.tri_normals[3 * t] == PreparedShapes<T>::kNoNormal) return;
   const PrimRay<T> ray(s, o, d, T(0));
   const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(t)));
@@ -537,25 +545,12 @@ ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hi
 template <class T>
 ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
                             const Vec3<T>& p, T epsilon, std::int64_t prim) {
-  ShapeFields<T> out;
   const std::int32_t ref = s.prim[std::size_t(prim)];
-  if (ref < 0) {  // a cylinder: no surface coordinates; the normal by the hit's part
-    const std::size_t c = std::size_t(~ref);
-    const T part = shape_hit(s, o, d, epsilon, prim).part;
-    out.geometric = prim::cylinder_normal(p, s.cyl_base[c], s.cyl_axis[c], part);
-    return out;
-  }
-  const std::size_t t = std::size_t(ref);
-  const auto& objects = s.tri_object;
-  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[t]);
-  out.surface.prim_in_object = static_cast<int>(ref - (first - objects.begin()));
-  const PrimRay<T> ray(s, o, d, T(0));
-  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
-  out.surface.u = bary.y, out.surface.v = bary.z;
-  const std::uint32_t* v = &s.tri[3 * t];
-  auto vertex = [&](std::uint32_t k) { return Vec3<T>{s.vx[k], s.vy[k], s.vz[k]}; };
-  out.geometric = prim::triangle_normal(vertex(v[0]), vertex(v[1]), vertex(v[2]));
-  return out;
+  ShapeHit<T> hit{};
+  hit.prim = prim;
+  // A cylinder's normal depends on the part hit, which only its test says; a triangle's not.
+  if (ref < 0) hit.part = shape_hit(s, o, d, epsilon, prim).part;
+  return {shapes_surface(s, hit, o, d), geometric_normal(s, ref, p, hit.part)};
 }
 
 #define LANCER_SHAPES(T)                                                                           \
