@@ -113,6 +113,11 @@ struct ShapeWalk {
         B& on = a == 0 ? o_near.x : a == 1 ? o_near.y : o_near.z;
         B& of = a == 0 ? o_far.x : a == 1 ? o_far.y : o_far.z;
         on = down ? hi : lo, of = down ? lo : hi;
+        // Lanes of one sign: their sum has it (no sum to wait for).
+        if (up || down) {
+          code |= unsigned(up) << a;
+          continue;
+        }
         // (xsimd's hadd needs AVX-512 DQ at width 16)
         alignas(64) T v[W];
         xsimd::select(valid, c, B(T(0))).store_aligned(v);
@@ -218,6 +223,7 @@ struct ShapeWalk {
         if (alone(child, count, mask)) return;
       } else if (count == 0) {
         const Wide& n = sh.wide[std::size_t(child)];
+        for (int k = 0; k < n.arity; ++k) prefetch(sh, n.child[k], n.count[k]);
         const B lim_w = limit() * widen;
         M m[kW];
         B t0[kW];
@@ -232,7 +238,6 @@ struct ShapeWalk {
           const int c = near_first(n, r.code, met, slots);
           for (int q = c - 1; q > 0; --q) {
             const int s = slots[q];
-            prefetch(sh, n.child[s], n.count[s]);
             st_child[sp] = n.child[s], st_count[sp] = n.count[s];
             st_mask[sp] = m[s], st_t0[sp] = t0[s];
             ++sp;
@@ -257,8 +262,8 @@ struct ShapeWalk {
 
   // The triangle at leaf-order position j: its hit t beyond eps for the lanes of `at`
   // (infinity elsewhere, and where it misses), by the reference's watertight formula.
-  static B triangle_t(const Shapes& sh, std::size_t j, const Ray& r, const M& at,
-                      const B& eps) noexcept {
+  [[gnu::always_inline]] static B triangle_t(const Shapes& sh, std::size_t j, const Ray& r,
+                                             const M& at, const B& eps) noexcept {
     const T* v = sh.leaf[j].v;
     V a, b, c;
     if (r.uniform) {
