@@ -29,6 +29,22 @@
 
 namespace lancer::packet {
 
+// For each set of an 8-wide node's slots (bit k: slot k), its slots in order, a byte each: the
+// lanes a permutation packs to the front (the unsorted walk's pushes).
+struct Compress8 {
+  std::uint64_t slots[256];
+};
+constexpr Compress8 compress8() {
+  Compress8 t{};
+  for (unsigned m = 0; m < 256; ++m) {
+    int q = 0;
+    for (unsigned k = 0; k < 8; ++k)
+      if (m >> k & 1u) t.slots[m] |= std::uint64_t(k) << (8 * q++);
+  }
+  return t;
+}
+inline constexpr Compress8 kCompress8 = compress8();
+
 // Arch names the translation unit (its flags). An 8-wide node's eight float children and a float
 // leaf's eight spheres run on one ymm, a double leaf's four spheres on one: all of it in every
 // x86 ISA from AVX2 up.
@@ -76,20 +92,34 @@ struct OneRayKernel {
   template <bool kPadded, bool kSort, class Leaf, class LeafAt>
   static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf,
                     LeafAt&& leaf_at) noexcept {
-    struct Entry {
+    struct SortEntry {
       std::int32_t child, count;
       float tnear;
     };
+    struct AnyEntry {  // unsorted: no distance, two to a vector lane pair
+      std::int32_t child, count;
+    };
+    using Entry = std::conditional_t<kSort, SortEntry, AnyEntry>;
     // tmax (read afresh: a closest-hit leaf lowers it) as a float not below it: double's too
     // cuts no box it meets.
     auto tmax_up = [&] {
       const float f = float(tmax);
       return T(f) < tmax ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
     };
-    // Every 8-wide level stands for one 4-wide level or more: at most seven entries each.
-    Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2];
+    // Every 8-wide level stands for one 4-wide level or more: at most seven entries each; and
+    // room for the unsorted walk's whole vectors of eight.
+    Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2 + 8];
     int sp = 0;
     std::int32_t node = 0;
+    // A node or leaf the walk may come back to: its lines on their way meanwhile (a node's four;
+    // a leaf block's two, its first line twice).
+    auto prefetch = [&](std::int32_t child, std::int32_t count) {
+      const bool inner = count < 0;
+      const char* p = inner ? reinterpret_cast<const char*>(nodes + child) : leaf_at(child);
+      const char* q = inner ? p + 128 : p;
+      _mm_prefetch(p, _MM_HINT_T0), _mm_prefetch(p + 64, _MM_HINT_T0);
+      _mm_prefetch(q, _MM_HINT_T0), _mm_prefetch(q + 64, _MM_HINT_T0);
+    };
     for (;;) {
       const OneRayNode8& n = nodes[std::size_t(node)];
       const char* base = reinterpret_cast<const char*>(&n);
@@ -109,7 +139,34 @@ struct OneRayKernel {
         Entry e;
         if ((met & (met - 1)) == 0) {  // one child met: straight on
           const int k = __builtin_ctz(met);
-          e = {n.child[k], n.count[k], 0.0f};
+          if constexpr (kSort)
+            e = {n.child[k], n.count[k], 0.0f};
+          else
+            e = {n.child[k], n.count[k]};
+        } else if constexpr (!kSort) {
+          // Slot order: the met children packed to the front of the node's child and count
+          // vectors, interleaved as entries, eight stored at once (those past the met ones
+          // are overwritten or never read).
+          const __m256i at = _mm256_cvtepu8_epi32(
+              _mm_cvtsi64_si128(static_cast<long long>(kCompress8.slots[met])));
+          const __m256i c = _mm256_permutevar8x32_epi32(
+              _mm256_load_si256(reinterpret_cast<const __m256i*>(n.child)), at);
+          const __m256i k = _mm256_permutevar8x32_epi32(
+              _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count)), at);
+          const __m256i lo = _mm256_unpacklo_epi32(c, k), hi = _mm256_unpackhi_epi32(c, k);
+          _mm256_storeu_si256(reinterpret_cast<__m256i*>(stack + sp),
+                              _mm256_permute2x128_si256(lo, hi, 0x20));
+          _mm256_storeu_si256(reinterpret_cast<__m256i*>(stack + sp + 4),
+                              _mm256_permute2x128_si256(lo, hi, 0x31));
+          for (unsigned m = met; m; m &= m - 1) {
+            const int j = __builtin_ctz(m);
+            prefetch(n.child[j], n.count[j]);
+          }
+          // The top entry, the last met slot, taken from the node rather than read back from
+          // the vector just stored (no store-to-load forwarding to wait on).
+          const int top = 31 - __builtin_clz(met);
+          sp += __builtin_popcount(met) - 1;
+          e = {n.child[top], n.count[top]};
         } else {
           alignas(32) float dist[8];
           _mm256_store_ps(dist, tn);
@@ -123,12 +180,11 @@ struct OneRayKernel {
                 unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_GT_OQ)));
             const unsigned same = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_EQ_OQ)));
             const unsigned below = (1u << k) - 1u;
-            const int rank = __builtin_popcount(met & (kSort ? farther | (same & below) : below));
+            const int rank = __builtin_popcount(met & (farther | (same & below)));
             Entry& x = stack[sp + rank];
-            x.child = n.child[k], x.count = n.count[k];
-            if constexpr (kSort) x.tnear = dist[k];
-            // A node or leaf the walk may come back to: its lines on their way meanwhile (a
-            // node's four; a leaf block's two, its first line twice).
+            x.child = n.child[k], x.count = n.count[k], x.tnear = dist[k];
+            // As prefetch(x.child, x.count), written out: through the lambda GCC lays out the
+            // closest-hit walk less well (measurably slower).
             const bool inner = x.count < 0;
             const char* p =
                 inner ? reinterpret_cast<const char*>(nodes + x.child) : leaf_at(x.child);
@@ -149,7 +205,8 @@ struct OneRayKernel {
         if (sp == 0) return false;
         const Entry e = stack[--sp];
         // Unsorted (occlusion): tmax stays tfar, which every pushed entry starts before.
-        if (kSort && e.tnear > tmax) continue;
+        if constexpr (kSort)
+          if (e.tnear > tmax) continue;
         if (e.count < 0) {
           node = e.child;
           break;
