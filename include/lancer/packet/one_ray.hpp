@@ -168,21 +168,21 @@ struct OneRayKernel {
           sp += __builtin_popcount(met) - 1;
           e = {n.child[top], n.count[top]};
         } else {
-          alignas(32) float dist[8];
-          _mm256_store_ps(dist, tn);
           // Each met child straight to its place, the nearest on top: below it the met children
           // farther away (ties: the lower slot below). No branch on the distances, which a
-          // single ray's walk mispredicts.
+          // single ray's walk mispredicts. A child's distance is taken from the register by a
+          // permutation, not from a copy just stored (a load from within a vector store waits
+          // on its forwarding).
           for (unsigned m = met; m; m &= m - 1) {
             const int k = __builtin_ctz(m);
-            const __m256 dk = _mm256_broadcast_ss(dist + k);
+            const __m256 dk = _mm256_permutevar8x32_ps(tn, _mm256_set1_epi32(k));
             const unsigned farther =
                 unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_GT_OQ)));
             const unsigned same = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_EQ_OQ)));
             const unsigned below = (1u << k) - 1u;
             const int rank = __builtin_popcount(met & (farther | (same & below)));
             Entry& x = stack[sp + rank];
-            x.child = n.child[k], x.count = n.count[k], x.tnear = dist[k];
+            x.child = n.child[k], x.count = n.count[k], x.tnear = _mm256_cvtss_f32(dk);
             // As prefetch(x.child, x.count), written out: through the lambda GCC lays out the
             // closest-hit walk less well (measurably slower).
             const bool inner = x.count < 0;
@@ -203,15 +203,18 @@ struct OneRayKernel {
       }
       for (;;) {
         if (sp == 0) return false;
-        const Entry e = stack[--sp];
+        // The entry's fields read where they are, not through a copy of the entry (which GCC
+        // makes on the stack and reads back, its distance as a float from integer stores).
+        const Entry& e = stack[--sp];
         // Unsorted (occlusion): tmax stays tfar, which every pushed entry starts before.
         if constexpr (kSort)
           if (e.tnear > tmax) continue;
-        if (e.count < 0) {
-          node = e.child;
+        const std::int32_t child = e.child, count = e.count;
+        if (count < 0) {
+          node = child;
           break;
         }
-        if (leaf(e.child, e.count)) return true;
+        if (leaf(child, count)) return true;
       }
     }
   }
