@@ -29,6 +29,22 @@
 
 namespace lancer::packet {
 
+// For each set of an 8-wide node's slots (bit k: slot k), its slots in order, a byte each: the
+// lanes a permutation packs to the front (the unsorted walk's pushes).
+struct Compress8 {
+  std::uint64_t slots[256];
+};
+constexpr Compress8 compress8() {
+  Compress8 t{};
+  for (unsigned m = 0; m < 256; ++m) {
+    int q = 0;
+    for (unsigned k = 0; k < 8; ++k)
+      if (m >> k & 1u) t.slots[m] |= std::uint64_t(k) << (8 * q++);
+  }
+  return t;
+}
+inline constexpr Compress8 kCompress8 = compress8();
+
 // Arch names the translation unit (its flags). An 8-wide node's eight float children and a float
 // leaf's eight spheres run on one ymm, a double leaf's four spheres on one: all of it in every
 // x86 ISA from AVX2 up.
@@ -53,7 +69,6 @@ struct OneRayKernel {
   static Slab8 slab8(const T* o, const T* d, bool padded) noexcept {
     using N8 = OneRayNode8;
     const std::size_t lo[3] = {offsetof(N8, lo_x), offsetof(N8, lo_y), offsetof(N8, lo_z)};
-    const std::size_t hi[3] = {offsetof(N8, hi_x), offsetof(N8, hi_y), offsetof(N8, hi_z)};
     static_assert(offsetof(N8, hi_x) == (offsetof(N8, lo_x) ^ 32u) &&
                       offsetof(N8, hi_y) == (offsetof(N8, lo_y) ^ 32u) &&
                       offsetof(N8, hi_z) == (offsetof(N8, lo_z) ^ 32u),
@@ -64,31 +79,47 @@ struct OneRayKernel {
     const T far = padded ? m * pad : T(0);
     for (int a = 0; a < 3; ++a) {
       const T inv = T(1) / (std::fabs(d[a]) < T(0x1p-64) ? T(0x1p-64) : d[a]);
-      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known. It is
+      // hi (lo ^ 32) where inv < 0, chosen by arithmetic: the compiler makes a branch of the
+      // choice, which random directions mispredict half the time.
       r.inv[a] = _mm256_set1_ps(float(inv));
       r.oi[a] = _mm256_set1_ps(float(o[a] * inv));
       r.pad[a] = _mm256_set1_ps(float(far * std::fabs(inv)));
-      r.near[a] = inv < T(0) ? hi[a] : lo[a];
+      r.near[a] = lo[a] ^ (std::size_t(std::signbit(inv)) << 5);
     }
     return r;
   }
   template <bool kPadded, bool kSort, class Leaf, class LeafAt>
   static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf,
                     LeafAt&& leaf_at) noexcept {
-    struct Entry {
+    struct SortEntry {
       std::int32_t child, count;
       float tnear;
     };
+    struct AnyEntry {  // unsorted: no distance, two to a vector lane pair
+      std::int32_t child, count;
+    };
+    using Entry = std::conditional_t<kSort, SortEntry, AnyEntry>;
     // tmax (read afresh: a closest-hit leaf lowers it) as a float not below it: double's too
     // cuts no box it meets.
     auto tmax_up = [&] {
       const float f = float(tmax);
       return T(f) < tmax ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
     };
-    // Every 8-wide level stands for one 4-wide level or more: at most seven entries each.
-    Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2];
+    // Every 8-wide level stands for one 4-wide level or more: at most seven entries each; and
+    // room for the unsorted walk's whole vectors of eight.
+    Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2 + 8];
     int sp = 0;
     std::int32_t node = 0;
+    // A node or leaf the walk may come back to: its lines on their way meanwhile (a node's four;
+    // a leaf block's two, its first line twice).
+    auto prefetch = [&](std::int32_t child, std::int32_t count) {
+      const bool inner = count < 0;
+      const char* p = inner ? reinterpret_cast<const char*>(nodes + child) : leaf_at(child);
+      const char* q = inner ? p + 128 : p;
+      _mm_prefetch(p, _MM_HINT_T0), _mm_prefetch(p + 64, _MM_HINT_T0);
+      _mm_prefetch(q, _MM_HINT_T0), _mm_prefetch(q + 64, _MM_HINT_T0);
+    };
     for (;;) {
       const OneRayNode8& n = nodes[std::size_t(node)];
       const char* base = reinterpret_cast<const char*>(&n);
@@ -108,26 +139,52 @@ struct OneRayKernel {
         Entry e;
         if ((met & (met - 1)) == 0) {  // one child met: straight on
           const int k = __builtin_ctz(met);
-          e = {n.child[k], n.count[k], 0.0f};
+          if constexpr (kSort)
+            e = {n.child[k], n.count[k], 0.0f};
+          else
+            e = {n.child[k], n.count[k]};
+        } else if constexpr (!kSort) {
+          // Slot order: the met children packed to the front of the node's child and count
+          // vectors, interleaved as entries, eight stored at once (those past the met ones
+          // are overwritten or never read).
+          const __m256i at = _mm256_cvtepu8_epi32(
+              _mm_cvtsi64_si128(static_cast<long long>(kCompress8.slots[met])));
+          const __m256i c = _mm256_permutevar8x32_epi32(
+              _mm256_load_si256(reinterpret_cast<const __m256i*>(n.child)), at);
+          const __m256i k = _mm256_permutevar8x32_epi32(
+              _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count)), at);
+          const __m256i lo = _mm256_unpacklo_epi32(c, k), hi = _mm256_unpackhi_epi32(c, k);
+          _mm256_storeu_si256(reinterpret_cast<__m256i*>(stack + sp),
+                              _mm256_permute2x128_si256(lo, hi, 0x20));
+          _mm256_storeu_si256(reinterpret_cast<__m256i*>(stack + sp + 4),
+                              _mm256_permute2x128_si256(lo, hi, 0x31));
+          for (unsigned m = met; m; m &= m - 1) {
+            const int j = __builtin_ctz(m);
+            prefetch(n.child[j], n.count[j]);
+          }
+          // The top entry, the last met slot, taken from the node rather than read back from
+          // the vector just stored (no store-to-load forwarding to wait on).
+          const int top = 31 - __builtin_clz(met);
+          sp += __builtin_popcount(met) - 1;
+          e = {n.child[top], n.count[top]};
         } else {
-          alignas(32) float dist[8];
-          _mm256_store_ps(dist, tn);
           // Each met child straight to its place, the nearest on top: below it the met children
           // farther away (ties: the lower slot below). No branch on the distances, which a
-          // single ray's walk mispredicts.
+          // single ray's walk mispredicts. A child's distance is taken from the register by a
+          // permutation, not from a copy just stored (a load from within a vector store waits
+          // on its forwarding).
           for (unsigned m = met; m; m &= m - 1) {
             const int k = __builtin_ctz(m);
-            const __m256 dk = _mm256_broadcast_ss(dist + k);
+            const __m256 dk = _mm256_permutevar8x32_ps(tn, _mm256_set1_epi32(k));
             const unsigned farther =
                 unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_GT_OQ)));
             const unsigned same = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(tn, dk, _CMP_EQ_OQ)));
             const unsigned below = (1u << k) - 1u;
-            const int rank = __builtin_popcount(met & (kSort ? farther | (same & below) : below));
+            const int rank = __builtin_popcount(met & (farther | (same & below)));
             Entry& x = stack[sp + rank];
-            x.child = n.child[k], x.count = n.count[k];
-            if constexpr (kSort) x.tnear = dist[k];
-            // A node or leaf the walk may come back to: its lines on their way meanwhile (a
-            // node's four; a leaf block's two, its first line twice).
+            x.child = n.child[k], x.count = n.count[k], x.tnear = _mm256_cvtss_f32(dk);
+            // As prefetch(x.child, x.count), written out: through the lambda GCC lays out the
+            // closest-hit walk less well (measurably slower).
             const bool inner = x.count < 0;
             const char* p =
                 inner ? reinterpret_cast<const char*>(nodes + x.child) : leaf_at(x.child);
@@ -146,14 +203,18 @@ struct OneRayKernel {
       }
       for (;;) {
         if (sp == 0) return false;
-        const Entry e = stack[--sp];
+        // The entry's fields read where they are, not through a copy of the entry (which GCC
+        // makes on the stack and reads back, its distance as a float from integer stores).
+        const Entry& e = stack[--sp];
         // Unsorted (occlusion): tmax stays tfar, which every pushed entry starts before.
-        if (kSort && e.tnear > tmax) continue;
-        if (e.count < 0) {
-          node = e.child;
+        if constexpr (kSort)
+          if (e.tnear > tmax) continue;
+        const std::int32_t child = e.child, count = e.count;
+        if (count < 0) {
+          node = child;
           break;
         }
-        if (leaf(e.child, e.count)) return true;
+        if (leaf(child, count)) return true;
       }
     }
   }
