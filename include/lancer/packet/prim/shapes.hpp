@@ -204,15 +204,19 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return I::load_aligned(v);
   }
 
-  // Any hit over the shapes for the lanes still pending, from p along unit l before `dist`:
-  // step(object, lanes, pending) for each object the lanes meet beyond eps, each once per lane,
-  // in ascending object id (the reference's order: a float product of three or more
-  // transmittances depends on it). The walk is out of line (met_objects), for the reason given
-  // at closest().
+  // Any hit over the shapes for the lanes still pending, from p along unit l before `dist`.
+  // Opaque scenes (no transparency): every object blocks, and the callers' step (queries.hpp
+  // shadow_hit, the API's occlusion) only clears its lanes, so the walk returns the lanes still
+  // pending itself (blocked_walk: a lane is done at its first occluder, no object named).
+  // Else step(object, lanes, pending) for each object the lanes meet beyond eps, each once per
+  // lane, in ascending object id (the reference's order: a float product of three or more
+  // transmittances depends on it). The walks are out of line, for the reason given at
+  // closest().
   template <class Step>
   [[gnu::always_inline]] static M any(const Prepared& s, M pending, const V& p, const V& l,
                                       const B& dist, const B& eps, RayCounts& counts,
                                       Step& step) noexcept {
+    if (!s.features.transparency) return blocked_walk(s, pending, p, l, dist, eps, counts);
     const MetList met = met_objects(s, pending, p, l, dist, eps, counts);
     for (std::size_t k = 0; k < met.n && xsimd::any(pending); ++k) {
       const M m = pending & from_bits(met.data[k].lanes);
@@ -225,9 +229,49 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
   }
 
-  // The objects a packet of shadow segments meets, each with the lanes that meet it, in
-  // ascending object id. Opaque scenes: a lane is done at its first object (in one entry at
-  // most). The list lives in a buffer of the thread's, valid until its next call.
+  // The lanes of `pending` whose segments meet no shape beyond eps before `dist`: the packet
+  // walk, or the hybrid one where the lanes diverge (a lane alone stops at its first occluder).
+  [[gnu::noinline]] static M blocked_walk(const Prepared& s, M pending, V p, V l, B dist, B eps,
+                                          RayCounts& counts) noexcept {
+    const Shapes& sh = *s.shapes;
+    const Ray r(p, l, pending);
+    auto limit = [&] { return dist; };
+    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
+      for (std::uint32_t j = begin; j < begin + n; ++j) {
+        const M lanes = at & pending;
+        tests(counts, lanes, false);
+        const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
+        if (!xsimd::any(hit)) continue;
+        pending = pending & ~hit;
+        if (!xsimd::any(pending)) return true;
+      }
+      return false;
+    };
+    if (coherent(r, pending, kLoneAny)) {
+      walk(sh, r, pending, limit, leaf);
+      return pending;
+    }
+    LoneRays rays(p, l);
+    alignas(64) T dd[W];
+    dist.store_aligned(dd);
+    auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
+      unsigned blocked = 0;
+      for (unsigned lanes = bits(at & pending); lanes; lanes &= lanes - 1) {
+        const int k = __builtin_ctz(lanes);
+        if (Lone::any(sh, rays.lane(k), s.epsilon, dd[k], std::int32_t(child), count))
+          blocked |= 1u << k;
+      }
+      if (blocked == 0) return false;
+      pending = pending & ~from_bits(blocked);
+      return !xsimd::any(pending);
+    };
+    hybrid(sh, r, pending, limit, leaf, alone, kLoneAny);
+    return pending;
+  }
+
+  // The objects a packet of shadow segments meets in a scene with transparency, each with the
+  // lanes that meet it, in ascending object id. The list lives in a buffer of the thread's,
+  // valid until its next call.
   struct Met {
     int object;
     unsigned lanes;
@@ -240,7 +284,6 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
                                                B eps, RayCounts& counts) noexcept {
     const Shapes& sh = *s.shapes;
     const Ray r(p, l, pending);
-    const bool first_only = !s.features.transparency;
     thread_local std::vector<Met> met;
     met.clear();
     auto add = [&](int obj, unsigned lanes) {
@@ -254,34 +297,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         const M lanes = at & pending;
         tests(counts, lanes, false);
         const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
-        if (!xsimd::any(hit)) continue;
-        add(object(sh, sh.leaf[j].ref), bits(hit));
-        if (!first_only) continue;
-        pending = pending & ~hit;
-        if (!xsimd::any(pending)) return true;
+        if (xsimd::any(hit)) add(object(sh, sh.leaf[j].ref), bits(hit));
       }
       return false;
     };
-    if (!first_only || coherent(r, pending, kLoneAny)) {
-      walk(sh, r, pending, limit, leaf);
-    } else {
-      // Opaque: a lane alone stops at its first occluder.
-      LoneRays rays(p, l);
-      alignas(64) T dd[W];
-      dist.store_aligned(dd);
-      auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
-        for (unsigned lanes = bits(at & pending); lanes; lanes &= lanes - 1) {
-          const int k = __builtin_ctz(lanes);
-          int obj = -1;
-          if (Lone::any(sh, rays.lane(k), s.epsilon, dd[k], obj, std::int32_t(child), count)) {
-            add(obj, 1u << k);
-            pending = pending & ~from_bits(1u << k);
-          }
-        }
-        return !xsimd::any(pending);
-      };
-      hybrid(sh, r, pending, limit, leaf, alone, kLoneAny);
-    }
+    walk(sh, r, pending, limit, leaf);
     std::sort(met.begin(), met.end(),
               [](const Met& a, const Met& b) { return a.object < b.object; });
     return {met.data(), met.size()};

@@ -277,20 +277,16 @@ struct ShapeLone {
     return changed;
   }
 
-  // Whether the segment meets a shape with eps < t < dist; object: that shape's object (the
-  // first one found: opaque scenes need no other).
-  static bool any(const Shapes& sh, const Ray& r, T eps, T dist, int& object,
-                  std::int32_t child = 0, unsigned count = 0) noexcept {
+  // Whether the segment meets a shape with eps < t < dist (the first one found: opaque scenes
+  // need no other).
+  static bool any(const Shapes& sh, const Ray& r, T eps, T dist, std::int32_t child = 0,
+                  unsigned count = 0) noexcept {
     bool found = false;
     walk(
         sh, r, [&] { return dist; },
         [&](std::uint32_t begin, unsigned size) {
-          return leaf_hits(sh, r, eps, begin, size, [&](std::uint32_t j, T t) {
-            if (!(t < dist)) return false;
-            const std::int32_t ref = sh.leaf[j].ref;
-            object = ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
-            return found = true;
-          });
+          return leaf_hits(sh, r, eps, begin, size,
+                           [&](std::uint32_t, T t) { return found = t < dist; });
         },
         child, count);
     return found;
