@@ -123,7 +123,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       walk(sh, r, valid, limit, leaf);
       return {best_t, best_id};
     }
-    LoneRays rays(o, d);
+    LoneRays rays(r);
     auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
       alignas(64) T bt[W];
       alignas(64) Id bi[W];
@@ -164,17 +164,25 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   }
   // A packet's rays lane by lane, each made ready for ShapeLone when it first goes alone.
   struct LoneRays {
-    alignas(64) T o[3][W], d[3][W];
+    alignas(64) T o[3][W], d[3][W], f[6][W];  // f: the packet Ray's sx, sy, sz and 1 / d
     typename Lone::Ray ray[W];
     unsigned made = 0;
-    LoneRays(const V& org, const V& dir) noexcept {
-      org.x.store_aligned(o[0]), org.y.store_aligned(o[1]), org.z.store_aligned(o[2]);
-      dir.x.store_aligned(d[0]), dir.y.store_aligned(d[1]), dir.z.store_aligned(d[2]);
+    unsigned axis[6];  // the lanes whose kx is 0, kx is 1, ky is 0, ..., kz is 1
+    LoneRays(const Ray& r) noexcept
+        : axis{bits(r.x0), bits(r.x1), bits(r.y0), bits(r.y1), bits(r.z0), bits(r.z1)} {
+      r.o.x.store_aligned(o[0]), r.o.y.store_aligned(o[1]), r.o.z.store_aligned(o[2]);
+      r.d.x.store_aligned(d[0]), r.d.y.store_aligned(d[1]), r.d.z.store_aligned(d[2]);
+      r.sx.store_aligned(f[0]), r.sy.store_aligned(f[1]), r.sz.store_aligned(f[2]);
+      r.inv.x.store_aligned(f[3]), r.inv.y.store_aligned(f[4]), r.inv.z.store_aligned(f[5]);
     }
     const typename Lone::Ray& lane(int k) noexcept {
       if (!(made >> k & 1u)) {
         const T ok[3] = {o[0][k], o[1][k], o[2][k]}, dk[3] = {d[0][k], d[1][k], d[2][k]};
-        ray[k] = typename Lone::Ray(ok, dk);
+        const T fk[6] = {f[0][k], f[1][k], f[2][k], f[3][k], f[4][k], f[5][k]};
+        int ax[3];
+        for (int a = 0; a < 3; ++a)
+          ax[a] = (axis[2 * a] >> k & 1u) ? 0 : (axis[2 * a + 1] >> k & 1u) ? 1 : 2;
+        ray[k] = typename Lone::Ray(ok, dk, ax, fk);
         made |= 1u << k;
       }
       return ray[k];
@@ -189,13 +197,25 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return ref >= 0 ? s.shapes->tri_object[std::size_t(ref)]
                     : s.shapes->cyl_object[std::size_t(~ref)];
   }
-  // The object ids of hit ids (unchanged below first_id).
+  // The object ids of hit ids (unchanged below first_id). Primitives are numbered in object-id
+  // order: where the lowest and the highest shape hit of the lanes are on one object, every
+  // shape hit between is on it too, and two look-ups serve the packet (the per-primitive tables
+  // are large, and incoherent lanes' look-ups miss the cache).
   [[gnu::noinline]] static I object_of(const Prepared& s, I hit_id) noexcept {
     const Shapes& sh = *s.shapes;
     const Id first = Id(first_id(s));
     if (!xsimd::any(hit_id >= I(first))) return hit_id;
     alignas(64) Id v[W];
     hit_id.store_aligned(v);
+    Id lo = std::numeric_limits<Id>::max(), hi = first;
+    for (int k = 0; k < W; ++k)
+      if (v[k] >= first) lo = v[k] < lo ? v[k] : lo, hi = v[k] > hi ? v[k] : hi;
+    const Id obj = Id(object(sh, sh.prim[std::size_t(lo - first)]));
+    if (lo == hi || obj == Id(object(sh, sh.prim[std::size_t(hi - first)]))) {
+      for (int k = 0; k < W; ++k)
+        if (v[k] >= first) v[k] = obj;
+      return I::load_aligned(v);
+    }
     for (int k = 0; k < W; ++k) {
       if (v[k] < first) continue;
       const std::int32_t ref = sh.prim[std::size_t(v[k] - first)];
@@ -251,7 +271,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       walk(sh, r, pending, limit, leaf);
       return pending;
     }
-    LoneRays rays(p, l);
+    LoneRays rays(r);
     alignas(64) T dd[W];
     dist.store_aligned(dd);
     auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
