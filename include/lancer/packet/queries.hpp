@@ -151,11 +151,11 @@ struct Queries : Hybrid<Arch, Real, Mode> {
     }
   };
 
-  // Any-hit for shadow rays from p along unit l, before `dist`: calls step(id, lanes, pending)
-  // for each object the lanes' segments meet (each object once per lane, spheres in the
-  // hierarchy's fixed depth-first order or id order, then planes), and returns the lanes of
-  // `valid` still pending; stops as soon as none is. `leaving` as for closest_hit. The order is
-  // the reference's (a float product of three or more transmits depends on it).
+  // Any-hit for shadow rays from p along unit l, before `dist`: step(id, lanes, pending) for each
+  // object the lanes' segments meet, once per lane, in the reference's order (spheres in the
+  // hierarchy's or id order, planes, shapes: a float product of transmits depends on it); returns
+  // the lanes of `valid` still pending, stopping when none is. Without transparency a step only
+  // clears its lanes, and a kind may clear them itself (the shapes do). `leaving` as closest_hit's.
   template <bool kOneRay = false, class Step>
   [[gnu::always_inline]] static M any_hit(const Prepared& s, const M& valid, const V& p, const V& l,
                                           const B& dist, RayCounts& counts, const I& leaving,

@@ -123,7 +123,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       walk(sh, r, valid, limit, leaf);
       return {best_t, best_id};
     }
-    LoneRays rays(o, d);
+    LoneRays rays(r);
     auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
       alignas(64) T bt[W];
       alignas(64) Id bi[W];
@@ -164,17 +164,25 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   }
   // A packet's rays lane by lane, each made ready for ShapeLone when it first goes alone.
   struct LoneRays {
-    alignas(64) T o[3][W], d[3][W];
+    alignas(64) T o[3][W], d[3][W], f[6][W];  // f: the packet Ray's sx, sy, sz and 1 / d
     typename Lone::Ray ray[W];
     unsigned made = 0;
-    LoneRays(const V& org, const V& dir) noexcept {
-      org.x.store_aligned(o[0]), org.y.store_aligned(o[1]), org.z.store_aligned(o[2]);
-      dir.x.store_aligned(d[0]), dir.y.store_aligned(d[1]), dir.z.store_aligned(d[2]);
+    unsigned axis[6];  // the lanes whose kx is 0, kx is 1, ky is 0, ..., kz is 1
+    LoneRays(const Ray& r) noexcept
+        : axis{bits(r.x0), bits(r.x1), bits(r.y0), bits(r.y1), bits(r.z0), bits(r.z1)} {
+      r.o.x.store_aligned(o[0]), r.o.y.store_aligned(o[1]), r.o.z.store_aligned(o[2]);
+      r.d.x.store_aligned(d[0]), r.d.y.store_aligned(d[1]), r.d.z.store_aligned(d[2]);
+      r.sx.store_aligned(f[0]), r.sy.store_aligned(f[1]), r.sz.store_aligned(f[2]);
+      r.inv.x.store_aligned(f[3]), r.inv.y.store_aligned(f[4]), r.inv.z.store_aligned(f[5]);
     }
     const typename Lone::Ray& lane(int k) noexcept {
       if (!(made >> k & 1u)) {
         const T ok[3] = {o[0][k], o[1][k], o[2][k]}, dk[3] = {d[0][k], d[1][k], d[2][k]};
-        ray[k] = typename Lone::Ray(ok, dk);
+        const T fk[6] = {f[0][k], f[1][k], f[2][k], f[3][k], f[4][k], f[5][k]};
+        int ax[3];
+        for (int a = 0; a < 3; ++a)
+          ax[a] = (axis[2 * a] >> k & 1u) ? 0 : (axis[2 * a + 1] >> k & 1u) ? 1 : 2;
+        ray[k] = typename Lone::Ray(ok, dk, ax, fk);
         made |= 1u << k;
       }
       return ray[k];
@@ -189,13 +197,25 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return ref >= 0 ? s.shapes->tri_object[std::size_t(ref)]
                     : s.shapes->cyl_object[std::size_t(~ref)];
   }
-  // The object ids of hit ids (unchanged below first_id).
+  // The object ids of hit ids (unchanged below first_id). Primitives are numbered in object-id
+  // order: where the lowest and the highest shape hit of the lanes are on one object, every
+  // shape hit between is on it too, and two look-ups serve the packet (the per-primitive tables
+  // are large, and incoherent lanes' look-ups miss the cache).
   [[gnu::noinline]] static I object_of(const Prepared& s, I hit_id) noexcept {
     const Shapes& sh = *s.shapes;
     const Id first = Id(first_id(s));
     if (!xsimd::any(hit_id >= I(first))) return hit_id;
     alignas(64) Id v[W];
     hit_id.store_aligned(v);
+    Id lo = std::numeric_limits<Id>::max(), hi = first;
+    for (int k = 0; k < W; ++k)
+      if (v[k] >= first) lo = v[k] < lo ? v[k] : lo, hi = v[k] > hi ? v[k] : hi;
+    const Id obj = Id(object(sh, sh.prim[std::size_t(lo - first)]));
+    if (lo == hi || obj == Id(object(sh, sh.prim[std::size_t(hi - first)]))) {
+      for (int k = 0; k < W; ++k)
+        if (v[k] >= first) v[k] = obj;
+      return I::load_aligned(v);
+    }
     for (int k = 0; k < W; ++k) {
       if (v[k] < first) continue;
       const std::int32_t ref = sh.prim[std::size_t(v[k] - first)];
@@ -204,15 +224,19 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return I::load_aligned(v);
   }
 
-  // Any hit over the shapes for the lanes still pending, from p along unit l before `dist`:
-  // step(object, lanes, pending) for each object the lanes meet beyond eps, each once per lane,
-  // in ascending object id (the reference's order: a float product of three or more
-  // transmittances depends on it). The walk is out of line (met_objects), for the reason given
-  // at closest().
+  // Any hit over the shapes for the lanes still pending, from p along unit l before `dist`.
+  // Opaque scenes (no transparency): every object blocks, and the callers' step (queries.hpp
+  // shadow_hit, the API's occlusion) only clears its lanes, so the walk returns the lanes still
+  // pending itself (blocked_walk: a lane is done at its first occluder, no object named).
+  // Else step(object, lanes, pending) for each object the lanes meet beyond eps, each once per
+  // lane, in ascending object id (the reference's order: a float product of three or more
+  // transmittances depends on it). The walks are out of line, for the reason given at
+  // closest().
   template <class Step>
   [[gnu::always_inline]] static M any(const Prepared& s, M pending, const V& p, const V& l,
                                       const B& dist, const B& eps, RayCounts& counts,
                                       Step& step) noexcept {
+    if (!s.features.transparency) return blocked_walk(s, pending, p, l, dist, eps, counts);
     const MetList met = met_objects(s, pending, p, l, dist, eps, counts);
     for (std::size_t k = 0; k < met.n && xsimd::any(pending); ++k) {
       const M m = pending & from_bits(met.data[k].lanes);
@@ -225,9 +249,49 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
   }
 
-  // The objects a packet of shadow segments meets, each with the lanes that meet it, in
-  // ascending object id. Opaque scenes: a lane is done at its first object (in one entry at
-  // most). The list lives in a buffer of the thread's, valid until its next call.
+  // The lanes of `pending` whose segments meet no shape beyond eps before `dist`: the packet
+  // walk, or the hybrid one where the lanes diverge (a lane alone stops at its first occluder).
+  [[gnu::noinline]] static M blocked_walk(const Prepared& s, M pending, V p, V l, B dist, B eps,
+                                          RayCounts& counts) noexcept {
+    const Shapes& sh = *s.shapes;
+    const Ray r(p, l, pending);
+    auto limit = [&] { return dist; };
+    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
+      for (std::uint32_t j = begin; j < begin + n; ++j) {
+        const M lanes = at & pending;
+        tests(counts, lanes, false);
+        const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
+        if (!xsimd::any(hit)) continue;
+        pending = pending & ~hit;
+        if (!xsimd::any(pending)) return true;
+      }
+      return false;
+    };
+    if (coherent(r, pending, kLoneAny)) {
+      walk(sh, r, pending, limit, leaf);
+      return pending;
+    }
+    LoneRays rays(r);
+    alignas(64) T dd[W];
+    dist.store_aligned(dd);
+    auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
+      unsigned blocked = 0;
+      for (unsigned lanes = bits(at & pending); lanes; lanes &= lanes - 1) {
+        const int k = __builtin_ctz(lanes);
+        if (Lone::any(sh, rays.lane(k), s.epsilon, dd[k], std::int32_t(child), count))
+          blocked |= 1u << k;
+      }
+      if (blocked == 0) return false;
+      pending = pending & ~from_bits(blocked);
+      return !xsimd::any(pending);
+    };
+    hybrid(sh, r, pending, limit, leaf, alone, kLoneAny);
+    return pending;
+  }
+
+  // The objects a packet of shadow segments meets in a scene with transparency, each with the
+  // lanes that meet it, in ascending object id. The list lives in a buffer of the thread's,
+  // valid until its next call.
   struct Met {
     int object;
     unsigned lanes;
@@ -240,7 +304,6 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
                                                B eps, RayCounts& counts) noexcept {
     const Shapes& sh = *s.shapes;
     const Ray r(p, l, pending);
-    const bool first_only = !s.features.transparency;
     thread_local std::vector<Met> met;
     met.clear();
     auto add = [&](int obj, unsigned lanes) {
@@ -254,34 +317,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         const M lanes = at & pending;
         tests(counts, lanes, false);
         const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
-        if (!xsimd::any(hit)) continue;
-        add(object(sh, sh.leaf[j].ref), bits(hit));
-        if (!first_only) continue;
-        pending = pending & ~hit;
-        if (!xsimd::any(pending)) return true;
+        if (xsimd::any(hit)) add(object(sh, sh.leaf[j].ref), bits(hit));
       }
       return false;
     };
-    if (!first_only || coherent(r, pending, kLoneAny)) {
-      walk(sh, r, pending, limit, leaf);
-    } else {
-      // Opaque: a lane alone stops at its first occluder.
-      LoneRays rays(p, l);
-      alignas(64) T dd[W];
-      dist.store_aligned(dd);
-      auto alone = [&](std::uint32_t child, unsigned count, const M& at) {
-        for (unsigned lanes = bits(at & pending); lanes; lanes &= lanes - 1) {
-          const int k = __builtin_ctz(lanes);
-          int obj = -1;
-          if (Lone::any(sh, rays.lane(k), s.epsilon, dd[k], obj, std::int32_t(child), count)) {
-            add(obj, 1u << k);
-            pending = pending & ~from_bits(1u << k);
-          }
-        }
-        return !xsimd::any(pending);
-      };
-      hybrid(sh, r, pending, limit, leaf, alone, kLoneAny);
-    }
+    walk(sh, r, pending, limit, leaf);
     std::sort(met.begin(), met.end(),
               [](const Met& a, const Met& b) { return a.object < b.object; });
     return {met.data(), met.size()};

@@ -72,6 +72,19 @@ struct ShapeLone {
     Ray(const T* org, const T* dir) noexcept {
       for (int a = 0; a < 3; ++a) o[a] = org[a], d[a] = dir[a];
       shear = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
+      for (int a = 0; a < 3; ++a) inv[a] = T(1) / (d[a] == T(0) ? T(1) : d[a]);
+      set_box();
+    }
+    // A packet's lane, its shear and quotients as the packet's Ray (shapes_walk.hpp) computed
+    // them, by ray_shear's comparisons and the same divisions: axes kx, ky, kz; f = sx, sy, sz,
+    // then 1 / d per axis (1 where 0).
+    Ray(const T* org, const T* dir, const int* axes, const T* f) noexcept {
+      for (int a = 0; a < 3; ++a) o[a] = org[a], d[a] = dir[a], inv[a] = f[3 + a];
+      shear.kx = axes[0], shear.ky = axes[1], shear.kz = axes[2];
+      shear.sx = f[0], shear.sy = f[1], shear.sz = f[2];
+      set_box();
+    }
+    void set_box() noexcept {
       o_perm[0] = o[shear.kx], o_perm[1] = o[shear.ky], o_perm[2] = o[shear.kz];
       T mag = 0;
       for (int a = 0; a < 3; ++a) {
@@ -81,7 +94,6 @@ struct ShapeLone {
       o_pad = T(Shapes::kWidePad) * mag;
       for (int a = 0; a < 3; ++a) {
         zero[a] = d[a] == T(0);
-        inv[a] = T(1) / (zero[a] ? T(1) : d[a]);
         o_lo[a] = o[a] + o_pad, o_hi[a] = o[a] - o_pad;
         const bool down = d[a] < T(0);
         const T ad = down ? -d[a] : d[a];
@@ -277,20 +289,16 @@ struct ShapeLone {
     return changed;
   }
 
-  // Whether the segment meets a shape with eps < t < dist; object: that shape's object (the
-  // first one found: opaque scenes need no other).
-  static bool any(const Shapes& sh, const Ray& r, T eps, T dist, int& object,
-                  std::int32_t child = 0, unsigned count = 0) noexcept {
+  // Whether the segment meets a shape with eps < t < dist (the first one found: opaque scenes
+  // need no other).
+  static bool any(const Shapes& sh, const Ray& r, T eps, T dist, std::int32_t child = 0,
+                  unsigned count = 0) noexcept {
     bool found = false;
     walk(
         sh, r, [&] { return dist; },
         [&](std::uint32_t begin, unsigned size) {
-          return leaf_hits(sh, r, eps, begin, size, [&](std::uint32_t j, T t) {
-            if (!(t < dist)) return false;
-            const std::int32_t ref = sh.leaf[j].ref;
-            object = ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
-            return found = true;
-          });
+          return leaf_hits(sh, r, eps, begin, size,
+                           [&](std::uint32_t, T t) { return found = t < dist; });
         },
         child, count);
     return found;
