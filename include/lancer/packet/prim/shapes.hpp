@@ -249,6 +249,23 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
   }
 
+  // Leaf-order primitives [begin, begin + n) against the segments of the lanes of at & pending
+  // (pending re-read at each primitive): on_hit(j, lanes) where some lane meets primitive j
+  // beyond eps before `dist`; true from it stops.
+  template <class OnHit>
+  [[gnu::always_inline]] static bool segment_leaf(const Shapes& sh, const Ray& r,
+                                                  std::uint32_t begin, std::uint32_t n, const M& at,
+                                                  const M& pending, const B& dist, const B& eps,
+                                                  RayCounts& counts, OnHit&& on_hit) noexcept {
+    for (std::uint32_t j = begin; j < begin + n; ++j) {
+      const M lanes = at & pending;
+      tests(counts, lanes, false);
+      const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
+      if (xsimd::any(hit) && on_hit(j, hit)) return true;
+    }
+    return false;
+  }
+
   // The lanes of `pending` whose segments meet no shape beyond eps before `dist`: the packet
   // walk, or the hybrid one where the lanes diverge (a lane alone stops at its first occluder).
   [[gnu::noinline]] static M blocked_walk(const Prepared& s, M pending, V p, V l, B dist, B eps,
@@ -257,15 +274,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     const Ray r(p, l, pending);
     auto limit = [&] { return dist; };
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-      for (std::uint32_t j = begin; j < begin + n; ++j) {
-        const M lanes = at & pending;
-        tests(counts, lanes, false);
-        const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
-        if (!xsimd::any(hit)) continue;
-        pending = pending & ~hit;
-        if (!xsimd::any(pending)) return true;
-      }
-      return false;
+      return segment_leaf(sh, r, begin, n, at, pending, dist, eps, counts,
+                          [&](std::uint32_t, const M& hit) {
+                            pending = pending & ~hit;
+                            return !xsimd::any(pending);
+                          });
     };
     if (coherent(r, pending, kLoneAny)) {
       walk(sh, r, pending, limit, leaf);
@@ -313,13 +326,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     };
     auto limit = [&] { return dist; };
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-      for (std::uint32_t j = begin; j < begin + n; ++j) {
-        const M lanes = at & pending;
-        tests(counts, lanes, false);
-        const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
-        if (xsimd::any(hit)) add(object(sh, sh.leaf[j].ref), bits(hit));
-      }
-      return false;
+      return segment_leaf(sh, r, begin, n, at, pending, dist, eps, counts,
+                          [&](std::uint32_t j, const M& hit) {
+                            add(object(sh, sh.leaf[j].ref), bits(hit));
+                            return false;
+                          });
     };
     walk(sh, r, pending, limit, leaf);
     std::sort(met.begin(), met.end(),
