@@ -136,9 +136,12 @@ struct OneRayWalk : PacketWalk<Arch, T> {
     int sp;
     std::int32_t node;
   };
-  // Tests node n's children for ray r and pushes the met ones (nearest on top; kAny: slot order).
+  // Tests node n's children for ray r and pushes the met ones but the one to visit first (the
+  // nearest; kAny: slot order), whose slot it returns (-1: none met). That one is taken from the
+  // node, not popped: a pop would read back the entry just stored and wait on store-to-load
+  // forwarding. It needs no cull: met, it starts within best_t, which nothing lowers before it.
   template <bool kPadded, bool kAny>
-  static void push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
+  static int push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
     Reg tn[kHalves], tf[kHalves];
     const unsigned met = met_children<kPadded>(n, r, best_t, tn, tf);
     const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
@@ -164,7 +167,11 @@ struct OneRayWalk : PacketWalk<Arch, T> {
           st.tnear[st.sp + q] = t[kPush.reverse[order_byte][kPush.compress[m][4 * q]] >> 2];
       }
     }
-    st.sp += kPush.count[m];
+    if (m == 0) return -1;
+    st.sp += kPush.count[m] - 1;
+    // The top is the highest met lane; lane i of the order holds the slot visited (3 - i)th.
+    const int top = 31 - __builtin_clz(unsigned(m));
+    return int(order_byte >> (2 * (3 - top))) & 3;
   }
   // Double entry distances to t[0..3].
   static void store(T* t, const Reg* tn) noexcept {
@@ -248,7 +255,18 @@ struct OneRayWalk : PacketWalk<Arch, T> {
       for (unsigned each = live; each; each &= each - 1) {
         const int i = __builtin_ctz(each);
         OneStack& s = st[i];
-        push_met<kPadded, kAny>(h.nodes[std::size_t(s.node)], r[i], *best_t[i], s);
+        const Node& nd = h.nodes[std::size_t(s.node)];
+        const int top = push_met<kPadded, kAny>(nd, r[i], *best_t[i], s);
+        if (top >= 0) {
+          if (nd.count[top] < 0) {
+            s.node = nd.child[top];
+            continue;
+          }
+          if (leaf(i, nd.child[top], std::int32_t(nd.count[top]))) {
+            live &= ~(1u << i);
+            continue;
+          }
+        }
         for (;;) {
           if (s.sp == 0) {
             live &= ~(1u << i);
