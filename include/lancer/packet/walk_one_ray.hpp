@@ -78,7 +78,11 @@ struct OneRayWalk : PacketWalk<Arch, T> {
   static OneRay4 one_ray(const T* o, const T* d, bool padded) noexcept {
     static_assert(Bvh<T>::kWidth == 4);
     const std::size_t lo[3] = {offsetof(Node, lo_x), offsetof(Node, lo_y), offsetof(Node, lo_z)};
-    const std::size_t hi[3] = {offsetof(Node, hi_x), offsetof(Node, hi_y), offsetof(Node, hi_z)};
+    constexpr std::size_t kFlip = 4 * sizeof(T);  // a node's hi plane is its lo plane's ^ kFlip
+    static_assert(offsetof(Node, hi_x) == (offsetof(Node, lo_x) ^ kFlip) &&
+                      offsetof(Node, hi_y) == (offsetof(Node, lo_y) ^ kFlip) &&
+                      offsetof(Node, hi_z) == (offsetof(Node, lo_z) ^ kFlip),
+                  "the entry plane is chosen by flipping one bit of the offset");
     OneRay4 r;
     const T m = std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
     for (int a = 0; a < 3; ++a) {
@@ -87,9 +91,11 @@ struct OneRayWalk : PacketWalk<Arch, T> {
       r.inv[a] = set1(inv);
       r.oi[a] = set1(o[a] * inv);
       r.pad[a] = set1(padded ? m * T(Bvh<T>::kOriginPad) * std::fabs(inv) : T(0));
-      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known.
-      r.near[a] = inv < T(0) ? hi[a] : lo[a];
-      r.far[a] = inv < T(0) ? lo[a] : hi[a];
+      // lo * inv <= hi * inv for inv > 0 (monotonic rounding): the entry plane is known. It is
+      // hi where inv < 0, chosen by arithmetic: the compiler makes a branch of the choice, which
+      // incoherent directions mispredict half the time.
+      r.near[a] = lo[a] ^ (std::size_t(std::signbit(inv)) * kFlip);
+      r.far[a] = r.near[a] ^ kFlip;
     }
     r.code = unsigned(d[0] >= T(0)) | unsigned(d[1] >= T(0)) << 1 | unsigned(d[2] >= T(0)) << 2;
     return r;
@@ -130,9 +136,12 @@ struct OneRayWalk : PacketWalk<Arch, T> {
     int sp;
     std::int32_t node;
   };
-  // Tests node n's children for ray r and pushes the met ones (nearest on top; kAny: slot order).
+  // Tests node n's children for ray r and pushes the met ones but the one to visit first (the
+  // nearest; kAny: slot order), whose slot it returns (-1: none met). That one is taken from the
+  // node, not popped: a pop would read back the entry just stored and wait on store-to-load
+  // forwarding. It needs no cull: met, it starts within best_t, which nothing lowers before it.
   template <bool kPadded, bool kAny>
-  static void push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
+  static int push_met(const Node& n, const OneRay4& r, T best_t, OneStack& st) noexcept {
     Reg tn[kHalves], tf[kHalves];
     const unsigned met = met_children<kPadded>(n, r, best_t, tn, tf);
     const unsigned order_byte = kAny ? Bvh<T>::kSlotOrder : unsigned(n.order[r.code]);
@@ -158,7 +167,11 @@ struct OneRayWalk : PacketWalk<Arch, T> {
           st.tnear[st.sp + q] = t[kPush.reverse[order_byte][kPush.compress[m][4 * q]] >> 2];
       }
     }
-    st.sp += kPush.count[m];
+    if (m == 0) return -1;
+    st.sp += kPush.count[m] - 1;
+    // The top is the highest met lane; lane i of the order holds the slot visited (3 - i)th.
+    const int top = 31 - __builtin_clz(unsigned(m));
+    return int(order_byte >> (2 * (3 - top))) & 3;
   }
   // Double entry distances to t[0..3].
   static void store(T* t, const Reg* tn) noexcept {
@@ -242,7 +255,18 @@ struct OneRayWalk : PacketWalk<Arch, T> {
       for (unsigned each = live; each; each &= each - 1) {
         const int i = __builtin_ctz(each);
         OneStack& s = st[i];
-        push_met<kPadded, kAny>(h.nodes[std::size_t(s.node)], r[i], *best_t[i], s);
+        const Node& nd = h.nodes[std::size_t(s.node)];
+        const int top = push_met<kPadded, kAny>(nd, r[i], *best_t[i], s);
+        if (top >= 0) {
+          if (nd.count[top] < 0) {
+            s.node = nd.child[top];
+            continue;
+          }
+          if (leaf(i, nd.child[top], std::int32_t(nd.count[top]))) {
+            live &= ~(1u << i);
+            continue;
+          }
+        }
         for (;;) {
           if (s.sp == 0) {
             live &= ~(1u << i);
