@@ -89,6 +89,22 @@ struct OneRayKernel {
     }
     return r;
   }
+  // The met children of n (bits of met) packed to the front of its child and count vectors,
+  // interleaved as (child, count) entries, eight stored at once at out (those past the met ones
+  // are overwritten or never read).
+  [[gnu::always_inline]] static void store_met8(const OneRayNode8& n, unsigned met,
+                                                void* out) noexcept {
+    const __m256i at =
+        _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(static_cast<long long>(kCompress8.slots[met])));
+    const __m256i c = _mm256_permutevar8x32_epi32(
+        _mm256_load_si256(reinterpret_cast<const __m256i*>(n.child)), at);
+    const __m256i k = _mm256_permutevar8x32_epi32(
+        _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count)), at);
+    const __m256i lo = _mm256_unpacklo_epi32(c, k), hi = _mm256_unpackhi_epi32(c, k);
+    __m256i* v = static_cast<__m256i*>(out);
+    _mm256_storeu_si256(v, _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256(v + 1, _mm256_permute2x128_si256(lo, hi, 0x31));
+  }
   template <bool kPadded, bool kSort, class Leaf, class LeafAt>
   static bool walk8(const OneRayNode8* nodes, const Slab8& r, const T& tmax, Leaf&& leaf,
                     LeafAt&& leaf_at) noexcept {
@@ -144,20 +160,7 @@ struct OneRayKernel {
           else
             e = {n.child[k], n.count[k]};
         } else if constexpr (!kSort) {
-          // Slot order: the met children packed to the front of the node's child and count
-          // vectors, interleaved as entries, eight stored at once (those past the met ones
-          // are overwritten or never read).
-          const __m256i at = _mm256_cvtepu8_epi32(
-              _mm_cvtsi64_si128(static_cast<long long>(kCompress8.slots[met])));
-          const __m256i c = _mm256_permutevar8x32_epi32(
-              _mm256_load_si256(reinterpret_cast<const __m256i*>(n.child)), at);
-          const __m256i k = _mm256_permutevar8x32_epi32(
-              _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count)), at);
-          const __m256i lo = _mm256_unpacklo_epi32(c, k), hi = _mm256_unpackhi_epi32(c, k);
-          _mm256_storeu_si256(reinterpret_cast<__m256i*>(stack + sp),
-                              _mm256_permute2x128_si256(lo, hi, 0x20));
-          _mm256_storeu_si256(reinterpret_cast<__m256i*>(stack + sp + 4),
-                              _mm256_permute2x128_si256(lo, hi, 0x31));
+          store_met8(n, met, stack + sp);  // slot order
           for (unsigned m = met; m; m &= m - 1) {
             const int j = __builtin_ctz(m);
             prefetch(n.child[j], n.count[j]);
