@@ -193,9 +193,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   static std::int32_t object_of(const Prepared& s, std::int32_t hit_id) noexcept {
     const int first = first_id(s);
     if (hit_id < first) return hit_id;
-    const std::int32_t ref = s.shapes->prim[std::size_t(hit_id - first)];
-    return ref >= 0 ? s.shapes->tri_object[std::size_t(ref)]
-                    : s.shapes->cyl_object[std::size_t(~ref)];
+    return object(*s.shapes, s.shapes->prim[std::size_t(hit_id - first)]);
   }
   // The object ids of hit ids (unchanged below first_id). Primitives are numbered in object-id
   // order: where the lowest and the highest shape hit of the lanes are on one object, every
@@ -216,11 +214,8 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         if (v[k] >= first) v[k] = obj;
       return I::load_aligned(v);
     }
-    for (int k = 0; k < W; ++k) {
-      if (v[k] < first) continue;
-      const std::int32_t ref = sh.prim[std::size_t(v[k] - first)];
-      v[k] = ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
-    }
+    for (int k = 0; k < W; ++k)
+      if (v[k] >= first) v[k] = Id(object(sh, sh.prim[std::size_t(v[k] - first)]));
     return I::load_aligned(v);
   }
 

@@ -69,12 +69,6 @@ struct ShapeLone {
     bool fast = true;  // every |d| at least 2^-60: entry and exit planes known per axis
 
     Ray() = default;
-    Ray(const T* org, const T* dir) noexcept {
-      for (int a = 0; a < 3; ++a) o[a] = org[a], d[a] = dir[a];
-      shear = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
-      for (int a = 0; a < 3; ++a) inv[a] = T(1) / (d[a] == T(0) ? T(1) : d[a]);
-      set_box();
-    }
     // A packet's lane, its shear and quotients as the packet's Ray (shapes_walk.hpp) computed
     // them, by ray_shear's comparisons and the same divisions: axes kx, ky, kz; f = sx, sy, sz,
     // then 1 / d per axis (1 where 0).
@@ -82,9 +76,6 @@ struct ShapeLone {
       for (int a = 0; a < 3; ++a) o[a] = org[a], d[a] = dir[a], inv[a] = f[3 + a];
       shear.kx = axes[0], shear.ky = axes[1], shear.kz = axes[2];
       shear.sx = f[0], shear.sy = f[1], shear.sz = f[2];
-      set_box();
-    }
-    void set_box() noexcept {
       o_perm[0] = o[shear.kx], o_perm[1] = o[shear.ky], o_perm[2] = o[shear.kz];
       T mag = 0;
       for (int a = 0; a < 3; ++a) {
