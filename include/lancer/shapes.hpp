@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "lancer/huge_pages.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/vec3.hpp"
@@ -74,7 +75,9 @@ struct PreparedShapes {
     std::uint8_t order[8];
     std::int32_t arity;
   };
-  std::vector<WideNode> wide;
+  // The walks' data (wide, leaf) on huge pages where large (lancer/huge_pages.hpp): a mesh of
+  // a million triangles spreads them over some 90 MB, beyond 4 KiB pages' reach in the TLB.
+  BigVector<WideNode> wide;
   // A wide walk's stack bound: every child of a wide node lies a binary level down or more, so
   // at most kWide - 1 entries per binary level, and one.
   static constexpr int kWideStack = (kWide - 1) * kMaxTreeDepth + 2;
@@ -87,7 +90,7 @@ struct PreparedShapes {
     std::int32_t ref;
     std::uint32_t prim;
   };
-  std::vector<LeafPrim> leaf;
+  BigVector<LeafPrim> leaf;
   double build_seconds = 0;
 
   std::size_t triangles() const { return tri_object.size(); }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "lancer/huge_pages.hpp"
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
 #include "shape_fields.hpp"
@@ -381,12 +382,14 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
     nc += sh.kind == Shape::Kind::cylinder;
     smooth = smooth || sh.mesh.smooth;
   }
-  for (auto* v : {&s.vx, &s.vy, &s.vz}) v->reserve(nv);
-  for (auto* v : {&s.nx, &s.ny, &s.nz}) v->reserve(nn);
-  s.tri.reserve(3 * nt);
-  s.tri_object.reserve(nt);
-  if (smooth) s.tri_normals.reserve(3 * nt);
-  s.prim.reserve(nt + nc);
+  // On huge pages where large (lancer/huge_pages.hpp): the hits of a mesh of millions of
+  // triangles read them all over, a page-table walk each on 4 KiB pages.
+  for (auto* v : {&s.vx, &s.vy, &s.vz}) reserve_prepared(*v, nv);
+  for (auto* v : {&s.nx, &s.ny, &s.nz}) reserve_prepared(*v, nn);
+  reserve_prepared(s.tri, 3 * nt);
+  reserve_prepared(s.tri_object, nt);
+  if (smooth) reserve_prepared(s.tri_normals, 3 * nt);
+  reserve_prepared(s.prim, nt + nc);
   std::vector<Box<T>> boxes;
   boxes.reserve(nt + nc);
   for (int k = 0; k < s.num_shapes; ++k) {
