@@ -84,7 +84,8 @@ struct Engine {
   // The lanes answered one ray at a time (Chunk::alone): the one-ray kernels, or null: the
   // reference.
   const packet::OneRayTable<T>* one = nullptr;
-  packet::OneRayScene<T> one_scene;  // packet::one_ray_scene(scene.bvh), where `one` is set
+  packet::OneRayScene<T> one_scene;          // packet::one_ray_scene(scene.bvh), where `one` is set
+  std::vector<std::int32_t> first_triangle;  // first_triangles(*scene.shapes), where it has shapes
 };
 
 std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
@@ -311,9 +312,11 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
 // Lane k of a hit packet where the kernel's lane hit primitive `prim` of a triangle, mesh or
 // cylinder (object id): store_hit's fields, from the primitive's number (shape_fields).
 template <class T, int N>
-void store_shape_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
+void store_shape_hit(const Engine<T>& e, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
                      std::int64_t prim, HitPacket<N>& h, int k) {
-  const ShapeFields<T> f = shape_fields(*s.shapes, o, d, along(o, d, t), s.epsilon, prim);
+  const PreparedScene<T>& s = e.scene;
+  const ShapeFields<T> f =
+      shape_fields(*s.shapes, e.first_triangle.data(), o, d, t, s.epsilon, prim);
   h.id[k] = id;
   h.t[k] = static_cast<float>(t);
   h.prim_id[k] = f.surface.prim_in_object;
@@ -328,8 +331,9 @@ void store_shape_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>&
 // the caller's packet where every lane is active, else through a packet of our own; then the
 // lanes that hit a triangle, mesh or cylinder again by store_hit.
 template <class T, int N>
-void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, const Chunk<T>& ch,
-                int w, int c, HitPacket<N>& h) {
+void store_hits(const Engine<T>& e, const packet::KernelTable<T>& k, const Chunk<T>& ch, int w,
+                int c, HitPacket<N>& h) {
+  const PreparedScene<T>& s = e.scene;
   const auto lanes = [](auto& p, int i) {
     return packet::HitLanes{p.t + i, p.ng_x + i, p.ng_y + i,    p.ng_z + i,
                             p.u + i, p.v + i,    p.prim_id + i, p.id + i};
@@ -352,7 +356,7 @@ void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, cons
     for (int l = 0; l < n; ++l)
       if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes) {
         if (ch.valid[l])  // the kernel's: its primitive
-          store_shape_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+          store_shape_hit(e, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
                           ch.prim[l], h, c + l);
         else  // the reference's: its whole hit
           store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
@@ -396,8 +400,9 @@ packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
 // each chunk moved, traced and written out without fill's lane by lane bookkeeping, then the
 // lanes that hit a shape rewritten from the kernel's primitive (store_shape_hit).
 template <class T, int N>
-void intersect_plain_shapes(const PreparedScene<T>& s, const packet::KernelTable<T>& k, int w,
+void intersect_plain_shapes(const Engine<T>& e, const packet::KernelTable<T>& k, int w,
                             const RayPacket<N>& r, HitPacket<N>& h) {
+  const PreparedScene<T>& s = e.scene;
   static constexpr auto kAll = [] {
     std::array<bool, kMaxLanes> a{};
     for (bool& x : a) x = true;
@@ -420,7 +425,7 @@ void intersect_plain_shapes(const PreparedScene<T>& s, const packet::KernelTable
         {h.t + c, h.ng_x + c, h.ng_y + c, h.ng_z + c, h.u + c, h.v + c, h.prim_id + c, h.id + c});
     for (int l = 0; l < w; ++l)
       if (id[l] >= first_shape)
-        store_shape_hit(s, Vec3<T>{rays[l], rays[w + l], rays[2 * w + l]},
+        store_shape_hit(e, Vec3<T>{rays[l], rays[w + l], rays[2 * w + l]},
                         Vec3<T>{rays[3 * w + l], rays[4 * w + l], rays[5 * w + l]}, t[l], id[l],
                         prim[l], h, c + l);
   }
@@ -438,7 +443,7 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     if (k->intersect_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
   }
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
-  if (plain && k && N % w == 0 && s.shapes) return intersect_plain_shapes(s, *k, w, r, h);
+  if (plain && k && N % w == 0 && s.shapes) return intersect_plain_shapes(e, *k, w, r, h);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
     if (fill(s, valid, r, c, w, k, ch) == 0) continue;
@@ -447,7 +452,7 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
                             s.shapes ? ch.prim : nullptr);
     if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
     if (k) {
-      store_hits(s, *k, ch, w, c, h);
+      store_hits(e, *k, ch, w, c, h);
       continue;
     }
     for (int l = 0; l < w && c + l < N; ++l)
@@ -530,6 +535,7 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.query[query_slot(1)] = kernels_of<T>(e.scene, w, info.precision);
   }
   if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
+  if (e.scene.shapes) e.first_triangle = first_triangles(*e.scene.shapes);
 }
 
 // What answers Ray1 (Info::one_ray): the one-ray kernels' ISA, or, in a scene with shapes, the
