@@ -81,6 +81,8 @@ struct Engine {
   // Per RayPacket<N> (by query_slot): the kernel's lanes and table (null: the reference).
   int query_width[4] = {1, 1, 1, 1};
   const packet::KernelTable<T>* query[4] = {};
+  // Per RayPacket<N>: whether a kernel answers it in whole chunks (N a multiple of its width).
+  bool whole[4] = {};
   // The lanes answered one ray at a time (Chunk::alone): the one-ray kernels, or null: the
   // reference.
   const packet::OneRayTable<T>* one = nullptr;
@@ -431,17 +433,13 @@ void intersect_plain_shapes(const Engine<T>& e, const packet::KernelTable<T>& k,
   }
 }
 
+// Any packet, chunk by chunk (Chunk, fill): what intersect_impl does not answer in one call.
 template <class T, int N>
-void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
+[[gnu::noinline]] void intersect_chunks(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
+                                        HitPacket<N>& h) {
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
-  if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
-  // A plain packet of whole chunks: checked, moved, traced and written out in one call.
-  if (k && N % w == 0 && !s.shapes) {
-    const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
-    if (k->intersect_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
-  }
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
   if (plain && k && N % w == 0 && s.shapes) return intersect_plain_shapes(e, *k, w, r, h);
   Chunk<T> ch;
@@ -463,12 +461,11 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
 }
 
 template <class T, int N>
-void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, int* out) {
+[[gnu::noinline]] void occluded_chunks(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
+                                       int* out) {
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
-  if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
-  if (k && N % w == 0 && k->occluded_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
   const bool plain = check_rays("occluded", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
@@ -481,6 +478,28 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l]) out[c + l] = ch.out[l] ? 1 : 0;
   }
+}
+
+// A query: a plain packet of whole chunks checked, moved, traced and written out in one call
+// of the kernel's ISA; else chunk by chunk. Kept small: the chunked path's frame and set-up
+// cost more than the kernel's work on a small scene.
+template <class T, int N>
+void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
+  if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
+  if (e.whole[query_slot(N)] && !e.scene.shapes) {
+    const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
+    if (e.query[query_slot(N)]->intersect_lanes(e.scene, ray_lanes(valid, r), N, out) == 2) return;
+  }
+  intersect_chunks(e, valid, r, h);
+}
+
+template <class T, int N>
+void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, int* out) {
+  if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
+  if (e.whole[query_slot(N)] &&
+      e.query[query_slot(N)]->occluded_lanes(e.scene, ray_lanes(valid, r), N, out) == 2)
+    return;
+  occluded_chunks(e, valid, r, out);
 }
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -519,6 +538,8 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.query_width[query_slot(n)] = w;
     e.query[query_slot(n)] = kernels_of<T>(e.scene, w, info.precision);
   }
+  for (int n : kQueryWidths)
+    e.whole[query_slot(n)] = e.query[query_slot(n)] && n % e.query_width[query_slot(n)] == 0;
   e.render = kernels_of<T>(e.scene, info.width, info.precision);
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1).
   // Fast mode has no lone lanes. The one-ray kernels model spheres and planes only: scenes with
