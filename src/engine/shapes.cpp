@@ -526,20 +526,30 @@ void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Ve
   shading = prim::smooth_normal(bary, normal(0), normal(1), normal(2), geometric);
 }
 
+namespace {
+// Triangle ref's surface fields for the ray o, d, the index of its object's first triangle
+// given.
 template <class T>
-ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
-                               const Vec3<T>& d) {
+ShapeSurface<T> triangle_surface(const PreparedShapes<T>& s, std::int32_t ref, std::int32_t first,
+                                 const Vec3<T>& o, const Vec3<T>& d) {
   ShapeSurface<T> out;
-  const std::int32_t ref = s.prim[std::size_t(hit.prim)];
-  if (ref < 0) return out;  // a cylinder: one primitive, no surface coordinates
-  // Triangles are stored in object order, so an object's first is the first with its id.
-  const auto& objects = s.tri_object;
-  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[std::size_t(ref)]);
-  out.prim_in_object = static_cast<int>(ref - (first - objects.begin()));
+  out.prim_in_object = static_cast<int>(ref - first);
   const PrimRay<T> ray(s, o, d, T(0));
   const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
   out.u = bary.y, out.v = bary.z;
   return out;
+}
+}  // namespace
+
+template <class T>
+ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
+                               const Vec3<T>& d) {
+  const std::int32_t ref = s.prim[std::size_t(hit.prim)];
+  if (ref < 0) return {};  // a cylinder: one primitive, no surface coordinates
+  // Triangles are stored in object order, so an object's first is the first with its id.
+  const auto& objects = s.tri_object;
+  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[std::size_t(ref)]);
+  return triangle_surface(s, ref, std::int32_t(first - objects.begin()), o, d);
 }
 
 template <class T>
@@ -566,10 +576,8 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
     return f;
   }
   // shapes_surface's fields, the object's first triangle from the table rather than searched.
-  f.surface.prim_in_object = static_cast<int>(ref - first_triangle[s.tri_object[std::size_t(ref)]]);
-  const PrimRay<T> ray(s, o, d, T(0));
-  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
-  f.surface.u = bary.y, f.surface.v = bary.z;
+  f.surface =
+      triangle_surface(s, ref, first_triangle[std::size_t(s.tri_object[std::size_t(ref)])], o, d);
   f.geometric = geometric_normal(s, ref, Vec3<T>{}, T(0));  // a triangle's: the same everywhere
   return f;
 }
