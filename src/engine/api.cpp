@@ -397,40 +397,28 @@ packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
           kAllObjects};
 }
 
-// A plain packet of whole chunks in a scene with triangles, meshes or cylinders (scan_rays'
-// bit 1: every lane on, seeing some object, from epsilon, so every lane goes to the kernel):
-// each chunk moved, traced and written out without fill's lane by lane bookkeeping, then the
-// lanes that hit a shape rewritten from the kernel's primitive (store_shape_hit).
+// A packet of whole chunks in a scene with triangles, meshes or cylinders, in one call of the
+// kernel's ISA where it is plain, then the lanes that hit a shape rewritten from the kernel's
+// primitive (store_shape_hit). Returns whether it answered.
 template <class T, int N>
-void intersect_plain_shapes(const Engine<T>& e, const packet::KernelTable<T>& k, int w,
-                            const RayPacket<N>& r, HitPacket<N>& h) {
+[[gnu::noinline]] bool intersect_whole_shapes(const Engine<T>& e, const int* valid,
+                                              const RayPacket<N>& r, HitPacket<N>& h) {
   const PreparedScene<T>& s = e.scene;
-  static constexpr auto kAll = [] {
-    std::array<bool, kMaxLanes> a{};
-    for (bool& x : a) x = true;
-    return a;
-  }();
-  alignas(64) T rays[6 * kMaxLanes];
-  alignas(64) T t[kMaxLanes];
-  alignas(64) std::int32_t id[kMaxLanes];
-  alignas(64) std::int32_t prim[kMaxLanes];
-  bool hit[kMaxLanes];
-  const int first_shape = s.num_spheres + s.num_planes;
-  for (int c = 0; c < N; c += w) {
-    k.frame_rays(s.frame, w, r.org_x + c, r.org_y + c, r.org_z + c, r.dir_x + c, r.dir_y + c,
-                 r.dir_z + c, rays, rays + w, rays + 2 * w, rays + 3 * w, rays + 4 * w,
-                 rays + 5 * w);
-    for (int l = 0; l < w; ++l) t[l] = T(r.tfar[c + l]), id[l] = -1;
-    k.closest_hit_packet(s, kAll.data(), rays, t, id, hit, prim);
-    k.hit_fields(
-        s, rays, t, id,
-        {h.t + c, h.ng_x + c, h.ng_y + c, h.ng_z + c, h.u + c, h.v + c, h.prim_id + c, h.id + c});
-    for (int l = 0; l < w; ++l)
-      if (id[l] >= first_shape)
-        store_shape_hit(e, Vec3<T>{rays[l], rays[w + l], rays[2 * w + l]},
-                        Vec3<T>{rays[3 * w + l], rays[4 * w + l], rays[5 * w + l]}, t[l], id[l],
-                        prim[l], h, c + l);
-  }
+  alignas(64) T rays[6 * N];
+  alignas(64) T t[N];
+  alignas(64) std::int32_t prim[N];
+  const packet::ShapeLanes<T> shapes{rays, t, prim};
+  const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
+  if (e.query[query_slot(N)]->intersect_lanes(s, ray_lanes(valid, r), N, out, &shapes) != 2)
+    return false;
+  const int w = e.query_width[query_slot(N)], first_shape = s.num_spheres + s.num_planes;
+  for (int l = 0; l < N; ++l)
+    if (h.id[l] >= first_shape) {
+      const T* c = rays + 6 * (l - l % w) + l % w;  // lane l's chunk, from its lane
+      store_shape_hit(e, Vec3<T>{c[0], c[w], c[2 * w]}, Vec3<T>{c[3 * w], c[4 * w], c[5 * w]}, t[l],
+                      h.id[l], prim[l], h, l);
+    }
+  return true;
 }
 
 // Any packet, chunk by chunk (Chunk, fill): what intersect_impl does not answer in one call.
@@ -441,7 +429,6 @@ template <class T, int N>
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
-  if (plain && k && N % w == 0 && s.shapes) return intersect_plain_shapes(e, *k, w, r, h);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
     if (fill(s, valid, r, c, w, k, ch) == 0) continue;
@@ -486,9 +473,15 @@ template <class T, int N>
 template <class T, int N>
 void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
   if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
-  if (e.whole[query_slot(N)] && !e.scene.shapes) {
-    const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
-    if (e.query[query_slot(N)]->intersect_lanes(e.scene, ray_lanes(valid, r), N, out) == 2) return;
+  if (e.whole[query_slot(N)]) {
+    if (e.scene.shapes) {
+      if (intersect_whole_shapes(e, valid, r, h)) return;
+    } else {
+      const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
+      if (e.query[query_slot(N)]->intersect_lanes(e.scene, ray_lanes(valid, r), N, out, nullptr) ==
+          2)
+        return;
+    }
   }
   intersect_chunks(e, valid, r, h);
 }
