@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 
+#include "api_checks.hpp"
 #include "lancer/formulas.hpp"
 #include "lancer/image.hpp"
 #include "lancer/lancer.hpp"
@@ -53,6 +54,10 @@ namespace lancer::api {
 
 namespace {
 
+using checks::check_ray;
+using checks::check_rays;
+using checks::ray_lanes;
+
 template <class T>
 const packet::OneRayTable<T>* one_ray_of() {
   if constexpr (std::is_same_v<T, double>)
@@ -89,64 +94,6 @@ struct Engine {
   packet::OneRayScene<T> one_scene;          // packet::one_ray_scene(scene.bvh), where `one` is set
   std::vector<std::int32_t> first_triangle;  // first_triangles(*scene.shapes), where it has shapes
 };
-
-std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
-
-// The error of a ray check_ray refused, out of the way of the rays it lets through.
-template <int N>
-[[noreturn, gnu::cold, gnu::noinline]] void refuse_ray(const char* what, const RayPacket<N>& r,
-                                                       int k, double d2) {
-  const std::string at = std::string(what) + ": " + lane(k);
-  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
-    throw InputError(at + "org must be finite");
-  if (!(std::fabs(d2 - 1.0) <= 1e-5))
-    throw InputError(at + "dir must be unit length, |dir|^2 = " + std::to_string(d2));
-  if (std::isnan(r.tnear[k])) throw InputError(at + "tnear is NaN");
-  throw InputError(at + "tfar is NaN");
-}
-
-template <int N>
-void check_ray(const char* what, const RayPacket<N>& r, int k) {
-  const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
-                    double(r.dir_z[k]) * r.dir_z[k];
-  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k]) &&
-        std::fabs(d2 - 1.0) <= 1e-5 && !std::isnan(r.tnear[k]) && !std::isnan(r.tfar[k])))
-    refuse_ray(what, r, k, d2);
-}
-
-// Every active lane, before any is traced: on an error nothing has been written. Only where
-// some lane fails does check_ray find the first and say what. Returns whether the packet is
-// plain (scan_rays' bit 1).
-// The caller's valid mask, or every lane on where it gave none.
-template <int N>
-const int* on_lanes(const int* valid) {
-  static constexpr auto kAll = [] {
-    std::array<int, N> a{};
-    for (int& x : a) x = 1;
-    return a;
-  }();
-  return valid ? valid : kAll.data();
-}
-
-template <class T, int N>
-bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps,
-                const packet::KernelTable<T>* k) {
-  int live = N;
-  if (valid) {
-    live = 0;
-    for (int l = 0; l < N; ++l) live += int(valid[l] != 0);
-  }
-  // A few active lanes: those alone; else every lane in one pass, the failing one found after.
-  const auto scan_rays = k ? k->scan_rays : &packet::scan_rays<void, T>;
-  const int scan = 4 * live < N
-                       ? 1
-                       : scan_rays(N, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear,
-                                   r.tfar, r.mask, on_lanes<N>(valid), kAllObjects, eps);
-  if (scan & 1)
-    for (int l = 0; l < N; ++l)
-      if (valid == nullptr || valid[l] != 0) check_ray(what, r, l);
-  return (scan & 2) != 0;
-}
 
 // One chunk of a caller's packet at the kernel's width W, in the prepared frame. Each active
 // lane is answered by the kernel (valid), by the reference alone from tmin (a tnear beyond
@@ -387,14 +334,6 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
   std::int32_t id = -1;
   if (!sees || !e.one->closest(s, e.one_scene, ov, dv, tmin, tfar, t, id)) id = -1;
   store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
-}
-
-// A caller's packet, straight from its arrays (valid may be null: every lane on).
-template <int N>
-packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
-  return {r.org_x,    r.org_y, r.org_z, r.dir_x, r.dir_y,
-          r.dir_z,    r.tnear, r.tfar,  r.mask,  on_lanes<N>(valid),
-          kAllObjects};
 }
 
 // A packet of whole chunks in a scene with triangles, meshes or cylinders, in one call of the
