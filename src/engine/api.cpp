@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 
+#include "api_checks.hpp"
 #include "lancer/formulas.hpp"
 #include "lancer/image.hpp"
 #include "lancer/lancer.hpp"
@@ -53,6 +54,10 @@ namespace lancer::api {
 
 namespace {
 
+using checks::check_ray;
+using checks::check_rays;
+using checks::ray_lanes;
+
 template <class T>
 const packet::OneRayTable<T>* one_ray_of() {
   if constexpr (std::is_same_v<T, double>)
@@ -81,69 +86,14 @@ struct Engine {
   // Per RayPacket<N> (by query_slot): the kernel's lanes and table (null: the reference).
   int query_width[4] = {1, 1, 1, 1};
   const packet::KernelTable<T>* query[4] = {};
+  // Per RayPacket<N>: whether a kernel answers it in whole chunks (N a multiple of its width).
+  bool whole[4] = {};
   // The lanes answered one ray at a time (Chunk::alone): the one-ray kernels, or null: the
   // reference.
   const packet::OneRayTable<T>* one = nullptr;
-  packet::OneRayScene<T> one_scene;  // packet::one_ray_scene(scene.bvh), where `one` is set
+  packet::OneRayScene<T> one_scene;          // packet::one_ray_scene(scene.bvh), where `one` is set
+  std::vector<std::int32_t> first_triangle;  // first_triangles(*scene.shapes), where it has shapes
 };
-
-std::string lane(int k) { return "lane " + std::to_string(k) + ": "; }
-
-// The error of a ray check_ray refused, out of the way of the rays it lets through.
-template <int N>
-[[noreturn, gnu::cold, gnu::noinline]] void refuse_ray(const char* what, const RayPacket<N>& r,
-                                                       int k, double d2) {
-  const std::string at = std::string(what) + ": " + lane(k);
-  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k])))
-    throw InputError(at + "org must be finite");
-  if (!(std::fabs(d2 - 1.0) <= 1e-5))
-    throw InputError(at + "dir must be unit length, |dir|^2 = " + std::to_string(d2));
-  if (std::isnan(r.tnear[k])) throw InputError(at + "tnear is NaN");
-  throw InputError(at + "tfar is NaN");
-}
-
-template <int N>
-void check_ray(const char* what, const RayPacket<N>& r, int k) {
-  const double d2 = double(r.dir_x[k]) * r.dir_x[k] + double(r.dir_y[k]) * r.dir_y[k] +
-                    double(r.dir_z[k]) * r.dir_z[k];
-  if (!(std::isfinite(r.org_x[k]) && std::isfinite(r.org_y[k]) && std::isfinite(r.org_z[k]) &&
-        std::fabs(d2 - 1.0) <= 1e-5 && !std::isnan(r.tnear[k]) && !std::isnan(r.tfar[k])))
-    refuse_ray(what, r, k, d2);
-}
-
-// Every active lane, before any is traced: on an error nothing has been written. Only where
-// some lane fails does check_ray find the first and say what. Returns whether the packet is
-// plain (scan_rays' bit 1).
-// The caller's valid mask, or every lane on where it gave none.
-template <int N>
-const int* on_lanes(const int* valid) {
-  static constexpr auto kAll = [] {
-    std::array<int, N> a{};
-    for (int& x : a) x = 1;
-    return a;
-  }();
-  return valid ? valid : kAll.data();
-}
-
-template <class T, int N>
-bool check_rays(const char* what, const int* valid, const RayPacket<N>& r, T eps,
-                const packet::KernelTable<T>* k) {
-  int live = N;
-  if (valid) {
-    live = 0;
-    for (int l = 0; l < N; ++l) live += int(valid[l] != 0);
-  }
-  // A few active lanes: those alone; else every lane in one pass, the failing one found after.
-  const auto scan_rays = k ? k->scan_rays : &packet::scan_rays<void, T>;
-  const int scan = 4 * live < N
-                       ? 1
-                       : scan_rays(N, r.org_x, r.org_y, r.org_z, r.dir_x, r.dir_y, r.dir_z, r.tnear,
-                                   r.tfar, r.mask, on_lanes<N>(valid), kAllObjects, eps);
-  if (scan & 1)
-    for (int l = 0; l < N; ++l)
-      if (valid == nullptr || valid[l] != 0) check_ray(what, r, l);
-  return (scan & 2) != 0;
-}
 
 // One chunk of a caller's packet at the kernel's width W, in the prepared frame. Each active
 // lane is answered by the kernel (valid), by the reference alone from tmin (a tnear beyond
@@ -311,9 +261,11 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
 // Lane k of a hit packet where the kernel's lane hit primitive `prim` of a triangle, mesh or
 // cylinder (object id): store_hit's fields, from the primitive's number (shape_fields).
 template <class T, int N>
-void store_shape_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
+void store_shape_hit(const Engine<T>& e, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
                      std::int64_t prim, HitPacket<N>& h, int k) {
-  const ShapeFields<T> f = shape_fields(*s.shapes, o, d, along(o, d, t), s.epsilon, prim);
+  const PreparedScene<T>& s = e.scene;
+  const ShapeFields<T> f =
+      shape_fields(*s.shapes, e.first_triangle.data(), o, d, t, s.epsilon, prim);
   h.id[k] = id;
   h.t[k] = static_cast<float>(t);
   h.prim_id[k] = f.surface.prim_in_object;
@@ -328,8 +280,9 @@ void store_shape_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>&
 // the caller's packet where every lane is active, else through a packet of our own; then the
 // lanes that hit a triangle, mesh or cylinder again by store_hit.
 template <class T, int N>
-void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, const Chunk<T>& ch,
-                int w, int c, HitPacket<N>& h) {
+void store_hits(const Engine<T>& e, const packet::KernelTable<T>& k, const Chunk<T>& ch, int w,
+                int c, HitPacket<N>& h) {
+  const PreparedScene<T>& s = e.scene;
   const auto lanes = [](auto& p, int i) {
     return packet::HitLanes{p.t + i, p.ng_x + i, p.ng_y + i,    p.ng_z + i,
                             p.u + i, p.v + i,    p.prim_id + i, p.id + i};
@@ -352,7 +305,7 @@ void store_hits(const PreparedScene<T>& s, const packet::KernelTable<T>& k, cons
     for (int l = 0; l < n; ++l)
       if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes) {
         if (ch.valid[l])  // the kernel's: its primitive
-          store_shape_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+          store_shape_hit(e, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
                           ch.prim[l], h, c + l);
         else  // the reference's: its whole hit
           store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
@@ -383,25 +336,37 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
   store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
-// A caller's packet, straight from its arrays (valid may be null: every lane on).
-template <int N>
-packet::RayLanes ray_lanes(const int* valid, const RayPacket<N>& r) {
-  return {r.org_x,    r.org_y, r.org_z, r.dir_x, r.dir_y,
-          r.dir_z,    r.tnear, r.tfar,  r.mask,  on_lanes<N>(valid),
-          kAllObjects};
+// A packet of whole chunks in a scene with triangles, meshes or cylinders, in one call of the
+// kernel's ISA where it is plain, then the lanes that hit a shape rewritten from the kernel's
+// primitive (store_shape_hit). Returns whether it answered.
+template <class T, int N>
+[[gnu::noinline]] bool intersect_whole_shapes(const Engine<T>& e, const int* valid,
+                                              const RayPacket<N>& r, HitPacket<N>& h) {
+  const PreparedScene<T>& s = e.scene;
+  alignas(64) T rays[6 * N];
+  alignas(64) T t[N];
+  alignas(64) std::int32_t prim[N];
+  const packet::ShapeLanes<T> shapes{rays, t, prim};
+  const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
+  if (e.query[query_slot(N)]->intersect_lanes(s, ray_lanes(valid, r), N, out, &shapes) != 2)
+    return false;
+  const int w = e.query_width[query_slot(N)], first_shape = s.num_spheres + s.num_planes;
+  for (int l = 0; l < N; ++l)
+    if (h.id[l] >= first_shape) {
+      const T* c = rays + 6 * (l - l % w) + l % w;  // lane l's chunk, from its lane
+      store_shape_hit(e, Vec3<T>{c[0], c[w], c[2 * w]}, Vec3<T>{c[3 * w], c[4 * w], c[5 * w]}, t[l],
+                      h.id[l], prim[l], h, l);
+    }
+  return true;
 }
 
+// Any packet, chunk by chunk (Chunk, fill): what intersect_impl does not answer in one call.
 template <class T, int N>
-void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
+[[gnu::noinline]] void intersect_chunks(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
+                                        HitPacket<N>& h) {
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
-  if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
-  // A plain packet of whole chunks: checked, moved, traced and written out in one call.
-  if (k && N % w == 0 && !s.shapes) {
-    const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
-    if (k->intersect_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
-  }
   const bool plain = check_rays("intersect", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
@@ -411,7 +376,7 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
                             s.shapes ? ch.prim : nullptr);
     if (!(plain && k)) trace_alone(e, false, w, ch);  // a plain packet on a kernel: none alone
     if (k) {
-      store_hits(s, *k, ch, w, c, h);
+      store_hits(e, *k, ch, w, c, h);
       continue;
     }
     for (int l = 0; l < w && c + l < N; ++l)
@@ -422,12 +387,11 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
 }
 
 template <class T, int N>
-void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, int* out) {
+[[gnu::noinline]] void occluded_chunks(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
+                                       int* out) {
   const PreparedScene<T>& s = e.scene;
   const int w = e.query_width[query_slot(N)];
   const packet::KernelTable<T>* k = e.query[query_slot(N)];
-  if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
-  if (k && N % w == 0 && k->occluded_lanes(s, ray_lanes(valid, r), N, out) == 2) return;
   const bool plain = check_rays("occluded", valid, r, s.epsilon, k);
   Chunk<T> ch;
   for (int c = 0; c < N; c += w) {
@@ -440,6 +404,34 @@ void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, 
     for (int l = 0; l < w && c + l < N; ++l)
       if (ch.active[l]) out[c + l] = ch.out[l] ? 1 : 0;
   }
+}
+
+// A query: a plain packet of whole chunks checked, moved, traced and written out in one call
+// of the kernel's ISA; else chunk by chunk. Kept small: the chunked path's frame and set-up
+// cost more than the kernel's work on a small scene.
+template <class T, int N>
+void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPacket<N>& h) {
+  if (N == 1 && e.one) return one_ray(e, valid, r, &h, nullptr);
+  if (e.whole[query_slot(N)]) {
+    if (e.scene.shapes) {
+      if (intersect_whole_shapes(e, valid, r, h)) return;
+    } else {
+      const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
+      if (e.query[query_slot(N)]->intersect_lanes(e.scene, ray_lanes(valid, r), N, out, nullptr) ==
+          2)
+        return;
+    }
+  }
+  intersect_chunks(e, valid, r, h);
+}
+
+template <class T, int N>
+void occluded_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r, int* out) {
+  if (N == 1 && e.one) return one_ray<T, N>(e, valid, r, nullptr, out);
+  if (e.whole[query_slot(N)] &&
+      e.query[query_slot(N)]->occluded_lanes(e.scene, ray_lanes(valid, r), N, out) == 2)
+    return;
+  occluded_chunks(e, valid, r, out);
 }
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -478,6 +470,8 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.query_width[query_slot(n)] = w;
     e.query[query_slot(n)] = kernels_of<T>(e.scene, w, info.precision);
   }
+  for (int n : kQueryWidths)
+    e.whole[query_slot(n)] = e.query[query_slot(n)] && n % e.query_width[query_slot(n)] == 0;
   e.render = kernels_of<T>(e.scene, info.width, info.precision);
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1).
   // Fast mode has no lone lanes. The one-ray kernels model spheres and planes only: scenes with
@@ -494,6 +488,7 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.query[query_slot(1)] = kernels_of<T>(e.scene, w, info.precision);
   }
   if (e.one) e.one_scene = packet::one_ray_scene(e.scene.bvh);
+  if (e.scene.shapes) e.first_triangle = first_triangles(*e.scene.shapes);
 }
 
 // What answers Ray1 (Info::one_ray): the one-ray kernels' ISA, or, in a scene with shapes, the

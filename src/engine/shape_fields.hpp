@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "lancer/shapes.hpp"
 
@@ -15,17 +16,28 @@ struct ShapeFields {
   Vec3<T> geometric;        // shapes_normals' geometric normal at p
 };
 
-// Primitive `prim`'s fields for the ray o, d hitting it at p (epsilon: the scene's, for a
-// cylinder's part), bit for bit those of shapes_surface and shapes_normals on shape_hit's hit.
+// Per object id, the index of its first triangle in the prepared order (triangles are stored in
+// object order), -1 for an object without triangles: what shapes_surface searches for.
 template <class T>
-ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
-                            const Vec3<T>& p, T epsilon, std::int64_t prim);
+std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s);
 
+// Primitive `prim`'s fields for the ray o, d hitting it at t (epsilon: the scene's, for a
+// cylinder's part; first_triangle: first_triangles' table), bit for bit those of shapes_surface
+// and shapes_normals on shape_hit's hit. The hit point is computed for a cylinder alone: a
+// triangle's normal does not depend on it.
+template <class T>
+ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
+                            const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim);
+
+extern template std::vector<std::int32_t> first_triangles<float>(const PreparedShapes<float>&);
+extern template std::vector<std::int32_t> first_triangles<double>(const PreparedShapes<double>&);
 extern template ShapeFields<float> shape_fields<float>(const PreparedShapes<float>&,
-                                                       const Vec3<float>&, const Vec3<float>&,
-                                                       const Vec3<float>&, float, std::int64_t);
+                                                       const std::int32_t*, const Vec3<float>&,
+                                                       const Vec3<float>&, float, float,
+                                                       std::int64_t);
 extern template ShapeFields<double> shape_fields<double>(const PreparedShapes<double>&,
-                                                         const Vec3<double>&, const Vec3<double>&,
-                                                         const Vec3<double>&, double, std::int64_t);
+                                                         const std::int32_t*, const Vec3<double>&,
+                                                         const Vec3<double>&, double, double,
+                                                         std::int64_t);
 
 }  // namespace lancer

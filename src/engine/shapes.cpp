@@ -529,31 +529,60 @@ void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Ve
   shading = prim::smooth_normal(bary, normal(0), normal(1), normal(2), geometric);
 }
 
+namespace {
+// Triangle ref's surface fields for the ray o, d, the index of its object's first triangle
+// given.
 template <class T>
-ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
-                               const Vec3<T>& d) {
+ShapeSurface<T> triangle_surface(const PreparedShapes<T>& s, std::int32_t ref, std::int32_t first,
+                                 const Vec3<T>& o, const Vec3<T>& d) {
   ShapeSurface<T> out;
-  const std::int32_t ref = s.prim[std::size_t(hit.prim)];
-  if (ref < 0) return out;  // a cylinder: one primitive, no surface coordinates
-  // Triangles are stored in object order, so an object's first is the first with its id.
-  const auto& objects = s.tri_object;
-  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[std::size_t(ref)]);
-  out.prim_in_object = static_cast<int>(ref - (first - objects.begin()));
+  out.prim_in_object = static_cast<int>(ref - first);
   const PrimRay<T> ray(s, o, d, T(0));
   const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
   out.u = bary.y, out.v = bary.z;
   return out;
 }
+}  // namespace
 
 template <class T>
-ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& d,
-                            const Vec3<T>& p, T epsilon, std::int64_t prim) {
+ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
+                               const Vec3<T>& d) {
+  const std::int32_t ref = s.prim[std::size_t(hit.prim)];
+  if (ref < 0) return {};  // a cylinder: one primitive, no surface coordinates
+  // Triangles are stored in object order, so an object's first is the first with its id.
+  const auto& objects = s.tri_object;
+  const auto first = std::lower_bound(objects.begin(), objects.end(), objects[std::size_t(ref)]);
+  return triangle_surface(s, ref, std::int32_t(first - objects.begin()), o, d);
+}
+
+template <class T>
+std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s) {
+  std::vector<std::int32_t> first;
+  for (std::size_t k = s.tri_object.size(); k-- > 0;) {
+    const std::size_t object = std::size_t(s.tri_object[k]);
+    if (object >= first.size()) first.resize(object + 1, -1);
+    first[object] = std::int32_t(k);
+  }
+  return first;
+}
+
+template <class T>
+ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
+                            const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim) {
   const std::int32_t ref = s.prim[std::size_t(prim)];
-  ShapeHit<T> hit{};
-  hit.prim = prim;
-  // A cylinder's normal depends on the part hit, which only its test says; a triangle's not.
-  if (ref < 0) hit.part = shape_hit(s, o, d, epsilon, prim).part;
-  return {shapes_surface(s, hit, o, d), geometric_normal(s, ref, p, hit.part)};
+  ShapeFields<T> f;
+  if (ref < 0) {
+    // A cylinder: one primitive without surface coordinates, whose normal depends on the point
+    // and on the part hit, which only its test says.
+    const T part = shape_hit(s, o, d, epsilon, prim).part;
+    f.geometric = geometric_normal(s, ref, along(o, d, t), part);
+    return f;
+  }
+  // shapes_surface's fields, the object's first triangle from the table rather than searched.
+  f.surface =
+      triangle_surface(s, ref, first_triangle[std::size_t(s.tri_object[std::size_t(ref)])], o, d);
+  f.geometric = geometric_normal(s, ref, Vec3<T>{}, T(0));  // a triangle's: the same everywhere
+  return f;
 }
 
 #define LANCER_SHAPES(T)                                                                           \
@@ -569,8 +598,9 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const Vec3<T>& o, const 
                                   const Vec3<T>&, const Vec3<T>&, Vec3<T>&, Vec3<T>&);             \
   template ShapeSurface<T> shapes_surface<T>(const PreparedShapes<T>&, const ShapeHit<T>&,         \
                                              const Vec3<T>&, const Vec3<T>&);                      \
-  template ShapeFields<T> shape_fields<T>(const PreparedShapes<T>&, const Vec3<T>&,                \
-                                          const Vec3<T>&, const Vec3<T>&, T, std::int64_t);
+  template std::vector<std::int32_t> first_triangles<T>(const PreparedShapes<T>&);                 \
+  template ShapeFields<T> shape_fields<T>(const PreparedShapes<T>&, const std::int32_t*,           \
+                                          const Vec3<T>&, const Vec3<T>&, T, T, std::int64_t);
 LANCER_SHAPES(float)
 LANCER_SHAPES(double)
 #undef LANCER_SHAPES

@@ -49,6 +49,18 @@ struct HitLanes {
   }
 };
 
+// Where intersect_lanes leaves, for a scene with triangles, meshes or cylinders, what the API
+// needs to rewrite the lanes that hit one (their fields come from the primitive, not from the
+// kernel's ISA): the n lanes' rays in the prepared frame, W at a time (six rows of W: origin x,
+// y, z, direction x, y, z), aligned to 64 bytes; each lane's t (its tfar where it missed); and
+// each lane's shape primitive number (PreparedShapes::prim's index), -1 where it hit none.
+template <class Real>
+struct ShapeLanes {
+  Real* rays;
+  Real* t;
+  std::int32_t* prim;
+};
+
 // One kernel instantiation's entry points.
 template <class Real>
 struct KernelTable {
@@ -90,8 +102,9 @@ struct KernelTable {
   // A caller's packet of n lanes, a multiple of `width`, straight from its arrays
   // (packet/api_rays.hpp RayLanes), checked, moved, traced and written out in one call where it
   // is plain; returns 2 when done, else scan_rays' bits having written nothing
-  // (packet/kernel.hpp).
-  int (*intersect_lanes)(const PreparedScene<Real>&, const RayLanes&, int n, const HitLanes& out);
+  // (packet/kernel.hpp). With `shapes` (non-null), also what ShapeLanes says.
+  int (*intersect_lanes)(const PreparedScene<Real>&, const RayLanes&, int n, const HitLanes& out,
+                         const ShapeLanes<Real>* shapes);
   int (*occluded_lanes)(const PreparedScene<Real>&, const RayLanes&, int n, int* blocked_out);
   // n world-space rays (float origin x, y, z, direction x, y, z) moved into the prepared frame,
   // into six arrays (packet/api_rays.hpp): the library API's packets, in this ISA's vectors.

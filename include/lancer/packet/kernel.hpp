@@ -100,9 +100,10 @@ struct Kernel : Rows<Arch, Real, Mode> {
     for (int k = 0; k < W; ++k) t[k] = T(tfar[k]);
     return B::load_aligned(t);
   }
-  static int intersect_lanes(const Prepared& s, const RayLanes& r, int n,
-                             const HitLanes& out) noexcept {
-    alignas(64) T rays[6 * kMaxLanes];
+  static int intersect_lanes(const Prepared& s, const RayLanes& r, int n, const HitLanes& out,
+                             const ShapeLanes<T>* shapes) noexcept {
+    alignas(64) T own[6 * kMaxLanes];
+    T* rays = shapes ? shapes->rays : own;
     const int scan = take_packet(s, r, n, rays);
     if (scan != 2) return scan;
     for (int c = 0; c < n; c += W) {
@@ -116,6 +117,12 @@ struct Kernel : Rows<Arch, Real, Mode> {
       bt.store_aligned(t);
       store_ids(Ro::object_ids(s, bid), id, W);
       hit_fields<Arch, Real>(s, chunk, t, id, out.from(c));
+      if (shapes) {
+        // A shape's hit id is first_id + its primitive number (prim/shapes.hpp).
+        const I first(typename Ro::Id(Ro::Prims::Meshes::first_id(s)));
+        store_ids(xsimd::select(bid >= first, bid - first, I(-1)), shapes->prim + c, W);
+        bt.store_unaligned(shapes->t + c);
+      }
     }
     return scan;
   }
