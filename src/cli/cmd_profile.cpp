@@ -86,7 +86,8 @@ void print_camera_blocks(const ProfileResult& r) {
       cb.seconds, (unsigned long long)cb.rays);
   if (bt.together + bt.alone == 0) {
     std::printf(
-        "    camera blocks: none (no hierarchy, or not a pinhole camera: packets one by one)\n");
+        "    camera blocks: none (no spheres' hierarchy, or not a pinhole camera: packets one by "
+        "one)\n");
     return;
   }
   std::printf(
