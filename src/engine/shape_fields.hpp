@@ -16,8 +16,9 @@ struct ShapeFields {
   Vec3<T> geometric;        // shapes_normals' geometric normal at p
 };
 
-// Per object id, the index of its first triangle in the prepared order (triangles are stored in
-// object order), -1 for an object without triangles: what shapes_surface searches for.
+// Per shape (object id - PreparedShapes::first_object), the index of its first triangle in the
+// prepared order (triangles are stored in object order), -1 for a cylinder: what shapes_surface
+// searches for.
 template <class T>
 std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s);
 

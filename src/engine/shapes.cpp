@@ -557,12 +557,10 @@ ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hi
 
 template <class T>
 std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s) {
-  std::vector<std::int32_t> first;
-  for (std::size_t k = s.tri_object.size(); k-- > 0;) {
-    const std::size_t object = std::size_t(s.tri_object[k]);
-    if (object >= first.size()) first.resize(object + 1, -1);
-    first[object] = std::int32_t(k);
-  }
+  // One slot per shape (object id - first_object): the spheres and planes before them have none.
+  std::vector<std::int32_t> first(std::size_t(s.num_shapes), -1);
+  for (std::size_t k = s.tri_object.size(); k-- > 0;)
+    first[std::size_t(s.tri_object[k] - s.first_object)] = std::int32_t(k);
   return first;
 }
 
@@ -579,8 +577,8 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
     return f;
   }
   // shapes_surface's fields, the object's first triangle from the table rather than searched.
-  f.surface =
-      triangle_surface(s, ref, first_triangle[std::size_t(s.tri_object[std::size_t(ref)])], o, d);
+  f.surface = triangle_surface(
+      s, ref, first_triangle[std::size_t(s.tri_object[std::size_t(ref)] - s.first_object)], o, d);
   f.geometric = geometric_normal(s, ref, Vec3<T>{}, T(0));  // a triangle's: the same everywhere
   return f;
 }
