@@ -182,9 +182,20 @@ int fill(const PreparedScene<T>& s, const int* valid, const RayPacket<N>& r, int
   return active;
 }
 
+// Lane l's origin (first 0) or direction (first 3) from rays in six rows of w (packet/api.hpp).
+template <class T>
+Vec3<T> lane_vec(const T* rays, int w, int l, int first) {
+  return {rays[first * w + l], rays[(first + 1) * w + l], rays[(first + 2) * w + l]};
+}
 template <class T>
 Vec3<T> lane_vec(const Chunk<T>& ch, int w, int l, int first) {
-  return {ch.rays[first * w + l], ch.rays[(first + 1) * w + l], ch.rays[(first + 2) * w + l]};
+  return lane_vec(ch.rays, w, l, first);
+}
+
+// Lanes i, i + 1, ... of a hit packet, as the kernels write them.
+template <class Packet>
+packet::HitLanes hit_lanes(Packet& p, int i) {
+  return {p.t + i, p.ng_x + i, p.ng_y + i, p.ng_z + i, p.u + i, p.v + i, p.prim_id + i, p.id + i};
 }
 
 // The reference's nearest hit beyond tmin of each lane traced alone. It counts where it lies
@@ -283,16 +294,12 @@ template <class T, int N>
 void store_hits(const Engine<T>& e, const packet::KernelTable<T>& k, const Chunk<T>& ch, int w,
                 int c, HitPacket<N>& h) {
   const PreparedScene<T>& s = e.scene;
-  const auto lanes = [](auto& p, int i) {
-    return packet::HitLanes{p.t + i, p.ng_x + i, p.ng_y + i,    p.ng_z + i,
-                            p.u + i, p.v + i,    p.prim_id + i, p.id + i};
-  };
   const int n = std::min(w, N - c);
   if (n == w && std::all_of(ch.active, ch.active + w, [](bool a) { return a; })) {
-    k.hit_fields(s, ch.rays, ch.t, ch.id, lanes(h, c));
+    k.hit_fields(s, ch.rays, ch.t, ch.id, hit_lanes(h, c));
   } else {
     HitPacket<kMaxLanes> own;
-    k.hit_fields(s, ch.rays, ch.t, ch.id, lanes(own, 0));
+    k.hit_fields(s, ch.rays, ch.t, ch.id, hit_lanes(own, 0));
     for (int l = 0; l < n; ++l)
       if (ch.active[l]) {
         const int i = c + l;
@@ -347,15 +354,15 @@ template <class T, int N>
   alignas(64) T t[N];
   alignas(64) std::int32_t prim[N];
   const packet::ShapeLanes<T> shapes{rays, t, prim};
-  const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
-  if (e.query[query_slot(N)]->intersect_lanes(s, ray_lanes(valid, r), N, out, &shapes) != 2)
+  if (e.query[query_slot(N)]->intersect_lanes(s, ray_lanes(valid, r), N, hit_lanes(h, 0),
+                                              &shapes) != 2)
     return false;
   const int w = e.query_width[query_slot(N)], first_shape = s.num_spheres + s.num_planes;
   for (int l = 0; l < N; ++l)
     if (h.id[l] >= first_shape) {
-      const T* c = rays + 6 * (l - l % w) + l % w;  // lane l's chunk, from its lane
-      store_shape_hit(e, Vec3<T>{c[0], c[w], c[2 * w]}, Vec3<T>{c[3 * w], c[4 * w], c[5 * w]}, t[l],
-                      h.id[l], prim[l], h, l);
+      const T* chunk = rays + 6 * (l - l % w);  // lane l's chunk
+      store_shape_hit(e, lane_vec(chunk, w, l % w, 0), lane_vec(chunk, w, l % w, 3), t[l], h.id[l],
+                      prim[l], h, l);
     }
   return true;
 }
@@ -416,9 +423,8 @@ void intersect_impl(const Engine<T>& e, const int* valid, const RayPacket<N>& r,
     if (e.scene.shapes) {
       if (intersect_whole_shapes(e, valid, r, h)) return;
     } else {
-      const packet::HitLanes out{h.t, h.ng_x, h.ng_y, h.ng_z, h.u, h.v, h.prim_id, h.id};
-      if (e.query[query_slot(N)]->intersect_lanes(e.scene, ray_lanes(valid, r), N, out, nullptr) ==
-          2)
+      if (e.query[query_slot(N)]->intersect_lanes(e.scene, ray_lanes(valid, r), N, hit_lanes(h, 0),
+                                                  nullptr) == 2)
         return;
     }
   }
