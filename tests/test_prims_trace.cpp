@@ -109,8 +109,22 @@ struct LeakCount {
   std::map<int, std::size_t> packet_differs;  // hits not the reference's (id and t's bits)
 };
 
-// The closest hits of `rays` (origin, direction pairs) through one packet kernel, width lanes
-// at a time; the last packet's spare lanes are invalid.
+// Lanes first .. first + w of `rays` (origin, direction pairs) as a packet kernel reads them:
+// soa (6 rows of w), valid (the spare lanes past the end repeat the last ray, invalid).
+template <class T>
+void pack_lanes(const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays, std::size_t first, int w,
+                T* soa, bool* valid) {
+  for (int l = 0; l < w; ++l) {
+    const std::size_t r = std::min(first + std::size_t(l), rays.size() - 1);
+    valid[l] = first + std::size_t(l) < rays.size();
+    const Vec3<T>& o = rays[r].first;
+    const Vec3<T>& d = rays[r].second;
+    const T v[6] = {o.x, o.y, o.z, d.x, d.y, d.z};
+    for (int c = 0; c < 6; ++c) soa[c * w + l] = v[c];
+  }
+}
+
+// The closest hits of `rays` through one packet kernel, width lanes at a time.
 template <class T>
 std::vector<reference::Hit<T>> packet_hits(const PreparedScene<T>& p,
                                            const packet::KernelTable<T>& k,
@@ -118,22 +132,38 @@ std::vector<reference::Hit<T>> packet_hits(const PreparedScene<T>& p,
   const int w = k.width;
   std::vector<reference::Hit<T>> out(rays.size());
   const std::size_t n = static_cast<std::size_t>(w);
-  std::vector<T> soa(6 * n), t(n);
-  std::vector<std::int32_t> id(n);
+  std::vector<T> soa(6 * n), t(n, std::numeric_limits<T>::infinity());
+  std::vector<std::int32_t> id(n, -1);
   bool valid[16], hit[16];
-  for (std::size_t first = 0; first < rays.size(); first += std::size_t(w)) {
-    for (int l = 0; l < w; ++l) {
-      const std::size_t r = std::min(first + std::size_t(l), rays.size() - 1);
-      valid[l] = first + std::size_t(l) < rays.size();
-      const Vec3<T>& o = rays[r].first;
-      const Vec3<T>& d = rays[r].second;
-      const T v[6] = {o.x, o.y, o.z, d.x, d.y, d.z};
-      for (int c = 0; c < 6; ++c) soa[std::size_t(c * w + l)] = v[c];
-      t[std::size_t(l)] = std::numeric_limits<T>::infinity(), id[std::size_t(l)] = -1;
-    }
+  for (std::size_t first = 0; first < rays.size(); first += n) {
+    pack_lanes(rays, first, w, soa.data(), valid);
+    std::fill(t.begin(), t.end(), std::numeric_limits<T>::infinity());
+    std::fill(id.begin(), id.end(), -1);
     k.closest_hit_packet(p, valid, soa.data(), t.data(), id.data(), hit, nullptr);
     for (int l = 0; l < w && first + std::size_t(l) < rays.size(); ++l)
       out[first + std::size_t(l)] = {id[std::size_t(l)], t[std::size_t(l)]};
+  }
+  return out;
+}
+
+// Whether each segment of `rays` up to tfar(ray index) is blocked, through one packet kernel's
+// any-hit entry, width lanes at a time.
+template <class T, class Tfar>
+std::vector<char> packet_blocked(const PreparedScene<T>& p, const packet::KernelTable<T>& k,
+                                 const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays,
+                                 Tfar&& tfar) {
+  const int w = k.width;
+  std::vector<char> out(rays.size());
+  const std::size_t n = static_cast<std::size_t>(w);
+  std::vector<T> soa(6 * n), far(n);
+  bool valid[16], blocked[16];
+  for (std::size_t first = 0; first < rays.size(); first += n) {
+    pack_lanes(rays, first, w, soa.data(), valid);
+    for (int l = 0; l < w; ++l)
+      far[std::size_t(l)] = tfar(std::min(first + std::size_t(l), rays.size() - 1));
+    k.occluded_packet(p, valid, soa.data(), far.data(), blocked);
+    for (int l = 0; l < w && first + std::size_t(l) < rays.size(); ++l)
+      out[first + std::size_t(l)] = blocked[l];
   }
   return out;
 }
@@ -321,25 +351,32 @@ TEST(Prims, WatertightStanfordBunny) {
   expect_no_packet_leaks(c, "bunny");
 }
 
-// Log-uniform in [lo, hi].
-// Coherent packets, as a camera's tiles make them: one origin, directions of one sign per axis
-// within a small cone, aimed at a mesh's vertices and edge points, where the rays pass exactly
-// through the corners and faces of the hierarchy's boxes. Their closest hits are the
-// reference's at every width: the packet-wide culling of the shapes' walk never turns away a
-// box some lane would meet.
+double log_uniform(std::mt19937_64& rng, double lo, double hi);
+
+// Coherent packets, as a camera's tiles make them: directions of one sign per axis within a
+// small cone, aimed at a mesh's vertices and edge points, where the rays pass exactly through
+// the corners and faces of the hierarchy's boxes; from one origin, or (spread > 0) from origins
+// scattered about it by log-uniform distances up to `spread`, as shadow rays from a tile's hit
+// points are. Their closest hits are the reference's at every width, and their segments are
+// blocked exactly before the reference's hit and not at it: the packet-wide culling of the
+// shapes' walk (per lane, or by the packet's frustum) never turns away a box some lane would
+// meet.
 template <class T>
-void expect_coherent_packets_agree(const Shape& mesh, const Vec3<double>& eye, const char* what) {
+void expect_coherent_packets_agree(const Shape& mesh, const Vec3<double>& eye, const char* what,
+                                   double spread = 0) {
   Scene s = empty_scene();
   s.shapes.push_back(mesh);
   const PreparedScene<T> p = prepare<T>(s);
   const Mesh& m = s.shapes[0].mesh;
-  const Vec3<T> o = Vec3<T>::from(eye);
-  std::vector<std::pair<Vec3<double>, Vec3<T>>> keyed;  // (cell, direction)
+  std::mt19937_64 rng(7);
+  std::vector<std::tuple<Vec3<double>, Vec3<T>, Vec3<T>>> keyed;  // (cell, origin, direction)
   auto aim = [&](const Vec3<double>& at) {
+    const Vec3<T> o = Vec3<T>::from(
+        spread > 0 ? eye + random_unit(rng) * log_uniform(rng, spread * 1e-6, spread) : eye);
     const Vec3<double> d = normalize(at - Vec3<double>{double(o.x), double(o.y), double(o.z)});
     // Cells of the image plane 1/64 of a unit wide: a packet's rays lie in one or two.
     keyed.push_back(
-        {{std::floor(d.x / -d.z * 64), std::floor(d.y / -d.z * 64), 0}, Vec3<T>::from(d)});
+        {{std::floor(d.x / -d.z * 64), std::floor(d.y / -d.z * 64), 0}, o, Vec3<T>::from(d)});
   };
   for (std::size_t t = 0; t < m.triangles(); ++t) {
     const std::uint32_t* v = &m.indices[3 * t];
@@ -348,26 +385,43 @@ void expect_coherent_packets_agree(const Shape& mesh, const Vec3<double>& eye, c
       aim(a), aim((a + b) * 0.5);
     }
   }
-  std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
-    return std::tie(a.first.y, a.first.x) < std::tie(b.first.y, b.first.x);
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+    return std::tie(std::get<0>(a).y, std::get<0>(a).x) <
+           std::tie(std::get<0>(b).y, std::get<0>(b).x);
   });
   std::vector<std::pair<Vec3<T>, Vec3<T>>> rays;
-  for (const auto& [cell, d] : keyed) rays.push_back({o, d});
+  for (const auto& [cell, o, d] : keyed) rays.push_back({o, d});
+  std::vector<reference::Hit<T>> ref(rays.size());
+  std::size_t hit = 0;
+  for (std::size_t r = 0; r < rays.size(); ++r) {
+    ref[r] = reference::closest_hit(p, rays[r].first, rays[r].second);
+    hit += ref[r].id >= 0;
+  }
+  EXPECT_GT(hit, rays.size() / 3) << what;
   std::size_t checked = 0;
   for (const int width :
        packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
     const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
     if (!k) continue;
     const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
-    std::size_t differ = 0, hit = 0;
-    for (std::size_t r = 0; r < rays.size(); ++r) {
-      const reference::Hit<T> ref = reference::closest_hit(p, rays[r].first, rays[r].second);
-      hit += ref.id >= 0;
-      differ += hits[r].id != ref.id || (ref.id >= 0 && std::memcmp(&hits[r].t, &ref.t, sizeof(T)));
-    }
-    EXPECT_GT(hit, rays.size() / 3) << what;
+    std::size_t differ = 0;
+    for (std::size_t r = 0; r < rays.size(); ++r)
+      differ += hits[r].id != ref[r].id ||
+                (ref[r].id >= 0 && std::memcmp(&hits[r].t, &ref[r].t, sizeof(T)));
     EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
                           << " hits not the reference's";
+    // Segments ending at the hit (nothing before it) and just past it (the hit blocks).
+    for (const bool past : {false, true}) {
+      const std::vector<char> blocked = packet_blocked(p, *k, rays, [&](std::size_t r) {
+        const T t = ref[r].id >= 0 ? ref[r].t : std::numeric_limits<T>::max();
+        return past ? std::nextafter(t, std::numeric_limits<T>::infinity()) : t;
+      });
+      std::size_t wrong = 0;
+      for (std::size_t r = 0; r < rays.size(); ++r)
+        wrong += bool(blocked[r]) != (past && ref[r].id >= 0);
+      EXPECT_EQ(wrong, 0u) << what << ", width " << width << ", segments " << (past ? "past" : "to")
+                           << " the hit: " << wrong << " of " << rays.size() << " wrong";
+    }
     ++checked;
   }
   EXPECT_GT(checked, 0u) << what << ": no packet width ran";
@@ -380,6 +434,20 @@ TEST(Prims, CoherentPacketsGetTheReferencesHits) {
     expect_coherent_packets_agree<double>(uv_sphere(c, 1.5, 48, 96), eye, "double sphere");
     expect_coherent_packets_agree<float>(
         grid_box(c - Vec3<double>{1, 2, 0.5}, c + Vec3<double>{1, 0.3, 2}, 12), eye, "float box");
+  }
+}
+
+TEST(Prims, CoherentPacketsFromScatteredOriginsGetTheReferencesHits) {
+  for (const Vec3<double> c : {Vec3<double>{0.5, -0.25, -6}, Vec3<double>{1e3, -2e3, -3e3}}) {
+    const Vec3<double> eye = c + Vec3<double>{-0.3, 0.2, 6};
+    for (const double spread : {1e-3, 0.5}) {
+      expect_coherent_packets_agree<float>(uv_sphere(c, 1.5, 48, 96), eye, "float sphere", spread);
+      expect_coherent_packets_agree<double>(uv_sphere(c, 1.5, 48, 96), eye, "double sphere",
+                                            spread);
+      expect_coherent_packets_agree<float>(
+          grid_box(c - Vec3<double>{1, 2, 0.5}, c + Vec3<double>{1, 0.3, 2}, 12), eye, "float box",
+          spread);
+    }
   }
 }
 

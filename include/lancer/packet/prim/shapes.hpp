@@ -1,7 +1,8 @@
 // Triangles, meshes and cylinders, a primitive module of the packets. Their own hierarchy
 // (lancer/shapes.hpp: a binary SAH tree over every triangle and cylinder, collapsed into 4-wide
 // nodes) is walked by the whole packet after the planes, as their ids come after the planes'
-// (packet/prim/shapes_walk.hpp). The tests are the reference's formula helpers
+// (packet/prim/shapes_walk.hpp; coherent packets test a node's children against their frustum
+// first, packet/prim/shapes_frustum.hpp). The tests are the reference's formula helpers
 // (prim/triangle.hpp, prim/cylinder.hpp) on batches: the triangle test shears each lane by its
 // own axes, picked per lane (or once for all, where every lane has the same), so every lane gets
 // the reference's bits.
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "lancer/packet/lane_traits.hpp"
+#include "lancer/packet/prim/shapes_frustum.hpp"
 #include "lancer/packet/prim/shapes_lone.hpp"
 #include "lancer/packet/prim/shapes_walk.hpp"
 #include "lancer/prim/cylinder.hpp"
@@ -120,7 +122,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       return false;
     };
     if (coherent(r, valid, kLoneClosest)) {
-      walk(sh, r, valid, limit, leaf);
+      ShapeFrustum<Arch, T>::walk(sh, r, valid, limit, leaf);
       return {best_t, best_id};
     }
     LoneRays rays(r);
@@ -276,7 +278,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
                           });
     };
     if (coherent(r, pending, kLoneAny)) {
-      walk(sh, r, pending, limit, leaf);
+      ShapeFrustum<Arch, T>::walk(sh, r, pending, limit, leaf);
       return pending;
     }
     LoneRays rays(r);

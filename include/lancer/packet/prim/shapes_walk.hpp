@@ -190,6 +190,46 @@ struct ShapeWalk {
     return c;
   }
 
+  // The packet walks' subtrees still to visit, each with its lanes and their entry t.
+  struct Stack {
+    std::int32_t child[Shapes::kWideStack];
+    std::uint8_t count[Shapes::kWideStack];
+    M mask[Shapes::kWideStack];
+    B t0[Shapes::kWideStack];
+    int sp = 0;
+
+    // Node n's met children (bits of `met`, lanes m[k] entering at t0s[k]), nearest first by
+    // direction code `code`: the nearest becomes (at, at_count, at_mask), the others are pushed.
+    [[gnu::always_inline]] void descend(const Wide& n, unsigned code, unsigned met, const M* m,
+                                        const B* t0s, std::int32_t& at, unsigned& at_count,
+                                        M& at_mask) noexcept {
+      int slots[kW];
+      const int c = near_first(n, code, met, slots);
+      for (int q = c - 1; q > 0; --q) {
+        const int s = slots[q];
+        child[sp] = n.child[s], count[sp] = n.count[s];
+        mask[sp] = m[s], t0[sp] = t0s[s];
+        ++sp;
+      }
+      at = n.child[slots[0]], at_count = n.count[slots[0]], at_mask = m[slots[0]];
+    }
+    // The next subtree some lane may still reach before its limit (lim_w(): the limits,
+    // widened), into (at, at_count, at_mask); false when none is left.
+    template <class LimW>
+    [[gnu::always_inline]] bool pop(LimW&& lim_w, std::int32_t& at, unsigned& at_count,
+                                    M& at_mask) noexcept {
+      while (sp > 0) {
+        --sp;
+        at_mask = mask[sp] & (t0[sp] <= lim_w());
+        if (xsimd::any(at_mask)) {
+          at = child[sp], at_count = count[sp];
+          return true;
+        }
+      }
+      return false;
+    }
+  };
+
   // Visits the leaves of the wide hierarchy that some lane of `lanes` may reach before limit()
   // (re-read after each leaf: popped subtrees are culled by it), children nearest first by the
   // packet's direction code: leaf(first, count, lanes_at_leaf) returns true to stop.
@@ -207,11 +247,7 @@ struct ShapeWalk {
   [[gnu::always_inline]] static void walk_lanes(const Shapes& sh, const Ray& r, const M& lanes,
                                                 Limit& limit, Leaf& leaf, Alone& alone,
                                                 int lone) noexcept {
-    std::int32_t st_child[Shapes::kWideStack];
-    std::uint8_t st_count[Shapes::kWideStack];
-    M st_mask[Shapes::kWideStack];
-    B st_t0[Shapes::kWideStack];
-    int sp = 0;
+    Stack st;
     std::int32_t child = 0;
     unsigned count = 0;
     M mask = lanes;
@@ -234,29 +270,13 @@ struct ShapeWalk {
         }
         met &= (1u << n.arity) - 1;
         if (met != 0) {
-          int slots[kW];
-          const int c = near_first(n, r.code, met, slots);
-          for (int q = c - 1; q > 0; --q) {
-            const int s = slots[q];
-            st_child[sp] = n.child[s], st_count[sp] = n.count[s];
-            st_mask[sp] = m[s], st_t0[sp] = t0[s];
-            ++sp;
-          }
-          child = n.child[slots[0]], count = n.count[slots[0]], mask = m[slots[0]];
+          st.descend(n, r.code, met, m, t0, child, count, mask);
           continue;
         }
       } else if (leaf(std::uint32_t(child), count, mask)) {
         return;
       }
-      for (;;) {  // the next subtree some lane may still reach before its limit
-        if (sp == 0) return;
-        --sp;
-        mask = st_mask[sp] & (st_t0[sp] <= limit() * widen);
-        if (xsimd::any(mask)) {
-          child = st_child[sp], count = st_count[sp];
-          break;
-        }
-      }
+      if (!st.pop([&] { return limit() * widen; }, child, count, mask)) return;
     }
   }
 

@@ -1,0 +1,149 @@
+// A coherent packet's walk of the shapes' wide hierarchy with frustum culling (Wald et al.): a
+// node's four children are first tested once for the whole packet, against bounds of its lanes'
+// rays, in one register of four T (prim/shapes_lone.hpp's), and only the children that test
+// lets in get the per-lane test (shapes_walk.hpp's child_lanes). Camera rays, a flat mirror's
+// rays and shadow rays towards a light share most nodes; where a tile's lanes part near the
+// leaves (triangles smaller than its pixels), most children are turned away by the one test.
+// The per-lane test stays: the frustum alone accepts the room between the rays, and each lane
+// would then test triangles it cannot reach (on sub-pixel triangles, twice the leaf work).
+//
+// The bounds are interval arithmetic on the per-lane test's own form (child_lanes' fast
+// branch): an axis's entry (plane - o_near) / d is bounded below by the plane minus the greatest
+// (d up) or least (d down) o_near, times the least or greatest 1 / d, whichever product is
+// lower; the exit above, alike. Rounding to nearest is monotonic, so each bound computed in T
+// bounds every lane's computed value: a box some lane's test accepts, the frustum accepts, and
+// the closest hit, the least (t, primitive), is unchanged.
+// Include only from code built for the batch's ISA (packet/kernel.hpp).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+
+#include "lancer/packet/lanes.hpp"
+#include "lancer/packet/prim/shapes_lone.hpp"
+#include "lancer/packet/prim/shapes_walk.hpp"
+#include "lancer/shapes.hpp"
+
+namespace lancer::packet {
+
+template <class Arch, class T>
+struct ShapeFrustum {
+  using Packet = ShapeWalk<Arch, T>;
+  using B = typename Packet::B;
+  using M = typename Packet::M;
+  using Ray = typename Packet::Ray;
+  using Shapes = PreparedShapes<T>;
+  using Wide = typename Shapes::WideNode;
+  using C = typename ShapeLone<Arch, T>::C;
+  using CM = typename ShapeLone<Arch, T>::CM;
+  static constexpr int W = Packet::W;
+  static constexpr int kC = static_cast<int>(C::size);
+  static constexpr int kW = Shapes::kWide;
+  static constexpr int kParts = kW / kC;
+  static constexpr T kWiden = Packet::kWiden;
+
+  // Per axis, the bounds' operands: entry = (near plane - n_o) * n_i0 or * n_i1, the lower;
+  // exit = (far plane - f_o) * the lower or the higher 1 / d, the higher.
+  struct Bounds {
+    T n_o[3], f_o[3], i_lo[3], i_hi[3];
+    int near[3], far[3];
+
+    Bounds() = default;
+    // r: a packet with r.fast (one sign per axis over the lanes of `live`, none zero).
+    Bounds(const Ray& r, const M& live) noexcept {
+      const B inf(std::numeric_limits<T>::infinity());
+      const B* on[3] = {&r.o_near.x, &r.o_near.y, &r.o_near.z};
+      const B* of[3] = {&r.o_far.x, &r.o_far.y, &r.o_far.z};
+      const B* iv[3] = {&r.inv.x, &r.inv.y, &r.inv.z};
+      for (int a = 0; a < 3; ++a) {
+        near[a] = r.near[a], far[a] = r.far[a];
+        // Up (1 / d > 0): the entry grows with (plane - o), so its least is at the greatest o;
+        // down: the opposite. The exit's greatest the other way round.
+        const bool up = far[a] > near[a];
+        n_o[a] = up ? -least(xsimd::select(live, -*on[a], inf))
+                    : least(xsimd::select(live, *on[a], inf));
+        f_o[a] = up ? least(xsimd::select(live, *of[a], inf))
+                    : -least(xsimd::select(live, -*of[a], inf));
+        i_lo[a] = least(xsimd::select(live, *iv[a], inf));
+        i_hi[a] = -least(xsimd::select(live, -*iv[a], inf));
+      }
+    }
+    // The least lane of v.
+    static T least(const B& v) noexcept {
+      alignas(64) T x[W];
+      v.store_aligned(x);
+      for (int w = W / 2; w > 0; w /= 2)
+        for (int k = 0; k < w; ++k) x[k] = x[k + w] < x[k] ? x[k + w] : x[k];
+      return x[0];
+    }
+  };
+
+  // The children of n (slot bits) the frustum may meet.
+  static unsigned met_children(const Wide& n, const Bounds& f) noexcept {
+    unsigned met = 0;
+    const T* base = &n.lo_x[0];
+    for (int h = 0; h < kParts; ++h) {
+      auto plane = [&](int off) { return C::load_aligned(base + off + h * kC); };
+      C t0(T(0)), t1(std::numeric_limits<T>::infinity());
+      for (int a = 0; a < 3; ++a) {
+        const C en = plane(f.near[a]) - C(f.n_o[a]);
+        const C ex = plane(f.far[a]) - C(f.f_o[a]);
+        const C lo(f.i_lo[a]), hi(f.i_hi[a]);
+        t0 = xsimd::max(t0, xsimd::min(en * lo, en * hi));
+        t1 = xsimd::min(t1, xsimd::max(ex * lo, ex * hi));
+      }
+      // The per-lane test's widening of the same values (monotonic, so the bounds hold).
+      t0 = t0 * C(T(1) - kWiden);
+      const CM in = t0 <= t1 * C(T(1) + kWiden);
+      met |= lane_bits(in) << (h * kC);
+    }
+    return met & ((1u << n.arity) - 1);
+  }
+
+  // Packet::walk's visits for the lanes of `lanes` (a packet with r.fast), a node's children
+  // tested by the frustum first: leaf(first, count, lanes_at_leaf) returns true to stop. Out of
+  // line: forced inline into its callers, with the children's loop unrolled, the 1M-triangle
+  // mesh's primary rays lost what the frustum gains (width 16, AVX-512).
+  template <class Limit, class Leaf>
+  [[gnu::noinline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes, Limit& limit,
+                                     Leaf& leaf) noexcept {
+    if (sh.wide.empty()) return;
+    // Made once the root lets some lane in: a packet that misses every shape pays nothing.
+    Bounds f;
+    bool have_f = false;
+    typename Packet::Stack st;
+    std::int32_t child = 0;
+    unsigned count = 0;
+    M mask = lanes;
+    const B widen(T(1) + kWiden);
+    for (;;) {
+      if (count == 0) {
+        const Wide& n = sh.wide[std::size_t(child)];
+        for (int k = 0; k < n.arity; ++k) Packet::prefetch(sh, n.child[k], n.count[k]);
+        unsigned met = (1u << n.arity) - 1;
+        if (have_f) met = met_children(n, f);
+        if (met != 0) {
+          // The per-lane test on the children the frustum lets in.
+          const B lim_w = limit() * widen;
+          M m[kW];
+          B tl[kW];
+          for (unsigned b = met; b; b &= b - 1) {
+            const int k = __builtin_ctz(b);
+            m[k] = Packet::template child_lanes<true>(n, k, r, mask, lim_w, tl[k]);
+            if (!xsimd::any(m[k])) met &= ~(1u << k);
+          }
+          if (met != 0 && !have_f) f = Bounds(r, lanes), have_f = true;
+          if (met != 0) {
+            st.descend(n, r.code, met, m, tl, child, count, mask);
+            continue;
+          }
+        }
+      } else if (leaf(std::uint32_t(child), count, mask)) {
+        return;
+      }
+      if (!st.pop([&] { return limit() * widen; }, child, count, mask)) return;
+    }
+  }
+};
+
+}  // namespace lancer::packet
