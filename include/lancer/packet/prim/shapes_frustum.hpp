@@ -41,6 +41,7 @@ struct ShapeFrustum {
   static constexpr int kW = Shapes::kWide;
   static constexpr int kParts = kW / kC;
   static constexpr T kWiden = Packet::kWiden;
+  static_assert(W % kC == 0);
 
   // Per axis, the bounds' operands: entry = (near plane - n_o) * n_i0 or * n_i1, the lower;
   // exit = (far plane - f_o) * the lower or the higher 1 / d, the higher.
@@ -68,13 +69,17 @@ struct ShapeFrustum {
         i_hi[a] = -least(xsimd::select(live, -*iv[a], inf));
       }
     }
-    // The least lane of v.
+    // The least lane of v: its registers of four (C) first, then their lanes.
     static T least(const B& v) noexcept {
       alignas(64) T x[W];
       v.store_aligned(x);
-      for (int w = W / 2; w > 0; w /= 2)
-        for (int k = 0; k < w; ++k) x[k] = x[k + w] < x[k] ? x[k + w] : x[k];
-      return x[0];
+      C m = C::load_aligned(x);
+      for (int c = kC; c < W; c += kC) m = xsimd::min(m, C::load_aligned(x + c));
+      alignas(32) T y[kC];
+      m.store_aligned(y);
+      T r = y[0];
+      for (int k = 1; k < kC; ++k) r = y[k] < r ? y[k] : r;
+      return r;
     }
   };
 
