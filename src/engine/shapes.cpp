@@ -106,8 +106,11 @@ void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
       std::uint32_t bin_count[kBins] = {};
       for (auto& b : bin_box) b = Box<T>::empty();
       const double lo = cbox.lo[axis], scale = kBins / extent;
+      // Clamped at both ends: the centres' bounds were rounded to T, so a centre (in double)
+      // may lie a rounding below lo, which the scale of a narrow spread turns into a bin of -1.
       auto bin_of = [&](std::uint32_t p) {
-        return std::min(kBins - 1, int((boxes[p].centre(axis) - lo) * scale));
+        const double x = (boxes[p].centre(axis) - lo) * scale;
+        return int(std::clamp(x, 0.0, double(kBins - 1)));
       };
       for (auto* it = begin; it != end; ++it) {
         const int b = bin_of(*it);
