@@ -438,7 +438,7 @@ TEST(Prims, CoherentPacketsGetTheReferencesHits) {
 }
 
 // Also on meshes large enough for the packets' frustum walk (PreparedShapes of 32768
-// primitives or more; packet/prim/shapes.hpp), rays at every fourth triangle's corners.
+// primitives or more; packet/prim/shapes.hpp), rays at every 16th triangle's corners.
 TEST(Prims, CoherentPacketsFromScatteredOriginsGetTheReferencesHits) {
   for (const Vec3<double> c : {Vec3<double>{0.5, -0.25, -6}, Vec3<double>{1e3, -2e3, -3e3}}) {
     const Vec3<double> eye = c + Vec3<double>{-0.3, 0.2, 6};
@@ -447,9 +447,9 @@ TEST(Prims, CoherentPacketsFromScatteredOriginsGetTheReferencesHits) {
     ASSERT_GE(sphere.mesh.triangles(), 32768u);
     ASSERT_GE(box.mesh.triangles(), 32768u);
     for (const double spread : {0.0, 1e-3, 0.5}) {
-      expect_coherent_packets_agree<float>(sphere, eye, "float sphere", spread, 4);
-      expect_coherent_packets_agree<double>(sphere, eye, "double sphere", spread, 4);
-      expect_coherent_packets_agree<float>(box, eye, "float box", spread, 4);
+      expect_coherent_packets_agree<float>(sphere, eye, "float sphere", spread, 16);
+      expect_coherent_packets_agree<double>(sphere, eye, "double sphere", spread, 16);
+      expect_coherent_packets_agree<float>(box, eye, "float box", spread, 16);
     }
   }
 }
