@@ -19,88 +19,13 @@
 #include "lancer/render.hpp"
 #include "lancer/scene.hpp"
 #include "lancer/shapes.hpp"
+#include "support/prims_meshes.hpp"
 #include "support/test_util.hpp"
 
 namespace lancer {
 namespace {
 
-// A scene with the camera at the origin looking down -z (its frame is the world's) and one
-// default material; shapes are added by the tests.
-Scene empty_scene() {
-  Scene s;
-  s.name = "t.json";
-  s.camera.position = {0, 0, 0};
-  s.camera.direction = {0, 0, -1};
-  s.camera.nx = s.camera.ny = 1;
-  s.materials.push_back(Material{});
-  return s;
-}
-
-Shape mesh_shape(std::vector<Vec3<double>> v, std::vector<std::uint32_t> idx, int material = 0) {
-  Shape sh;
-  sh.mesh.vertices = std::move(v);
-  sh.mesh.indices = std::move(idx);
-  sh.mesh.material = material;
-  return sh;
-}
-
-// A UV sphere of `stacks` x `slices`, poles single vertices: closed and indexed.
-Shape uv_sphere(Vec3<double> c, double r, int stacks, int slices) {
-  std::vector<Vec3<double>> v{{c.x, c.y + r, c.z}};
-  for (int i = 1; i < stacks; ++i)
-    for (int j = 0; j < slices; ++j) {
-      const double th = M_PI * i / stacks, ph = 2 * M_PI * j / slices;
-      v.push_back({c.x + r * std::sin(th) * std::cos(ph), c.y + r * std::cos(th),
-                   c.z + r * std::sin(th) * std::sin(ph)});
-    }
-  v.push_back({c.x, c.y - r, c.z});
-  const std::uint32_t south = std::uint32_t(v.size() - 1);
-  auto at = [&](int i, int j) { return std::uint32_t(1 + (i - 1) * slices + (j % slices)); };
-  std::vector<std::uint32_t> idx;
-  for (int j = 0; j < slices; ++j) {
-    idx.insert(idx.end(), {0, at(1, j + 1), at(1, j)});
-    for (int i = 1; i + 1 < stacks; ++i)
-      idx.insert(idx.end(), {at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1),
-                             at(i + 1, j)});
-    idx.insert(idx.end(), {at(stacks - 1, j), at(stacks - 1, j + 1), south});
-  }
-  return mesh_shape(v, idx);
-}
-
-// A box of n x n quads per face, vertices shared (deduplicated on the integer grid).
-Shape grid_box(Vec3<double> lo, Vec3<double> hi, int n) {
-  std::map<std::tuple<int, int, int>, std::uint32_t> ids;
-  std::vector<Vec3<double>> v;
-  auto vertex = [&](int a, int b, int c) {
-    auto [it, added] = ids.emplace(std::make_tuple(a, b, c), std::uint32_t(v.size()));
-    if (added)
-      v.push_back({lo.x + (hi.x - lo.x) * a / n, lo.y + (hi.y - lo.y) * b / n,
-                   lo.z + (hi.z - lo.z) * c / n});
-    return it->second;
-  };
-  std::vector<std::uint32_t> idx;
-  for (int axis = 0; axis < 3; ++axis)
-    for (int side = 0; side < 2; ++side)
-      for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-          auto corner = [&](int di, int dj) {
-            int p[3];
-            p[axis] = side * n, p[(axis + 1) % 3] = i + di, p[(axis + 2) % 3] = j + dj;
-            return vertex(p[0], p[1], p[2]);
-          };
-          const std::uint32_t q[4] = {corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)};
-          if (side == 1)
-            idx.insert(idx.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
-          else
-            idx.insert(idx.end(), {q[0], q[2], q[1], q[0], q[3], q[2]});
-        }
-  return mesh_shape(v, idx);
-}
-
-Vec3<double> random_unit(std::mt19937_64& rng) {
-  std::normal_distribution<double> g;
-  return normalize(Vec3<double>{g(rng), g(rng), g(rng)});
-}
+using namespace prims_test;
 
 struct LeakCount {
   std::size_t rays = 0, leaks = 0, edges = 0;
@@ -108,73 +33,6 @@ struct LeakCount {
   std::map<int, std::size_t> packet_leaks;
   std::map<int, std::size_t> packet_differs;  // hits not the reference's (id and t's bits)
 };
-
-// Lanes first .. first + w of `rays` (origin, direction pairs) as a packet kernel reads them:
-// soa (6 rows of w), valid (the spare lanes past the end repeat the last ray, invalid).
-template <class T>
-void pack_lanes(const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays, std::size_t first, int w,
-                T* soa, bool* valid) {
-  for (int l = 0; l < w; ++l) {
-    const std::size_t r = std::min(first + std::size_t(l), rays.size() - 1);
-    valid[l] = first + std::size_t(l) < rays.size();
-    const Vec3<T>& o = rays[r].first;
-    const Vec3<T>& d = rays[r].second;
-    const T v[6] = {o.x, o.y, o.z, d.x, d.y, d.z};
-    for (int c = 0; c < 6; ++c) soa[c * w + l] = v[c];
-  }
-}
-
-// The closest hits of `rays` through one packet kernel, width lanes at a time.
-template <class T>
-std::vector<reference::Hit<T>> packet_hits(const PreparedScene<T>& p,
-                                           const packet::KernelTable<T>& k,
-                                           const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays) {
-  const int w = k.width;
-  std::vector<reference::Hit<T>> out(rays.size());
-  const std::size_t n = static_cast<std::size_t>(w);
-  std::vector<T> soa(6 * n), t(n, std::numeric_limits<T>::infinity());
-  std::vector<std::int32_t> id(n, -1);
-  bool valid[16], hit[16];
-  for (std::size_t first = 0; first < rays.size(); first += n) {
-    pack_lanes(rays, first, w, soa.data(), valid);
-    std::fill(t.begin(), t.end(), std::numeric_limits<T>::infinity());
-    std::fill(id.begin(), id.end(), -1);
-    k.closest_hit_packet(p, valid, soa.data(), t.data(), id.data(), hit, nullptr);
-    for (int l = 0; l < w && first + std::size_t(l) < rays.size(); ++l)
-      out[first + std::size_t(l)] = {id[std::size_t(l)], t[std::size_t(l)]};
-  }
-  return out;
-}
-
-// Whether each segment of `rays` up to tfar(ray index) is blocked, through one packet kernel's
-// any-hit entry, width lanes at a time.
-template <class T, class Tfar>
-std::vector<char> packet_blocked(const PreparedScene<T>& p, const packet::KernelTable<T>& k,
-                                 const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays,
-                                 Tfar&& tfar) {
-  const int w = k.width;
-  std::vector<char> out(rays.size());
-  const std::size_t n = static_cast<std::size_t>(w);
-  std::vector<T> soa(6 * n), far(n);
-  bool valid[16], blocked[16];
-  for (std::size_t first = 0; first < rays.size(); first += n) {
-    pack_lanes(rays, first, w, soa.data(), valid);
-    for (int l = 0; l < w; ++l)
-      far[std::size_t(l)] = tfar(std::min(first + std::size_t(l), rays.size() - 1));
-    k.occluded_packet(p, valid, soa.data(), far.data(), blocked);
-    for (int l = 0; l < w && first + std::size_t(l) < rays.size(); ++l)
-      out[first + std::size_t(l)] = blocked[l];
-  }
-  return out;
-}
-
-template <class T>
-const packet::KernelTable<T>* kernels_of(int width) {
-  if constexpr (std::is_same_v<T, float>)
-    return packet::float_kernels(width, Precision::exact);
-  else
-    return packet::double_kernels(width);
-}
 
 // Rays through points of every edge shared by exactly two triangles (edges found by their
 // vertices' coordinates, so a triangle soup counts too) and through every vertex whose
@@ -349,114 +207,6 @@ TEST(Prims, WatertightStanfordBunny) {
   EXPECT_GT(c.edges, 50000u);
   EXPECT_EQ(c.leaks, 0u) << c.leaks << " of " << c.rays << " rays leaked";
   expect_no_packet_leaks(c, "bunny");
-}
-
-double log_uniform(std::mt19937_64& rng, double lo, double hi);
-
-// Coherent packets, as a camera's tiles make them: directions of one sign per axis within a
-// small cone, aimed at a mesh's vertices and edge points, where the rays pass exactly through
-// the corners and faces of the hierarchy's boxes; from one origin, or (spread > 0) from origins
-// scattered about it by log-uniform distances up to `spread`, as shadow rays from a tile's hit
-// points are. Their closest hits are the reference's at every width, and their segments are
-// blocked exactly before the reference's hit and not at it: the packet-wide culling of the
-// shapes' walk (per lane, or by the packet's frustum) never turns away a box some lane would
-// meet.
-template <class T>
-void expect_coherent_packets_agree(const Shape& mesh, const Vec3<double>& eye, const char* what,
-                                   double spread = 0, std::size_t stride = 1) {
-  Scene s = empty_scene();
-  s.shapes.push_back(mesh);
-  const PreparedScene<T> p = prepare<T>(s);
-  const Mesh& m = s.shapes[0].mesh;
-  std::mt19937_64 rng(7);
-  std::vector<std::tuple<Vec3<double>, Vec3<T>, Vec3<T>>> keyed;  // (cell, origin, direction)
-  auto aim = [&](const Vec3<double>& at) {
-    const Vec3<T> o = Vec3<T>::from(
-        spread > 0 ? eye + random_unit(rng) * log_uniform(rng, spread * 1e-6, spread) : eye);
-    const Vec3<double> d = normalize(at - Vec3<double>{double(o.x), double(o.y), double(o.z)});
-    // Cells of the image plane 1/64 of a unit wide: a packet's rays lie in one or two.
-    keyed.push_back(
-        {{std::floor(d.x / -d.z * 64), std::floor(d.y / -d.z * 64), 0}, o, Vec3<T>::from(d)});
-  };
-  for (std::size_t t = 0; t < m.triangles(); t += stride) {
-    const std::uint32_t* v = &m.indices[3 * t];
-    for (int c = 0; c < 3; ++c) {
-      const Vec3<double> a = m.vertices[v[c]], b = m.vertices[v[(c + 1) % 3]];
-      aim(a), aim((a + b) * 0.5);
-    }
-  }
-  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
-    return std::tie(std::get<0>(a).y, std::get<0>(a).x) <
-           std::tie(std::get<0>(b).y, std::get<0>(b).x);
-  });
-  std::vector<std::pair<Vec3<T>, Vec3<T>>> rays;
-  for (const auto& [cell, o, d] : keyed) rays.push_back({o, d});
-  std::vector<reference::Hit<T>> ref(rays.size());
-  std::size_t hit = 0;
-  for (std::size_t r = 0; r < rays.size(); ++r) {
-    ref[r] = reference::closest_hit(p, rays[r].first, rays[r].second);
-    hit += ref[r].id >= 0;
-  }
-  EXPECT_GT(hit, rays.size() / 3) << what;
-  std::size_t checked = 0;
-  for (const int width :
-       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
-    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
-    if (!k) continue;
-    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
-    std::size_t differ = 0;
-    for (std::size_t r = 0; r < rays.size(); ++r)
-      differ += hits[r].id != ref[r].id ||
-                (ref[r].id >= 0 && std::memcmp(&hits[r].t, &ref[r].t, sizeof(T)));
-    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
-                          << " hits not the reference's";
-    // Segments ending at the hit (nothing before it) and just past it (the hit blocks).
-    for (const bool past : {false, true}) {
-      const std::vector<char> blocked = packet_blocked(p, *k, rays, [&](std::size_t r) {
-        const T t = ref[r].id >= 0 ? ref[r].t : std::numeric_limits<T>::max();
-        return past ? std::nextafter(t, std::numeric_limits<T>::infinity()) : t;
-      });
-      std::size_t wrong = 0;
-      for (std::size_t r = 0; r < rays.size(); ++r)
-        wrong += bool(blocked[r]) != (past && ref[r].id >= 0);
-      EXPECT_EQ(wrong, 0u) << what << ", width " << width << ", segments " << (past ? "past" : "to")
-                           << " the hit: " << wrong << " of " << rays.size() << " wrong";
-    }
-    ++checked;
-  }
-  EXPECT_GT(checked, 0u) << what << ": no packet width ran";
-}
-
-TEST(Prims, CoherentPacketsGetTheReferencesHits) {
-  for (const Vec3<double> c : {Vec3<double>{0.5, -0.25, -6}, Vec3<double>{1e3, -2e3, -3e3}}) {
-    const Vec3<double> eye = c + Vec3<double>{-0.3, 0.2, 6};
-    expect_coherent_packets_agree<float>(uv_sphere(c, 1.5, 48, 96), eye, "float sphere");
-    expect_coherent_packets_agree<double>(uv_sphere(c, 1.5, 48, 96), eye, "double sphere");
-    expect_coherent_packets_agree<float>(
-        grid_box(c - Vec3<double>{1, 2, 0.5}, c + Vec3<double>{1, 0.3, 2}, 12), eye, "float box");
-  }
-}
-
-// Also on meshes large enough for the packets' frustum walk (PreparedShapes of 32768
-// primitives or more; packet/prim/shapes.hpp), rays at every 16th triangle's corners.
-TEST(Prims, CoherentPacketsFromScatteredOriginsGetTheReferencesHits) {
-  for (const Vec3<double> c : {Vec3<double>{0.5, -0.25, -6}, Vec3<double>{1e3, -2e3, -3e3}}) {
-    const Vec3<double> eye = c + Vec3<double>{-0.3, 0.2, 6};
-    const Shape sphere = uv_sphere(c, 1.5, 128, 256);
-    const Shape box = grid_box(c - Vec3<double>{1, 2, 0.5}, c + Vec3<double>{1, 0.3, 2}, 64);
-    ASSERT_GE(sphere.mesh.triangles(), 32768u);
-    ASSERT_GE(box.mesh.triangles(), 32768u);
-    for (const double spread : {0.0, 1e-3, 0.5}) {
-      expect_coherent_packets_agree<float>(sphere, eye, "float sphere", spread, 16);
-      expect_coherent_packets_agree<double>(sphere, eye, "double sphere", spread, 16);
-      expect_coherent_packets_agree<float>(box, eye, "float box", spread, 16);
-    }
-  }
-}
-
-double log_uniform(std::mt19937_64& rng, double lo, double hi) {
-  std::uniform_real_distribution<double> u(std::log(lo), std::log(hi));
-  return std::exp(u(rng));
 }
 
 // The nearest hit beyond eps of a ray on a capped cylinder, computed independently in long
