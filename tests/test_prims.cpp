@@ -269,6 +269,25 @@ TEST(Prims, ValidateAMeshBesideSpheresWithoutAHierarchy) {
   }
 }
 
+// Camera blocks over a mesh alone: groups of tiles walk the shapes' hierarchy together, their
+// frustum the union of their tiles'. Odd sizes give blocks with tiles cut at the image's edge and
+// tiles outside it, and the image's centre lines give groups whose rays differ in sign (walked
+// tile by tile); every width must give the reference's bits.
+TEST(Prims, ValidateCameraBlocksOverAMeshAtOddSizes) {
+  TempDir dir;
+  const std::string scene = dir.file("odd.json");
+  for (const char* size : {"75x37", "21x9"}) {
+    auto r = testing::run_command(testing::cli() +
+                                  " generate --spheres 0 --mesh-triangles 3000 --resolution " +
+                                  size + " --seed 7 -o " + scene);
+    ASSERT_EQ(r.status, 0) << r.out;
+    for (const char* precision : {"exact", "double"}) {
+      r = testing::run_command(testing::cli() + " validate --precision " + precision + " " + scene);
+      EXPECT_EQ(r.status, 0) << size << ", " << precision << ": " << r.out;
+    }
+  }
+}
+
 // The reference against the independent oracle (tests/oracle: Moller-Trumbore, the textbook
 // cylinder quadratic, double throughout) on a scene of triangle and cylinder objects with
 // shadows, a mirror and glass: as the shipped scenes are held to it (test_oracle.cpp).

@@ -127,8 +127,10 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
   // Its camera rays are made once, beforehand, in the layout primary mode traces them in
   // (primary_rows): through a hierarchy, blocks of kGroup tiles walked together (pinhole
   // camera, float) or single tiles (gx = gy = 1); else rows of packets.
+  // The shapes' hierarchy walks blocks too (a square of tiles at once).
   static bool kernel_blocks(const Prepared& s) noexcept {
-    return kGroup > 1 && s.bvh.active() && !s.camera.orthographic && s.features.spheres;
+    return kGroup > 1 && !s.camera.orthographic &&
+           ((s.bvh.active() && s.features.spheres) || s.features.shapes);
   }
   // Square packets (tiles) wherever a hierarchy is walked, the spheres' or the shapes': their
   // rays diverge less than a row's, so they share more of the nodes and leaves they visit.

@@ -102,6 +102,37 @@ struct Queries : Hybrid<Arch, Real, Mode> {
     });
   }
 
+  // closest_hit for a camera block's kGX x kGY pinhole camera packets (tile g at column
+  // g % kGX, row g / kGX): the spheres' hierarchy walked once for all of them; each unbounded
+  // kind, in id order, for the whole block where it walks blocks (kBlocks), else tile by tile.
+  // Per lane the kinds come in closest_hit's order, so the hits are closest_hit's.
+  template <int kGX, int kGY>
+  [[gnu::always_inline]] static void closest_camera_block(const Prepared& s, const M* valid,
+                                                          const V* o, const V* d, B* best_t,
+                                                          I* best_id, RayCounts& counts) noexcept {
+    constexpr int n = kGX * kGY;
+    if (Prims::Bounded::present(s)) {
+      if (s.bvh.active()) {
+        closest_group_in_hierarchy<n>(s, valid, o, d, best_t, best_id, counts);
+      } else {
+        for (int g = 0; g < n; ++g)
+          Hy::template spheres_closest<true, true>(s, all_spheres(s), 0, s.num_spheres, valid[g],
+                                                   o[g], d[g], best_t[g], best_id[g], counts,
+                                                   I(Id(-1)));
+      }
+    }
+    Prims::Unbounded::each([&](auto kind) __attribute__((always_inline)) {
+      using K = KindOf<decltype(kind)>;
+      if (!K::present(s)) return;
+      if constexpr (K::kBlocks) {
+        K::template closest_group<kGX, kGY>(s, valid, o, d, best_t, best_id, counts);
+      } else {
+        for (int g = 0; g < n; ++g)
+          K::closest(s, valid[g], o[g], d[g], best_t[g], best_id[g], counts);
+      }
+    });
+  }
+
   // The spheres of kN pinhole camera packets through the hierarchy at once
   // (Traversal::closest_coherent): one walk for tiles side by side.
   template <int kN>

@@ -99,8 +99,7 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
   static void render_rows(const Prepared& s, Image& image, int row_begin, int row_end,
                           RayCounts& counts) noexcept {
     const PreparedCamera<T>& cam = s.camera;
-    const bool blocks =
-        kGroup > 1 && cam.samples == 1 && !cam.orthographic && s.features.spheres && s.bvh.active();
+    const bool blocks = cam.samples == 1 && kernel_blocks(s);
     // Shadow rays of secondary hits one ray at a time (exact float and double, by the scene): its
     // own instantiations, so that scenes without it keep their shading loops' code
     // (lorenzi-diffuse, width 16: 0.97x with the test in every loop).
@@ -300,9 +299,8 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
           I id[n];
           for (int g = 0; g < n; ++g)
             t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
-          Ra::template closest_group_in_hierarchy<n>(s, valid, o, d, t, id, counts);
+          Ra::template closest_camera_block<gx, gy>(s, valid, o, d, t, id, counts);
           for (int g = 0; g < n; ++g) {
-            unbounded_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
             sum[g] = sum[g] + t[g];
             if (first) first_id[g] = id[g];
           }
@@ -362,11 +360,8 @@ struct Rows : Radiance<Arch, Real, Mode>, CameraRays<Arch, Real, Mode> {
             counts.camera += std::uint64_t(__builtin_popcount(unsigned(live)));
             t[g] = B(std::numeric_limits<T>::infinity()), id[g] = I(Id(-1));
           }
-          Ra::template closest_group_in_hierarchy<kGroup>(s, valid, o, d, t, id, counts);
-          for (int g = 0; g < kGroup; ++g) {
-            unbounded_closest(s, valid[g], o[g], d[g], t[g], id[g], counts);
-            t[g].store_unaligned(t_out + (p + g) * W);
-          }
+          Ra::template closest_camera_block<kGroupX, kGroupY>(s, valid, o, d, t, id, counts);
+          for (int g = 0; g < kGroup; ++g) t[g].store_unaligned(t_out + (p + g) * W);
         }
         return;
       }

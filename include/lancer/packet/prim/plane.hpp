@@ -37,6 +37,8 @@ struct PlanePackets : Lanes<Arch, Real, Mode> {
   // The first plane's object id: planes come after the bounded kinds, in file order.
   static int first_id(const Prepared& s) noexcept { return s.num_spheres; }
 
+  // Camera blocks test their tiles one by one (no closest_group).
+  static constexpr bool kBlocks = false;
   // Closest hit over the planes for the lanes of `valid`, in id order: a nearer t wins.
   [[gnu::always_inline]] static void closest(const Prepared& s, const M& valid, const V& o,
                                              const V& d, B& best_t, I& best_id,

@@ -69,6 +69,18 @@ struct ShapeFrustum {
         i_hi[a] = -least(xsimd::select(live, -*iv[a], inf));
       }
     }
+    // Widened to enclose o's bounds too (a packet with the same entry planes).
+    void merge(const Bounds& o) noexcept {
+      for (int a = 0; a < 3; ++a) {
+        const bool up = far[a] > near[a];
+        n_o[a] =
+            up ? (o.n_o[a] > n_o[a] ? o.n_o[a] : n_o[a]) : (o.n_o[a] < n_o[a] ? o.n_o[a] : n_o[a]);
+        f_o[a] =
+            up ? (o.f_o[a] < f_o[a] ? o.f_o[a] : f_o[a]) : (o.f_o[a] > f_o[a] ? o.f_o[a] : f_o[a]);
+        i_lo[a] = o.i_lo[a] < i_lo[a] ? o.i_lo[a] : i_lo[a];
+        i_hi[a] = o.i_hi[a] > i_hi[a] ? o.i_hi[a] : i_hi[a];
+      }
+    }
     // The least lane of v: its registers of four (C) first, then their lanes.
     static T least(const B& v) noexcept {
       alignas(64) T x[W];
@@ -147,6 +159,115 @@ struct ShapeFrustum {
         return;
       }
       if (!st.pop([&] { return limit() * widen; }, child, count, mask)) return;
+    }
+  }
+
+  // Whether packets r[i] of `live` (bits) may walk together: each with r.fast, the same entry
+  // planes (direction signs) as the others.
+  template <int kN>
+  static bool same_signs(const Ray* r, unsigned live) noexcept {
+    if (live == 0) return false;
+    const Ray& a = r[__builtin_ctz(live)];
+    for (unsigned p = live; p; p &= p - 1) {
+      const Ray& b = r[__builtin_ctz(p)];
+      if (!b.fast || b.near[0] != a.near[0] || b.near[1] != a.near[1] || b.near[2] != a.near[2])
+        return false;
+    }
+    return true;
+  }
+
+  // A group's subtrees still to visit: per packet (bits) its lanes and their entry t.
+  template <int kN>
+  struct GroupStack {
+    std::int32_t child[Shapes::kWideStack];
+    std::uint8_t count[Shapes::kWideStack];
+    std::uint16_t packets[Shapes::kWideStack];
+    M mask[Shapes::kWideStack][kN];
+    B t0[Shapes::kWideStack][kN];
+    int sp = 0;
+  };
+
+  // walk()'s visits for kN packets together (camera tiles side by side, each r[i] with the
+  // same signs: same_signs), whose lanes are lanes[i] for the packets of `live` (bits): one
+  // frustum over all of them, then the per-lane test of each packet that reaches a child.
+  // leaf(first, count, masks, packets) returns true to stop; limit(i) is packet i's limit.
+  template <int kN, class Limit, class Leaf>
+  [[gnu::noinline]] static void walk_group(const Shapes& sh, const Ray* r, const M* lanes,
+                                           unsigned live, Limit& limit, Leaf& leaf) noexcept {
+    static_assert(kN <= 16, "packets are bits of a 16-bit word");
+    if (sh.wide.empty() || live == 0) return;
+    Bounds f;
+    bool have_f = false;
+    GroupStack<kN> st;
+    std::int32_t child = 0;
+    unsigned count = 0, at = live;
+    M mask[kN];
+    for (unsigned p = live; p; p &= p - 1) mask[__builtin_ctz(p)] = lanes[__builtin_ctz(p)];
+    const B widen(T(1) + kWiden);
+    const unsigned code = r[__builtin_ctz(live)].code;
+    for (;;) {
+      if (count == 0) {
+        const Wide& n = sh.wide[std::size_t(child)];
+        for (int k = 0; k < n.arity; ++k) Packet::prefetch(sh, n.child[k], n.count[k]);
+        unsigned met = (1u << n.arity) - 1;
+        if (have_f) met = met_children(n, f);
+        if (met != 0) {
+          B lim_w[kN];
+          for (unsigned p = at; p; p &= p - 1)
+            lim_w[__builtin_ctz(p)] = limit(__builtin_ctz(p)) * widen;
+          M m[kW][kN];
+          B tl[kW][kN];
+          unsigned reach[kW];
+          for (unsigned b = met; b; b &= b - 1) {
+            const int k = __builtin_ctz(b);
+            unsigned q = 0;
+            for (unsigned p = at; p; p &= p - 1) {
+              const int i = __builtin_ctz(p);
+              m[k][i] = Packet::template child_lanes<true>(n, k, r[i], mask[i], lim_w[i], tl[k][i]);
+              q |= unsigned(xsimd::any(m[k][i])) << i;
+            }
+            reach[k] = q;
+            if (q == 0) met &= ~(1u << k);
+          }
+          if (met != 0 && !have_f) {
+            f = Bounds(r[__builtin_ctz(live)], lanes[__builtin_ctz(live)]);
+            for (unsigned p = live & (live - 1); p; p &= p - 1)
+              f.merge(Bounds(r[__builtin_ctz(p)], lanes[__builtin_ctz(p)]));
+            have_f = true;
+          }
+          if (met != 0) {
+            int slots[kW];
+            const int c = Packet::near_first(n, code, met, slots);
+            for (int q = c - 1; q > 0; --q) {
+              const int k = slots[q];
+              st.child[st.sp] = n.child[k], st.count[st.sp] = n.count[k];
+              st.packets[st.sp] = std::uint16_t(reach[k]);
+              for (unsigned p = reach[k]; p; p &= p - 1) {
+                const int i = __builtin_ctz(p);
+                st.mask[st.sp][i] = m[k][i], st.t0[st.sp][i] = tl[k][i];
+              }
+              ++st.sp;
+            }
+            const int k = slots[0];
+            child = n.child[k], count = n.count[k], at = reach[k];
+            for (unsigned p = at; p; p &= p - 1) mask[__builtin_ctz(p)] = m[k][__builtin_ctz(p)];
+            continue;
+          }
+        }
+      } else if (leaf(std::uint32_t(child), count, mask, at)) {
+        return;
+      }
+      // The next subtree some packet's lane may still reach before its limit.
+      for (at = 0; at == 0;) {
+        if (st.sp == 0) return;
+        --st.sp;
+        for (unsigned p = st.packets[st.sp]; p; p &= p - 1) {
+          const int i = __builtin_ctz(p);
+          mask[i] = st.mask[st.sp][i] & (st.t0[st.sp][i] <= limit(i) * widen);
+          at |= unsigned(xsimd::any(mask[i])) << i;
+        }
+      }
+      child = st.child[st.sp], count = st.count[st.sp];
     }
   }
 };
