@@ -163,8 +163,8 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   // Closest hits of a camera block's kGX x kGY tiles (tile g at column g % kGX, row g / kGX),
   // as closest() finds them tile by tile: groups of 8 tiles (4 x 2 where the block is 4 or
   // more tiles wide) walk the hierarchy together (ShapeFrustum::walk_group), sharing its
-  // nodes' loads and frustum tests, where their rays share direction signs; elsewhere (a
-  // group across an axis of the view) tile by tile. Groups of 4 and 16 tiles were slower on
+  // nodes' loads and frustum tests, as far as their rays share direction signs (a group
+  // across an axis of the view walks once per side). Groups of 4 and 16 tiles were slower on
   // the bunny and no faster on a mesh of a million triangles (width 16).
   static constexpr bool kBlocks = true;
   template <int kGX, int kGY>
@@ -198,13 +198,6 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       new (r + k) Ray(o[g[k]], d[g[k]], valid[g[k]]);
       lanes[k] = valid[g[k]], bt[k] = best_t[g[k]], bi[k] = best_id[g[k]];
     }
-    if (!Frustum::template same_signs<kS>(r, live)) {
-      for (unsigned p = live; p; p &= p - 1) {
-        const int k = g[__builtin_ctz(p)];
-        closest(s, valid[k], o[k], d[k], best_t[k], best_id[k], counts);
-      }
-      return;
-    }
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
     auto limit = [&](int i) { return bt[i]; };
@@ -225,7 +218,20 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       }
       return false;
     };
-    Frustum::template walk_group<kS>(sh, r, lanes, live, limit, leaf);
+    // The group's packets by direction signs (a group on the image's centre lines holds two or
+    // four such sets), each set walking together; packets of mixed signs tile by tile.
+    for (unsigned rest = live; rest;) {
+      const unsigned set = Frustum::same_signs(r, rest);
+      if (set == 0) {
+        for (unsigned p = rest; p; p &= p - 1) {
+          const int k = g[__builtin_ctz(p)];
+          closest(s, valid[k], o[k], d[k], bt[__builtin_ctz(p)], bi[__builtin_ctz(p)], counts);
+        }
+        break;
+      }
+      Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf);
+      rest &= ~set;
+    }
     for (unsigned p = live; p; p &= p - 1) {
       const int k = __builtin_ctz(p);
       best_t[g[k]] = bt[k], best_id[g[k]] = bi[k];

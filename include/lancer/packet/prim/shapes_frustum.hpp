@@ -162,18 +162,21 @@ struct ShapeFrustum {
     }
   }
 
-  // Whether packets r[i] of `live` (bits) may walk together: each with r.fast, the same entry
-  // planes (direction signs) as the others.
-  template <int kN>
-  static bool same_signs(const Ray* r, unsigned live) noexcept {
-    if (live == 0) return false;
-    const Ray& a = r[__builtin_ctz(live)];
-    for (unsigned p = live; p; p &= p - 1) {
+  // The packets of `live` (bits) that may walk together with its first fast one: those with
+  // r.fast and its entry planes (direction signs); 0 when none is fast.
+  static unsigned same_signs(const Ray* r, unsigned live) noexcept {
+    unsigned fast = 0;
+    for (unsigned p = live; p; p &= p - 1)
+      fast |= unsigned(r[__builtin_ctz(p)].fast) << __builtin_ctz(p);
+    if (fast == 0) return 0;
+    const Ray& a = r[__builtin_ctz(fast)];
+    unsigned same = 0;
+    for (unsigned p = fast; p; p &= p - 1) {
       const Ray& b = r[__builtin_ctz(p)];
-      if (!b.fast || b.near[0] != a.near[0] || b.near[1] != a.near[1] || b.near[2] != a.near[2])
-        return false;
+      if (b.near[0] == a.near[0] && b.near[1] == a.near[1] && b.near[2] == a.near[2])
+        same |= 1u << __builtin_ctz(p);
     }
-    return true;
+    return same;
   }
 
   // A group's subtrees still to visit: per packet (bits) its lanes and their entry t.
@@ -187,8 +190,8 @@ struct ShapeFrustum {
     int sp = 0;
   };
 
-  // walk()'s visits for kN packets together (camera tiles side by side, each r[i] with the
-  // same signs: same_signs), whose lanes are lanes[i] for the packets of `live` (bits): one
+  // walk()'s visits for kN packets together (camera tiles side by side, each r[i] with r.fast
+  // and the same signs: same_signs), whose lanes are lanes[i] for the packets of `live` (bits): one
   // frustum over all of them, then the per-lane test of each packet that reaches a child.
   // leaf(first, count, masks, packets) returns true to stop; limit(i) is packet i's limit.
   template <int kN, class Limit, class Leaf>
