@@ -125,9 +125,8 @@ struct CameraRays : Lanes<Arch, Real, Mode> {
 
   // ---- the primary intersection kernel alone (lancer bench --mode kernel) -------------------
   // Its camera rays are made once, beforehand, in the layout primary mode traces them in
-  // (primary_rows): through a hierarchy, blocks of kGroup tiles walked together (pinhole
-  // camera, float) or single tiles (gx = gy = 1); else rows of packets.
-  // The shapes' hierarchy walks blocks too (a square of tiles at once).
+  // (primary_rows): through a hierarchy (the spheres' or the shapes'), blocks of kGroup tiles
+  // walked together (pinhole camera, float) or single tiles (gx = gy = 1); else rows of packets.
   static bool kernel_blocks(const Prepared& s) noexcept {
     return kGroup > 1 && !s.camera.orthographic &&
            ((s.bvh.active() && s.features.spheres) || s.features.shapes);

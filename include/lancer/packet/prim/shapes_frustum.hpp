@@ -117,6 +117,14 @@ struct ShapeFrustum {
     return met & ((1u << n.arity) - 1);
   }
 
+  // Node n entered: its children's nodes or leaf records prefetched (all of them, before the
+  // frustum's test: the loads start sooner), and the children the frustum, once made, may meet.
+  [[gnu::always_inline]] static unsigned enter(const Shapes& sh, const Wide& n, const Bounds& f,
+                                               bool have_f) noexcept {
+    for (int k = 0; k < n.arity; ++k) Packet::prefetch(sh, n.child[k], n.count[k]);
+    return have_f ? met_children(n, f) : (1u << n.arity) - 1;
+  }
+
   // Packet::walk's visits for the lanes of `lanes` (a packet with r.fast), a node's children
   // tested by the frustum first: leaf(first, count, lanes_at_leaf) returns true to stop. Out of
   // line: forced inline into its callers, with the children's loop unrolled, the 1M-triangle
@@ -136,9 +144,7 @@ struct ShapeFrustum {
     for (;;) {
       if (count == 0) {
         const Wide& n = sh.wide[std::size_t(child)];
-        for (int k = 0; k < n.arity; ++k) Packet::prefetch(sh, n.child[k], n.count[k]);
-        unsigned met = (1u << n.arity) - 1;
-        if (have_f) met = met_children(n, f);
+        unsigned met = enter(sh, n, f, have_f);
         if (met != 0) {
           // The per-lane test on the children the frustum lets in.
           const B lim_w = limit() * widen;
@@ -211,9 +217,7 @@ struct ShapeFrustum {
     for (;;) {
       if (count == 0) {
         const Wide& n = sh.wide[std::size_t(child)];
-        for (int k = 0; k < n.arity; ++k) Packet::prefetch(sh, n.child[k], n.count[k]);
-        unsigned met = (1u << n.arity) - 1;
-        if (have_f) met = met_children(n, f);
+        unsigned met = enter(sh, n, f, have_f);
         if (met != 0) {
           B lim_w[kN];
           for (unsigned p = at; p; p &= p - 1)
