@@ -76,6 +76,17 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         .t;
   }
 
+  // A shape's hit t (primitive id pid) kept where it is nearer for the lanes of `at`: a nearer
+  // t wins, an equal t only over another shape of a higher primitive number (the reference's
+  // order).
+  [[gnu::always_inline]] static void keep_nearer(const B& t, const I& pid, const M& at, Id first,
+                                                 B& best_t, I& best_id) noexcept {
+    const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
+    const M take = at & ((t < best_t) | tie);
+    best_t = xsimd::select(take, t, best_t);
+    best_id = xsimd::select(to_mi(take), pid, best_id);
+  }
+
   // Visits the leaves of the shapes' wide hierarchy that some lane of `lanes` may reach before
   // limit(): leaf(first, count, lanes_at_leaf) returns true to stop.
   template <class Limit, class Leaf>
@@ -129,10 +140,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         tests(counts, at, false);
         const B t = prim_t(sh, j, sh.leaf[j].ref, r, at, eps);
         const I pid(Id(first + Id(p)));
-        const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
-        const M take = at & ((t < best_t) | tie);
-        best_t = xsimd::select(take, t, best_t);
-        best_id = xsimd::select(to_mi(take), pid, best_id);
+        keep_nearer(t, pid, at, first, best_t, best_id);
       }
       return false;
     };
@@ -210,10 +218,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
           const int i = __builtin_ctz(q);
           tests(counts, at[i], false);
           const B t = prim_t(sh, j, ref, r[i], at[i], eps);
-          const M tie = (t == bt[i]) & to_m((bi[i] >= I(first)) & (pid < bi[i]));
-          const M take = at[i] & ((t < bt[i]) | tie);
-          bt[i] = xsimd::select(take, t, bt[i]);
-          bi[i] = xsimd::select(to_mi(take), pid, bi[i]);
+          keep_nearer(t, pid, at[i], first, bt[i], bi[i]);
         }
       }
       return false;

@@ -16,6 +16,7 @@
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 
@@ -73,12 +74,9 @@ struct ShapeFrustum {
     void merge(const Bounds& o) noexcept {
       for (int a = 0; a < 3; ++a) {
         const bool up = far[a] > near[a];
-        n_o[a] =
-            up ? (o.n_o[a] > n_o[a] ? o.n_o[a] : n_o[a]) : (o.n_o[a] < n_o[a] ? o.n_o[a] : n_o[a]);
-        f_o[a] =
-            up ? (o.f_o[a] < f_o[a] ? o.f_o[a] : f_o[a]) : (o.f_o[a] > f_o[a] ? o.f_o[a] : f_o[a]);
-        i_lo[a] = o.i_lo[a] < i_lo[a] ? o.i_lo[a] : i_lo[a];
-        i_hi[a] = o.i_hi[a] > i_hi[a] ? o.i_hi[a] : i_hi[a];
+        n_o[a] = up ? std::max(n_o[a], o.n_o[a]) : std::min(n_o[a], o.n_o[a]);
+        f_o[a] = up ? std::min(f_o[a], o.f_o[a]) : std::max(f_o[a], o.f_o[a]);
+        i_lo[a] = std::min(i_lo[a], o.i_lo[a]), i_hi[a] = std::max(i_hi[a], o.i_hi[a]);
       }
     }
     // The least lane of v: its registers of four (C) first, then their lanes.
