@@ -225,6 +225,37 @@ TEST(Profile, CameraBlocksAreCountedOnTheirPath) {
   }
 }
 
+// The shapes' camera groups are counted where they walk (primary mode's path): every group of
+// tiles with a pixel in the image once, at odd sizes too (groups cut at the edges), each walk
+// entering the root, the leaf calls' lanes within their packets'; an orthographic camera takes
+// no groups. The cylinders scene's view crosses x = 0 inside a tile column at 45 pixels wide:
+// the tiles there have mixed signs and go alone.
+TEST(Profile, ShapeGroupsAreCountedOnTheirPath) {
+  Scene s = load_scene(testing::source_path("scenes/prims/cylinders.json"));
+  s.camera.nx = 45, s.camera.ny = 27;
+  for (int width : packet_widths()) {
+    SCOPED_TRACE("width " + std::to_string(width));
+    const ProfileResult r = profile_render(s, width);
+    const auto& g = r.camera_blocks.shape_groups;
+    ASSERT_GT(g.groups, 0u);
+    EXPECT_EQ(g.group_w * g.group_h, 8 * width);  // 8 tiles of `width` pixels
+    const std::uint64_t groups = std::uint64_t((s.camera.nx + g.group_w - 1) / g.group_w) *
+                                 std::uint64_t((s.camera.ny + g.group_h - 1) / g.group_h);
+    EXPECT_EQ(g.groups, groups);
+    // Groups across a sign change walk once per side, and the tiles across it go alone.
+    EXPECT_GT(g.walks + g.tiles_alone, g.groups);
+    EXPECT_GT(g.tiles_alone, 0u);
+    EXPECT_GE(g.nodes, g.walks);
+    EXPECT_GT(g.box_tests, 0u);
+    EXPECT_LE(g.leaves, g.leaf_calls);
+    EXPECT_GE(g.leaf_lanes, g.leaf_calls);
+    EXPECT_LE(g.leaf_lanes, g.leaf_calls * std::uint64_t(width));
+    EXPECT_EQ(r.camera_blocks.totals.together + r.camera_blocks.totals.alone, 0u);  // no spheres
+  }
+  s.camera.type = CameraType::orthographic;
+  EXPECT_EQ(profile_render(s, packet_widths().front()).camera_blocks.shape_groups.groups, 0u);
+}
+
 // The plain loop's camera hits of s (one ray at a time, no hierarchy): what every camera
 // block walk below must find.
 PrimaryResult plain_camera_hits(const Scene& s) {

@@ -1,5 +1,5 @@
 // The counters a profiled packet kernel fills (ProfiledMode, lancer profile): per stage, TSC
-// cycles, packets, active lanes and their histogram, and the camera blocks' walk. Part of the
+// cycles, packets, active lanes and their histogram, and the camera blocks' walks. Part of the
 // engine (the kernels write it); what the profile tool makes of it is in lancer/profile.hpp.
 #pragma once
 
@@ -54,6 +54,17 @@ struct StageProfile {
     std::uint64_t cone_pairs = 0, cone_kept = 0;
     int block_w = 0, block_h = 0;
   } blocks;
+  // The shapes' camera groups (ShapePackets::closest_group, the same path): groups of tiles
+  // with a live lane, their walks together (one per set of tiles sharing direction signs: two
+  // or four on the image's centre lines), tiles of mixed signs walked alone (their own packet's
+  // walk, not in the counts after), and in the walks together: nodes entered, per-lane box tests
+  // of a tile against a child, leaves reached, tile-leaf calls and the lanes live in them.
+  // group_w x group_h: a group's pixels.
+  struct ShapeGroups {
+    std::uint64_t groups = 0, walks = 0, tiles_alone = 0, nodes = 0, box_tests = 0, leaves = 0,
+                  leaf_calls = 0, leaf_lanes = 0;
+    int group_w = 0, group_h = 0;
+  } shape_groups;
 };
 
 }  // namespace lancer

@@ -74,7 +74,38 @@ void print_profile_json(const ProfileArgs& a, const ProfileResult& r) {
                                 : nlohmann::json()},
       {"leaf_occupancy", bt.leaf_calls ? nlohmann::json(cb.leaf_occupancy) : nlohmann::json()},
       {"cone_kept", bt.cone_pairs ? nlohmann::json(cb.cone_kept) : nlohmann::json()}};
+  const auto& g = cb.shape_groups;
+  out["camera_blocks"]["shape_groups"] = {
+      {"group", g.groups ? nlohmann::json{g.group_w, g.group_h} : nlohmann::json()},
+      {"groups", g.groups},
+      {"walks_together", g.walks},
+      {"tiles_alone", g.tiles_alone},
+      {"totals",
+       {{"nodes_entered", g.nodes},
+        {"tile_child_box_tests", g.box_tests},
+        {"leaves", g.leaves},
+        {"leaf_calls", g.leaf_calls},
+        {"leaf_call_lanes", g.leaf_lanes}}},
+      {"leaf_occupancy",
+       g.leaf_calls ? nlohmann::json(double(g.leaf_lanes) / (double(g.leaf_calls) * r.width))
+                    : nlohmann::json()}};
   std::printf("%s\n", out.dump(2).c_str());
+}
+
+// The shapes' camera groups (the hierarchy of triangles and cylinders), per group.
+void print_shape_groups(const StageProfile::ShapeGroups& g, int width) {
+  if (g.groups == 0) return;
+  const double n = double(g.groups);
+  std::printf(
+      "    shapes' camera groups of %dx%d pixels: %llu, walked the hierarchy in %llu walks "
+      "together (one per set of tiles sharing direction signs), %llu tiles of mixed signs alone\n",
+      g.group_w, g.group_h, (unsigned long long)g.groups, (unsigned long long)g.walks,
+      (unsigned long long)g.tiles_alone);
+  std::printf(
+      "    per group: %.2f nodes entered, %.2f tile-child box tests, %.2f leaves, %.2f tile-leaf "
+      "calls at %.1f%% lane occupancy\n",
+      double(g.nodes) / n, double(g.box_tests) / n, double(g.leaves) / n, double(g.leaf_calls) / n,
+      g.leaf_calls ? 100.0 * double(g.leaf_lanes) / (double(g.leaf_calls) * width) : 0.0);
 }
 
 // The camera blocks' part of the table: primary mode's path, which full renders do not use.
@@ -84,10 +115,11 @@ void print_camera_blocks(const ProfileResult& r) {
   std::printf(
       "  camera rays alone, as bench --mode primary traces them: %.5f s (profiled), %llu rays\n",
       cb.seconds, (unsigned long long)cb.rays);
+  print_shape_groups(cb.shape_groups, r.width);
   if (bt.together + bt.alone == 0) {
-    std::printf(
-        "    camera blocks: none (no spheres' hierarchy, or not a pinhole camera: packets one by "
-        "one)\n");
+    if (cb.shape_groups.groups == 0)
+      std::printf(
+          "    camera blocks: none (no hierarchy, or not a pinhole camera: packets one by one)\n");
     return;
   }
   std::printf(

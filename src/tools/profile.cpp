@@ -95,6 +95,7 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   cb.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - p0).count();
   cb.rays = primary_counts.camera;
   cb.totals = primary.blocks;
+  cb.shape_groups = primary.shape_groups;
   if (const double n = double(cb.totals.together); n > 0) {
     cb.nodes = double(cb.totals.nodes) / n;
     cb.leaf_pops = double(cb.totals.leaf_pops) / n;

@@ -37,6 +37,9 @@ template <class Arch, class Real, class Mode>
 struct ShapePackets : Lanes<Arch, Real, Mode> {
   using L = Lanes<Arch, Real, Mode>;
   using L::bits;
+  using L::kProfile;
+  using L::kTileH;
+  using L::kTileW;
   using L::select3;
   using L::tests;
   using L::to_m;
@@ -181,6 +184,9 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
                                               RayCounts& counts) noexcept {
     constexpr int kSX = kGX < 4 ? kGX : 4, kSY = 8 / kSX < kGY ? 8 / kSX : kGY, kS = kSX * kSY;
     static_assert(kGX % kSX == 0 && kGY % kSY == 0, "the block is whole groups");
+    if constexpr (kProfile)
+      counts.profile->shape_groups.group_w = kTileW * kSX,
+      counts.profile->shape_groups.group_h = kTileH * kSY;
     for (int y0 = 0; y0 < kGY; y0 += kSY)
       for (int x0 = 0; x0 < kGX; x0 += kSX) {
         int g[kS];
@@ -206,10 +212,12 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       new (r + k) Ray(o[g[k]], d[g[k]], valid[g[k]]);
       lanes[k] = valid[g[k]], bt[k] = best_t[g[k]], bi[k] = best_id[g[k]];
     }
+    if constexpr (kProfile) counts.profile->shape_groups.groups += live != 0;
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
     auto limit = [&](int i) { return bt[i]; };
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M* at, unsigned packets) {
+      if constexpr (kProfile) count_leaf(counts, at, packets);
       for (std::uint32_t j = begin; j < begin + n; ++j) {
         const std::uint32_t p = sh.leaf[j].prim;
         const std::int32_t ref = sh.leaf[j].ref;
@@ -228,19 +236,40 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     for (unsigned rest = live; rest;) {
       const unsigned set = Frustum::same_signs(r, rest);
       if (set == 0) {
+        if constexpr (kProfile)
+          counts.profile->shape_groups.tiles_alone += unsigned(__builtin_popcount(rest));
         for (unsigned p = rest; p; p &= p - 1) {
           const int k = g[__builtin_ctz(p)];
           closest(s, valid[k], o[k], d[k], bt[__builtin_ctz(p)], bi[__builtin_ctz(p)], counts);
         }
         break;
       }
-      Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf);
+      if constexpr (kProfile) {
+        ++counts.profile->shape_groups.walks;
+        Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf,
+                                         GroupCount{&counts.profile->shape_groups});
+      } else {
+        Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf);
+      }
       rest &= ~set;
     }
     for (unsigned p = live; p; p &= p - 1) {
       const int k = __builtin_ctz(p);
       best_t[g[k]] = bt[k], best_id[g[k]] = bi[k];
     }
+  }
+
+  // The group walk counted into the profile (ProfiledMode only).
+  struct GroupCount {
+    StageProfile::ShapeGroups* g;
+    void node() const noexcept { ++g->nodes; }
+    void box_test() const noexcept { ++g->box_tests; }
+  };
+  static void count_leaf(RayCounts& counts, const M* at, unsigned packets) noexcept {
+    auto& g = counts.profile->shape_groups;
+    ++g.leaves;
+    for (unsigned q = packets; q; q &= q - 1)
+      ++g.leaf_calls, g.leaf_lanes += unsigned(__builtin_popcount(bits(at[__builtin_ctz(q)])));
   }
 
   // The live lanes at or below which a subtree's lanes go on alone (closest hit, opaque any

@@ -27,6 +27,13 @@
 
 namespace lancer::packet {
 
+// What walk_group tells a counter (lancer profile's shape groups): the default counts nothing
+// and compiles to nothing.
+struct NoGroupCount {
+  void node() const noexcept {}
+  void box_test() const noexcept {}
+};
+
 template <class Arch, class T>
 struct ShapeFrustum {
   using Packet = ShapeWalk<Arch, T>;
@@ -198,9 +205,11 @@ struct ShapeFrustum {
   // and the same signs: same_signs), whose lanes are lanes[i] for the packets of `live` (bits): one
   // frustum over all of them, then the per-lane test of each packet that reaches a child.
   // leaf(first, count, masks, packets) returns true to stop; limit(i) is packet i's limit.
-  template <int kN, class Limit, class Leaf>
+  // count: a NoGroupCount's interface, told of each node entered and each per-lane box test.
+  template <int kN, class Limit, class Leaf, class Count = NoGroupCount>
   [[gnu::noinline]] static void walk_group(const Shapes& sh, const Ray* r, const M* lanes,
-                                           unsigned live, Limit& limit, Leaf& leaf) noexcept {
+                                           unsigned live, Limit& limit, Leaf& leaf,
+                                           Count count_to = {}) noexcept {
     static_assert(kN <= 16, "packets are bits of a 16-bit word");
     if (sh.wide.empty() || live == 0) return;
     Bounds f;
@@ -216,6 +225,7 @@ struct ShapeFrustum {
       if (count == 0) {
         const Wide& n = sh.wide[std::size_t(child)];
         unsigned met = enter(sh, n, f, have_f);
+        count_to.node();
         if (met != 0) {
           B lim_w[kN];
           for (unsigned p = at; p; p &= p - 1)
@@ -229,6 +239,7 @@ struct ShapeFrustum {
             for (unsigned p = at; p; p &= p - 1) {
               const int i = __builtin_ctz(p);
               m[k][i] = Packet::template child_lanes<true>(n, k, r[i], mask[i], lim_w[i], tl[k][i]);
+              count_to.box_test();
               q |= unsigned(xsimd::any(m[k][i])) << i;
             }
             reach[k] = q;

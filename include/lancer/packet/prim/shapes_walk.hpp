@@ -58,7 +58,7 @@ struct ShapeWalk {
     // overflow) and its sign is the same on each axis; near[a], far[a]: the offsets (in T) in a
     // WideNode of axis a's planes the rays enter and leave by.
     bool fast = false;
-    int near[3] = {0, 8, 16}, far[3] = {4, 12, 20};
+    int near[3] = {0, 2 * kW, 4 * kW}, far[3] = {kW, 3 * kW, 5 * kW};
 
     Ray(const V& org, const V& dir, const M& valid) noexcept : o(org), d(dir) {
       const B ax = xsimd::abs(d.x), ay = xsimd::abs(d.y), az = xsimd::abs(d.z);
@@ -107,7 +107,7 @@ struct ShapeWalk {
         const bool up = xsimd::all((c > B(T(0))) | dead);
         const bool down = !up && xsimd::all((c < B(T(0))) | dead);
         fast = fast && (up || down) && xsimd::all((xsimd::abs(c) >= tiny) | dead);
-        near[a] = 8 * a + (down ? 4 : 0), far[a] = 8 * a + (down ? 0 : 4);
+        near[a] = 2 * kW * a + (down ? kW : 0), far[a] = 2 * kW * a + (down ? 0 : kW);
         const B& lo = a == 0 ? o_lo.x : a == 1 ? o_lo.y : o_lo.z;
         const B& hi = a == 0 ? o_hi.x : a == 1 ? o_hi.y : o_hi.z;
         B& on = a == 0 ? o_near.x : a == 1 ? o_near.y : o_near.z;
@@ -175,7 +175,12 @@ struct ShapeWalk {
     const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
                                : reinterpret_cast<const char*>(&sh.leaf[std::size_t(child)]);
     const std::size_t bytes = count == 0 ? sizeof(Wide) : count * sizeof(sh.leaf[0]);
-    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+    // Every cache line the records touch: a leaf's records (44 bytes each in float) start
+    // anywhere in a line, so stepping from p alone would leave the last line out.
+    const auto first = reinterpret_cast<std::uintptr_t>(p) & ~std::uintptr_t(63);
+    const auto last = reinterpret_cast<std::uintptr_t>(p) + bytes - 1;
+    for (std::uintptr_t a = first; a <= last; a += 64)
+      __builtin_prefetch(reinterpret_cast<const char*>(a));
   }
 
   // The slots of node n's met children (bits of `met`), nearest first for direction code
