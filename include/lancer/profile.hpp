@@ -46,8 +46,10 @@ struct ProfileResult {
     double nodes = 0, leaf_pops = 0, tile_tests = 0, leaf_calls = 0, tiles_alone = 0;
     double cone_kept = 0;       // the share of tile-sphere pairs the cones kept (0: no cones)
     double leaf_occupancy = 0;  // live lanes / width over the leaf calls (0: none)
-    // The shapes' camera groups in the same run (all zero without shapes or camera blocks).
+    // The shapes' camera groups in the same run (all zero without shapes or camera blocks), and
+    // the live lanes / width over their tile-leaf calls (0: none).
     StageProfile::ShapeGroups shape_groups;
+    double shape_leaf_occupancy = 0;
   } camera_blocks;
 };
 

@@ -75,6 +75,9 @@ struct PreparedShapes {
     std::uint8_t order[8];
     std::int32_t arity;
   };
+  // Offsets (in T, from lo_x) of axis a's lower and upper planes of the children in a WideNode.
+  static constexpr int lo_plane(int a) { return 2 * kWide * a; }
+  static constexpr int hi_plane(int a) { return 2 * kWide * a + kWide; }
   // The walks' data (wide, leaf) on huge pages where large (lancer/huge_pages.hpp): a mesh of
   // a million triangles spreads them over some 90 MB, beyond 4 KiB pages' reach in the TLB.
   BigVector<WideNode> wide;

@@ -87,13 +87,13 @@ void print_profile_json(const ProfileArgs& a, const ProfileResult& r) {
         {"leaf_calls", g.leaf_calls},
         {"leaf_call_lanes", g.leaf_lanes}}},
       {"leaf_occupancy",
-       g.leaf_calls ? nlohmann::json(double(g.leaf_lanes) / (double(g.leaf_calls) * r.width))
-                    : nlohmann::json()}};
+       g.leaf_calls ? nlohmann::json(cb.shape_leaf_occupancy) : nlohmann::json()}};
   std::printf("%s\n", out.dump(2).c_str());
 }
 
 // The shapes' camera groups (the hierarchy of triangles and cylinders), per group.
-void print_shape_groups(const StageProfile::ShapeGroups& g, int width) {
+void print_shape_groups(const ProfileResult::CameraBlocks& cb) {
+  const auto& g = cb.shape_groups;
   if (g.groups == 0) return;
   const double n = double(g.groups);
   std::printf(
@@ -105,7 +105,7 @@ void print_shape_groups(const StageProfile::ShapeGroups& g, int width) {
       "    per group: %.2f nodes entered, %.2f tile-child box tests, %.2f leaves, %.2f tile-leaf "
       "calls at %.1f%% lane occupancy\n",
       double(g.nodes) / n, double(g.box_tests) / n, double(g.leaves) / n, double(g.leaf_calls) / n,
-      g.leaf_calls ? 100.0 * double(g.leaf_lanes) / (double(g.leaf_calls) * width) : 0.0);
+      100 * cb.shape_leaf_occupancy);
 }
 
 // The camera blocks' part of the table: primary mode's path, which full renders do not use.
@@ -115,7 +115,7 @@ void print_camera_blocks(const ProfileResult& r) {
   std::printf(
       "  camera rays alone, as bench --mode primary traces them: %.5f s (profiled), %llu rays\n",
       cb.seconds, (unsigned long long)cb.rays);
-  print_shape_groups(cb.shape_groups, r.width);
+  print_shape_groups(cb);
   if (bt.together + bt.alone == 0) {
     if (cb.shape_groups.groups == 0)
       std::printf(

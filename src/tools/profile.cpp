@@ -96,6 +96,8 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
   cb.rays = primary_counts.camera;
   cb.totals = primary.blocks;
   cb.shape_groups = primary.shape_groups;
+  if (const auto& g = cb.shape_groups; g.leaf_calls)
+    cb.shape_leaf_occupancy = double(g.leaf_lanes) / (double(g.leaf_calls) * double(res.width));
   if (const double n = double(cb.totals.together); n > 0) {
     cb.nodes = double(cb.totals.nodes) / n;
     cb.leaf_pops = double(cb.totals.leaf_pops) / n;

@@ -187,17 +187,18 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     if constexpr (kProfile)
       counts.profile->shape_groups.group_w = kTileW * kSX,
       counts.profile->shape_groups.group_h = kTileH * kSY;
+    const auto count_to = group_count(counts);
     for (int y0 = 0; y0 < kGY; y0 += kSY)
       for (int x0 = 0; x0 < kGX; x0 += kSX) {
         int g[kS];
         for (int k = 0; k < kS; ++k) g[k] = (y0 + k / kSX) * kGX + x0 + k % kSX;
-        closest_square<kS>(s, g, valid, o, d, best_t, best_id, counts);
+        closest_square<kS>(s, g, valid, o, d, best_t, best_id, counts, count_to);
       }
   }
-  template <int kS>
+  template <int kS, class Count>
   [[gnu::always_inline]] static void closest_square(const Prepared& s, const int* g, const M* valid,
                                                     const V* o, const V* d, B* best_t, I* best_id,
-                                                    RayCounts& counts) noexcept {
+                                                    RayCounts& counts, Count count_to) noexcept {
     using Frustum = ShapeFrustum<Arch, T>;
     const Shapes& sh = *s.shapes;
     alignas(Ray) unsigned char raw[kS * sizeof(Ray)];
@@ -212,12 +213,12 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       new (r + k) Ray(o[g[k]], d[g[k]], valid[g[k]]);
       lanes[k] = valid[g[k]], bt[k] = best_t[g[k]], bi[k] = best_id[g[k]];
     }
-    if constexpr (kProfile) counts.profile->shape_groups.groups += live != 0;
+    count_to.group(live);
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
     auto limit = [&](int i) { return bt[i]; };
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M* at, unsigned packets) {
-      if constexpr (kProfile) count_leaf(counts, at, packets);
+      count_to.leaf(at, packets);
       for (std::uint32_t j = begin; j < begin + n; ++j) {
         const std::uint32_t p = sh.leaf[j].prim;
         const std::int32_t ref = sh.leaf[j].ref;
@@ -236,21 +237,15 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     for (unsigned rest = live; rest;) {
       const unsigned set = Frustum::same_signs(r, rest);
       if (set == 0) {
-        if constexpr (kProfile)
-          counts.profile->shape_groups.tiles_alone += unsigned(__builtin_popcount(rest));
+        count_to.tiles_alone(rest);
         for (unsigned p = rest; p; p &= p - 1) {
           const int k = g[__builtin_ctz(p)];
           closest(s, valid[k], o[k], d[k], bt[__builtin_ctz(p)], bi[__builtin_ctz(p)], counts);
         }
         break;
       }
-      if constexpr (kProfile) {
-        ++counts.profile->shape_groups.walks;
-        Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf,
-                                         GroupCount{&counts.profile->shape_groups});
-      } else {
-        Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf);
-      }
+      count_to.walk();
+      Frustum::template walk_group<kS>(sh, r, lanes, set, limit, leaf, count_to);
       rest &= ~set;
     }
     for (unsigned p = live; p; p &= p - 1) {
@@ -259,17 +254,27 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     }
   }
 
-  // The group walk counted into the profile (ProfiledMode only).
+  // The camera groups counted into the profile (ProfiledMode only; elsewhere NoGroupCount).
   struct GroupCount {
     StageProfile::ShapeGroups* g;
+    void group(unsigned live) const noexcept { g->groups += live != 0; }
+    void walk() const noexcept { ++g->walks; }
+    void tiles_alone(unsigned tiles) const noexcept {
+      g->tiles_alone += unsigned(__builtin_popcount(tiles));
+    }
     void node() const noexcept { ++g->nodes; }
     void box_test() const noexcept { ++g->box_tests; }
+    void leaf(const M* at, unsigned packets) const noexcept {
+      ++g->leaves;
+      for (unsigned q = packets; q; q &= q - 1)
+        ++g->leaf_calls, g->leaf_lanes += unsigned(__builtin_popcount(bits(at[__builtin_ctz(q)])));
+    }
   };
-  static void count_leaf(RayCounts& counts, const M* at, unsigned packets) noexcept {
-    auto& g = counts.profile->shape_groups;
-    ++g.leaves;
-    for (unsigned q = packets; q; q &= q - 1)
-      ++g.leaf_calls, g.leaf_lanes += unsigned(__builtin_popcount(bits(at[__builtin_ctz(q)])));
+  static auto group_count(RayCounts& counts) noexcept {
+    if constexpr (kProfile)
+      return GroupCount{&counts.profile->shape_groups};
+    else
+      return NoGroupCount<M>{};
   }
 
   // The live lanes at or below which a subtree's lanes go on alone (closest hit, opaque any

@@ -27,11 +27,16 @@
 
 namespace lancer::packet {
 
-// What walk_group tells a counter (lancer profile's shape groups): the default counts nothing
-// and compiles to nothing.
+// What the camera groups tell a counter (lancer profile's shape groups; ShapePackets::closest_
+// square and walk_group): the default counts nothing and compiles to nothing.
+template <class M>
 struct NoGroupCount {
+  void group(unsigned /*live*/) const noexcept {}
+  void walk() const noexcept {}
+  void tiles_alone(unsigned /*tiles*/) const noexcept {}
   void node() const noexcept {}
   void box_test() const noexcept {}
+  void leaf(const M* /*at*/, unsigned /*packets*/) const noexcept {}
 };
 
 template <class Arch, class T>
@@ -205,11 +210,11 @@ struct ShapeFrustum {
   // and the same signs: same_signs), whose lanes are lanes[i] for the packets of `live` (bits): one
   // frustum over all of them, then the per-lane test of each packet that reaches a child.
   // leaf(first, count, masks, packets) returns true to stop; limit(i) is packet i's limit.
-  // count: a NoGroupCount's interface, told of each node entered and each per-lane box test.
-  template <int kN, class Limit, class Leaf, class Count = NoGroupCount>
+  // count_to: a NoGroupCount's interface, told of each node entered and per-lane box test.
+  template <int kN, class Limit, class Leaf, class Count>
   [[gnu::noinline]] static void walk_group(const Shapes& sh, const Ray* r, const M* lanes,
                                            unsigned live, Limit& limit, Leaf& leaf,
-                                           Count count_to = {}) noexcept {
+                                           Count count_to) noexcept {
     static_assert(kN <= 16, "packets are bits of a 16-bit word");
     if (sh.wide.empty() || live == 0) return;
     Bounds f;

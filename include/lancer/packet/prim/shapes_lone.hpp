@@ -89,7 +89,8 @@ struct ShapeLone {
         const bool down = d[a] < T(0);
         const T ad = down ? -d[a] : d[a];
         fast = fast && ad >= T(0x1p-60);
-        near[a] = 2 * kW * a + (down ? kW : 0), far[a] = 2 * kW * a + (down ? 0 : kW);
+        near[a] = down ? Shapes::hi_plane(a) : Shapes::lo_plane(a);
+        far[a] = down ? Shapes::lo_plane(a) : Shapes::hi_plane(a);
         o_near[a] = down ? o_hi[a] : o_lo[a], o_far[a] = down ? o_lo[a] : o_hi[a];
         code |= unsigned(d[a] >= T(0)) << a;
       }
@@ -120,7 +121,7 @@ struct ShapeLone {
         C near(T(0)), far(lim_w);
         CM out(false);
         for (int a = 0; a < 3; ++a) {
-          const C lo_t = plane(2 * kW * a), hi_t = plane(2 * kW * a + kW);
+          const C lo_t = plane(Shapes::lo_plane(a)), hi_t = plane(Shapes::hi_plane(a));
           if (r.zero[a]) {
             const C lo = lo_t - C(r.o_pad), hi = hi_t + C(r.o_pad);
             out = out | (C(r.o[a]) < lo) | (C(r.o[a]) > hi);

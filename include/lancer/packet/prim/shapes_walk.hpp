@@ -11,6 +11,7 @@
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -30,6 +31,9 @@ struct ShapeWalk {
   static constexpr int W = static_cast<int>(B::size);
   static constexpr int kW = Shapes::kWide;
   static constexpr T kWiden = sizeof(T) == 4 ? T(0x1p-20) : T(0x1p-49);
+  // The walks read a child's planes at these offsets from lo_x.
+  static_assert(offsetof(Wide, lo_z) == sizeof(T) * Shapes::lo_plane(2) &&
+                offsetof(Wide, hi_z) == sizeof(T) * Shapes::hi_plane(2));
 
   // v's component k per lane, k given as the masks k == 0 and k == 1.
   static B pick(const V& v, const M& is0, const M& is1) noexcept {
@@ -58,7 +62,8 @@ struct ShapeWalk {
     // overflow) and its sign is the same on each axis; near[a], far[a]: the offsets (in T) in a
     // WideNode of axis a's planes the rays enter and leave by.
     bool fast = false;
-    int near[3] = {0, 2 * kW, 4 * kW}, far[3] = {kW, 3 * kW, 5 * kW};
+    int near[3] = {Shapes::lo_plane(0), Shapes::lo_plane(1), Shapes::lo_plane(2)};
+    int far[3] = {Shapes::hi_plane(0), Shapes::hi_plane(1), Shapes::hi_plane(2)};
 
     Ray(const V& org, const V& dir, const M& valid) noexcept : o(org), d(dir) {
       const B ax = xsimd::abs(d.x), ay = xsimd::abs(d.y), az = xsimd::abs(d.z);
@@ -107,7 +112,8 @@ struct ShapeWalk {
         const bool up = xsimd::all((c > B(T(0))) | dead);
         const bool down = !up && xsimd::all((c < B(T(0))) | dead);
         fast = fast && (up || down) && xsimd::all((xsimd::abs(c) >= tiny) | dead);
-        near[a] = 2 * kW * a + (down ? kW : 0), far[a] = 2 * kW * a + (down ? 0 : kW);
+        near[a] = down ? Shapes::hi_plane(a) : Shapes::lo_plane(a);
+        far[a] = down ? Shapes::lo_plane(a) : Shapes::hi_plane(a);
         const B& lo = a == 0 ? o_lo.x : a == 1 ? o_lo.y : o_lo.z;
         const B& hi = a == 0 ? o_hi.x : a == 1 ? o_hi.y : o_hi.z;
         B& on = a == 0 ? o_near.x : a == 1 ? o_near.y : o_near.z;
