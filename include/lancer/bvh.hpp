@@ -16,7 +16,10 @@
 namespace lancer {
 
 // Which structure a scene gets: automatic picks the plain loop below kBvhMinSpheres spheres.
-enum class Accel { automatic, none, bvh };
+// one: as automatic for the spheres' own structure (the reference's), and in a scene with
+// triangles, meshes or cylinders the packets walk one hierarchy over the spheres and those
+// (PreparedShapes::spheres); automatic keeps two there, measured faster (docs/accel.md).
+enum class Accel { automatic, none, bvh, one };
 const char* to_string(Accel a);
 
 // Spheres from which the hierarchy beats the plain loop (measured, docs/accel.md).

@@ -17,9 +17,10 @@ namespace lancer {
 struct Features {
   bool spheres = false;  // any sphere
   bool planes = false;   // any plane
-  // any triangle, mesh or cylinder: the reference alone models them so far (render.cpp runs
-  // such scenes at width 1)
-  bool shapes = false;
+  bool shapes = false;   // any triangle, mesh or cylinder (lancer/shapes.hpp)
+  // Spheres and shapes both, in one hierarchy (PreparedShapes::spheres): the packets meet the
+  // spheres in the shapes' walk, not in the spheres' own hierarchy or loop.
+  bool spheres_in_shapes = false;
   bool lights = false;                // any light (else no shadow rays and no diffuse/specular)
   bool specular = false;              // any material with ks > 0
   bool reflection = false;            // max_depth > 0 and any material with reflect > 0

@@ -36,6 +36,9 @@ struct StructureInfo {
   // Triangles, meshes and cylinders: their own hierarchy (lancer/shapes.hpp), when any.
   std::size_t shape_primitives = 0, shape_nodes = 0, shape_bytes = 0;
   double shape_build_seconds = 0;
+  // Spheres that are leaves of the shapes' hierarchy too (one hierarchy over every bounded kind,
+  // which the packets walk; the reference keeps the spheres' own structure).
+  int shape_spheres = 0;
   // The primitive kinds the kernels test for this scene, in id order ("spheres, planes,
   // triangles (smooth normals), cylinders"): a kind the scene lacks runs none of its code.
   std::string kinds;

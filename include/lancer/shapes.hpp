@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "lancer/huge_pages.hpp"
@@ -22,6 +23,10 @@ template <class T>
 struct PreparedShapes {
   int first_object = 0;  // the object id of shape 0 (spheres and planes come first)
   int num_shapes = 0;
+  // The scene's spheres held as leaves of this hierarchy too, in a scene with both kinds (one
+  // hierarchy over every bounded kind: the packets then walk this one, not the spheres' own);
+  // 0 where the spheres keep theirs alone. Their ids stay the spheres' (0 .. spheres - 1).
+  int spheres = 0;
 
   // Every mesh's vertices, concatenated, in the frame; each vertex once, so that triangles
   // sharing it read the same bits.
@@ -50,9 +55,12 @@ struct PreparedShapes {
     std::uint32_t first = 0, count = 0;
   };
   std::vector<Node> nodes;
+  // The tree's items: primitives 0 .. prim.size() - 1, then the spheres (item prim.size() + k
+  // is sphere k), which the reference's walks pass over (it meets spheres in their own).
+  std::size_t items() const { return prim.size() + std::size_t(spheres); }
   // The tree's depth bound: its walks keep fixed stacks of this many entries.
   static constexpr int kMaxTreeDepth = 128;
-  std::vector<std::uint32_t> order;  // primitive numbers in leaf order
+  std::vector<std::uint32_t> order;  // items in leaf order
 
   // The packets' hierarchy: the binary tree above collapsed into kWide-wide nodes (the inner
   // child of largest surface area opened until a node has kWide children), their children's
@@ -84,14 +92,17 @@ struct PreparedShapes {
   // A wide walk's stack bound: every child of a wide node lies a binary level down or more, so
   // at most kWide - 1 entries per binary level, and one.
   static constexpr int kWideStack = (kWide - 1) * kMaxTreeDepth + 2;
-  // The primitives in leaf order, as the packets' leaves read them, one record each so that a
-  // leaf is read contiguously: for triangles the three vertices' coordinates (x0 y0 z0 x1 ... z2;
-  // the same bits as vx, vy, vz; zeros for a cylinder), the primitive's reference (prim's
-  // entry) and its number.
+  // The items in leaf order, as the packets' leaves read them, one record each so that a leaf
+  // is read contiguously: for triangles the three vertices' coordinates (x0 y0 z0 x1 ... z2; the
+  // same bits as vx, vy, vz), for a sphere its centre and squared radius (the same bits as the
+  // spheres' block), zeros for a cylinder; the primitive's reference (prim's entry, kSphereRef
+  // for a sphere) and its hit id less first_object: a primitive's number, a sphere's id less
+  // first_object (negative), so that hit ids order as object ids do.
+  static constexpr std::int32_t kSphereRef = std::numeric_limits<std::int32_t>::min();
   struct LeafPrim {
     T v[9];
     std::int32_t ref;
-    std::uint32_t prim;
+    std::int32_t prim;
   };
   BigVector<LeafPrim> leaf;
   double build_seconds = 0;
@@ -101,9 +112,11 @@ struct PreparedShapes {
 };
 
 // The scene's shapes in `frame`, rounded to T once per vertex, and their hierarchy. Object ids
-// start at `first_object`.
+// start at `first_object`. With `spheres` (the scene's, prepared: `num_spheres` of them), the
+// hierarchy holds them too.
 template <class T>
-PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int first_object);
+PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int first_object,
+                                 const SphereBlock<T>* spheres = nullptr, int num_spheres = 0);
 
 // The nearest primitive hit with epsilon < t < t_limit (ties to the lower primitive number),
 // from origin o along unit d: object -1 when none.
@@ -152,7 +165,9 @@ template <class T>
 ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Vec3<T>& o,
                                const Vec3<T>& d);
 
-extern template PreparedShapes<float> prepare_shapes<float>(const Scene&, const Frame&, int);
-extern template PreparedShapes<double> prepare_shapes<double>(const Scene&, const Frame&, int);
+extern template PreparedShapes<float> prepare_shapes<float>(const Scene&, const Frame&, int,
+                                                            const SphereBlock<float>*, int);
+extern template PreparedShapes<double> prepare_shapes<double>(const Scene&, const Frame&, int,
+                                                              const SphereBlock<double>*, int);
 
 }  // namespace lancer

@@ -254,9 +254,11 @@ nlohmann::json result_json(const std::string& scene, const BenchResult& result,
                         {"bytes", st.bytes},
                         {"objects", st.spheres},
                         {"nodes", st.nodes}};
-    // Triangles, meshes and cylinders have their own hierarchy beside the spheres'.
+    // Triangles, meshes and cylinders have their own hierarchy, which holds the spheres too
+    // where the scene has both (spheres_in_hierarchy; the spheres' own is then the reference's).
     if (st.shape_primitives > 0)
       out["structure"]["shapes"] = {{"primitives", st.shape_primitives},
+                                    {"spheres_in_hierarchy", st.shape_spheres},
                                     {"nodes", st.shape_nodes},
                                     {"bytes", st.shape_bytes},
                                     {"build_seconds", st.shape_build_seconds}};
@@ -512,8 +514,8 @@ void add_bench(CLI::App& app) {
       ->required()
       ->expected(1, -1);
   cmd->add_option("--accel", args->accel,
-                  "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop) "
-                  "or bvh")
+                  "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop), "
+                  "bvh, or one (as auto, and one hierarchy over the spheres and the shapes)")
       ->capture_default_str();
   cmd->add_option("--width", args->widths,
                   "Widths, e.g. 1,4,8,16 or all (default: all this CPU runs; 1 = reference)");

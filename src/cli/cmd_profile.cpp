@@ -209,7 +209,7 @@ void add_profile(CLI::App& app) {
       "profile", "Where the time goes: per stage time, rays, tests per ray and lane occupancy");
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_option("--width", args->width, "auto (widest), 4, 8 or 16")->capture_default_str();
-  cmd->add_option("--accel", args->accel, "auto, none or bvh")->capture_default_str();
+  cmd->add_option("--accel", args->accel, "auto, none, bvh or one")->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");
   cmd->add_option("--resolution", args->overrides.resolution, "Override the scene's, NXxNY");

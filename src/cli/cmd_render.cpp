@@ -61,23 +61,33 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
         scene.triangles(), scene.triangles() == 1 ? "" : "s", meshes, meshes == 1 ? "" : "es",
         cylinders, cylinders == 1 ? "" : "s", dropped, dropped == 1 ? "" : "s");
     const StructureInfo& st = r.structure;
-    std::printf(
-        "           their hierarchy: %zu primitives, %zu nodes, built in %.1f ms, %zu bytes "
-        "(%.1f per primitive)\n",
-        st.shape_primitives, st.shape_nodes, st.shape_build_seconds * 1e3, st.shape_bytes,
-        st.shape_primitives ? double(st.shape_bytes) / double(st.shape_primitives) : 0.0);
+    if (st.shape_spheres > 0)
+      std::printf("           one hierarchy over them and the %d sphere%s (the packets walk it):",
+                  st.shape_spheres, st.shape_spheres == 1 ? "" : "s");
+    else
+      std::printf("           their hierarchy:");
+    std::printf(" %zu primitives, %zu nodes, built in %.1f ms, %zu bytes (%.1f per primitive)\n",
+                st.shape_primitives + std::size_t(st.shape_spheres), st.shape_nodes,
+                st.shape_build_seconds * 1e3, st.shape_bytes,
+                st.shape_primitives ? double(st.shape_bytes) / double(st.shape_primitives +
+                                                                      std::size_t(st.shape_spheres))
+                                    : 0.0);
   }
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());
   const StructureInfo& st = r.structure;
   if (st.kind == "bvh") {
-    std::printf("  structure  bvh (%d spheres, %zu nodes, built in %.1f ms, %zu bytes)\n",
-                st.spheres, st.nodes, st.build_seconds * 1e3, st.bytes);
+    std::printf("  structure  bvh (%d spheres, %zu nodes, built in %.1f ms, %zu bytes)%s\n",
+                st.spheres, st.nodes, st.build_seconds * 1e3, st.bytes,
+                st.shape_spheres > 0 ? ", the reference's; the packets walk the one above" : "");
     if (r.rays.reflected + r.rays.refracted > 0)
       std::printf("  secondary  rays from reflection and refraction points: %s\n",
                   secondary_walk(st, r.width).c_str());
-  } else
+  } else if (st.shape_spheres > 0) {
+    std::printf("  structure  the spheres in the shapes' hierarchy (above)\n");
+  } else {
     std::printf("  structure  none: plain loop\n");
+  }
   std::printf("  rays     %llu camera, %llu shadow, %llu reflected, %llu refracted, %llu in all\n",
               (unsigned long long)r.rays.camera, (unsigned long long)r.rays.shadow,
               (unsigned long long)r.rays.reflected, (unsigned long long)r.rays.refracted,
@@ -151,6 +161,7 @@ void print_json(const RenderArgs& a, const Scene& scene, const RenderResult& r, 
                    {"cylinders", cylinders},
                    {"dropped_zero_area", dropped},
                    {"primitives", st.shape_primitives},
+                   {"spheres_in_hierarchy", st.shape_spheres},
                    {"nodes", st.shape_nodes},
                    {"bytes", st.shape_bytes},
                    {"build_seconds", st.shape_build_seconds}};
@@ -243,8 +254,8 @@ void add_render(CLI::App& app) {
          "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)")
       ->capture_default_str();
   cmd->add_option("--accel", args->accel,
-                  "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop) "
-                  "or bvh")
+                  "Structure over the spheres: auto (a BVH from 16 spheres on), none (plain loop), "
+                  "bvh, or one (as auto, and one hierarchy over the spheres and the shapes)")
       ->capture_default_str();
   cmd->add_flag("--json", args->json,
                 "Print one JSON object (what ran, rays, render and write times)");

@@ -94,7 +94,7 @@ void add_trade(CLI::App& app) {
   cmd->add_flag("--json", args->json, "Print one JSON object instead of a table");
   cmd->add_option("--plot", args->plot,
                   "Draw speed against error: .png, .svg, .pdf (or another image format)");
-  cmd->add_option("--accel", args->accel, "auto, none or bvh")->capture_default_str();
+  cmd->add_option("--accel", args->accel, "auto, none, bvh or one")->capture_default_str();
   cmd->add_option("--repeat", args->repeat,
                   "Timed runs per configuration, 1 to " + std::to_string(kMaxRepeat) +
                       "; the median is shown")

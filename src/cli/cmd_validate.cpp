@@ -67,8 +67,12 @@ void run_validate(const ValidateArgs& a, int& status) {
   if (!a.json) {
     std::printf("lancer validate: %s, %d x %d, %s precision, reference = width 1\n",
                 a.scene.c_str(), scene.camera.nx, scene.camera.ny, to_string(precision));
-    std::printf("  structure %s\n",
-                ref.structure.kind == "bvh" ? "bvh (reference and packets)" : "none: plain loop");
+    const bool one = ref.structure.shape_spheres > 0;
+    std::printf("  structure %s%s\n",
+                ref.structure.kind == "bvh"
+                    ? (one ? "bvh (reference)" : "bvh (reference and packets)")
+                    : "none: plain loop",
+                one ? "; the packets: the spheres in the shapes' hierarchy" : "");
     std::printf("  %-6s %-8s %10s %10s %12s  %s\n", "width", "isa", "differing", "max ulps",
                 "camera hits", "first differing pixel");
   }
@@ -135,7 +139,7 @@ void add_validate(CLI::App& app) {
   cmd->add_option(
       "--threads", args->threads,
       "Threads (0 = all cores; more than the cores is capped at the cores, at most 4096)");
-  cmd->add_option("--accel", args->accel, "auto, none or bvh: the structure both paths use")
+  cmd->add_option("--accel", args->accel, "auto, none, bvh or one: the structure both paths use")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object (exit status as without it)");
   cmd->add_option("--supersample", args->overrides.supersample, "Override the scene's");

@@ -171,7 +171,8 @@ Accel parse_accel(const std::string& text, const std::string& option) {
   if (text == "auto") return Accel::automatic;
   if (text == "none") return Accel::none;
   if (text == "bvh") return Accel::bvh;
-  throw InputError(option + ": must be auto, none or bvh, not '" + text + "'");
+  if (text == "one") return Accel::one;
+  throw InputError(option + ": must be auto, none, bvh or one, not '" + text + "'");
 }
 
 }  // namespace lancer::cli

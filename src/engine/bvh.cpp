@@ -23,6 +23,8 @@ const char* to_string(Accel a) {
       return "none";
     case Accel::bvh:
       return "bvh";
+    case Accel::one:
+      return "one";
   }
   return "?";
 }

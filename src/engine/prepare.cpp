@@ -73,7 +73,7 @@ template Frame camera_frame<float>(const Scene&);
 template Frame camera_frame<double>(const Scene&);
 
 Accel resolve_accel(const Scene& scene, Accel accel) {
-  if (accel != Accel::automatic) return accel;
+  if (accel != Accel::automatic && accel != Accel::one) return accel;
   return scene.spheres.size() >= std::size_t(kBvhMinSpheres) ? Accel::bvh : Accel::none;
 }
 
@@ -232,8 +232,10 @@ void prepare_spheres(const Scene& scene, PreparedScene<T>& p) {
 }
 
 // The planes (ids after the spheres), then the shapes (after the planes).
+// The shapes' hierarchy holds the spheres too where the scene has both kinds and Accel::one asks
+// for one hierarchy over every bounded kind.
 template <class T>
-void prepare_planes_and_shapes(const Scene& scene, PreparedScene<T>& p) {
+void prepare_planes_and_shapes(const Scene& scene, PreparedScene<T>& p, Accel accel) {
   const Frame& frame = p.frame;
   p.num_planes = static_cast<int>(scene.planes.size());
   for (const Plane& pl : scene.planes) {
@@ -253,9 +255,11 @@ void prepare_planes_and_shapes(const Scene& scene, PreparedScene<T>& p) {
     add_material(
         scene,
         scene.materials[sh.kind == Shape::Kind::mesh ? sh.mesh.material : sh.cylinder.material], p);
+  const bool one_hierarchy = p.num_spheres > 0 && accel == Accel::one;
   if (p.num_shapes > 0)
     p.shapes = std::make_shared<const PreparedShapes<T>>(
-        prepare_shapes<T>(scene, frame, p.num_spheres + p.num_planes));
+        prepare_shapes<T>(scene, frame, p.num_spheres + p.num_planes,
+                          one_hierarchy ? &p.spheres : nullptr, p.num_spheres));
 }
 
 template <class T>
@@ -310,7 +314,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
     for (auto* v : {&p.eye.fx, &p.eye.fy, &p.eye.fz, &p.eye.c}) reserve_prepared(*v, spheres);
 
   prepare_spheres(scene, p);
-  prepare_planes_and_shapes(scene, p);
+  prepare_planes_and_shapes(scene, p, accel);
   prepare_lights(scene, p);
   // Packets look per-object fields up a whole register at a time: pad with zeros.
   for (auto* field : {&p.spheres.cx,          &p.spheres.cy,        &p.spheres.cz,
@@ -324,6 +328,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   p.features.spheres = p.num_spheres > 0;
   p.features.planes = p.num_planes > 0;
   p.features.shapes = p.num_shapes > 0;
+  p.features.spheres_in_shapes = p.shapes && p.shapes->spheres > 0;
   p.features.lights = p.num_lights > 0;
   p.features.refraction = p.features.transparency && scene.max_depth > 0;
   if (resolve_accel(scene, accel) == Accel::bvh && p.num_spheres > 0) add_bvh(p);

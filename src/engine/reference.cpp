@@ -1,6 +1,7 @@
 // The scalar reference renderer. Read it beside SCENE-MODEL.md: each step is numbered as there.
 #include "lancer/reference.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -193,7 +194,9 @@ class Tracer {
   // product of transmit over the objects met (nearest hit beyond epsilon nearer than the light),
   // each once; 0 as soon as it is 0 (an opaque object). A float product of three or more factors
   // depends on their order, so the order is fixed: spheres through the hierarchy where there is
-  // one (its fixed depth-first order, as the packets visit it), else in id order; then planes.
+  // one (its fixed depth-first order, as the packets visit it), else in id order, and in id
+  // order where the spheres are leaves of the shapes' hierarchy too (one hierarchy over every
+  // bounded kind: the packets meet them in its walk and sort them); then planes.
   // kGlass: some object transmits, so the product of transmittances is taken; without it
   // (every scene before glass) the first object met blocks the light and the walk ends there,
   // as cheap as a plain occlusion test.
@@ -201,6 +204,8 @@ class Tracer {
   T shadow_transmittance(const Vec3<T>& p, const Vec3<T>& l, const T& dist) const {
     const T eps = s_.epsilon;
     T transmittance(1);
+    const bool by_id = kGlass && s_.features.spheres_in_shapes;
+    spheres_met_.clear();
     // Meets sphere (cx, cy, cz, r2), object `id`: returns true once the light is blocked.
     auto sphere = [&](const T& cx, const T& cy, const T& cz, const T& r2, int id) {
       const Vec3<T> f = p - Vec3<T>{cx, cy, cz};
@@ -208,6 +213,10 @@ class Tracer {
       if (!(sd.disc >= T(0))) return false;
       const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       if (!(t > eps && t < dist)) return false;
+      if (by_id) {
+        spheres_met_.push_back(id);
+        return false;
+      }
       transmittance = kGlass ? attenuate(transmittance, s_.materials.transmit[id]) : T(0);
       return transmittance == T(0);
     };
@@ -223,6 +232,11 @@ class Tracer {
       for (int i = 0; i < s_.num_spheres; ++i)
         if (sphere(s_.spheres.cx[i], s_.spheres.cy[i], s_.spheres.cz[i], s_.spheres.r2[i], i))
           return transmittance;
+    }
+    std::sort(spheres_met_.begin(), spheres_met_.end());
+    for (const int id : spheres_met_) {
+      transmittance = attenuate(transmittance, s_.materials.transmit[id]);
+      if (transmittance == T(0)) return transmittance;
     }
     for (int k = 0; k < s_.num_planes; ++k) {
       const Vec3<T> normal{s_.planes.nx[k], s_.planes.ny[k], s_.planes.nz[k]};
@@ -285,7 +299,8 @@ class Tracer {
   }
 
   const PreparedScene<T>& s_;
-  mutable std::vector<int> met_;  // shapes_met's list, kept between shadow rays
+  mutable std::vector<int> met_;          // shapes_met's list, kept between shadow rays
+  mutable std::vector<int> spheres_met_;  // the spheres met, where taken in id order
   RayCounts& counts_;
   PathLog* log_ = nullptr;  // null but in render_rows_recorded
   int pixel_ = 0, sample_ = 0;

@@ -435,6 +435,7 @@ StructureInfo structure_of(const PreparedScene<T>& p) {
     info.shape_nodes = p.shapes->nodes.size();
     info.shape_bytes = p.shapes->bytes();
     info.shape_build_seconds = p.shapes->build_seconds;
+    info.shape_spheres = p.shapes->spheres;
   }
   if (!p.bvh.active()) return info;
   info.kind = "bvh";

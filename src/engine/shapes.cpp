@@ -60,6 +60,20 @@ Box<T> cylinder_box(const Cylinder& c, const Frame& frame) {
   return box;
 }
 
+// Sphere k's box: its centre -+ its radius, in double, grown by 2^-20 of the radius and rounded
+// outwards to T (the packets' walk adds the margins for the test's rounding; shapes_walk.hpp).
+template <class T>
+Box<T> sphere_box(const SphereBlock<T>& sp, std::size_t k) {
+  const double c[3] = {double(sp.cx[k]), double(sp.cy[k]), double(sp.cz[k])};
+  const double reach = std::sqrt(double(sp.r2[k])) * (1 + 0x1p-20) + 1e-300;
+  Box<T> box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = std::nextafter(T(c[a] - reach), -std::numeric_limits<T>::infinity());
+    box.hi[a] = std::nextafter(T(c[a] + reach), std::numeric_limits<T>::infinity());
+  }
+  return box;
+}
+
 // Binned SAH over primitive boxes; children of a node are stored side by side.
 template <class T>
 void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
@@ -158,10 +172,10 @@ void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
   }
 }
 
-// The binary tree collapsed into wide nodes (PreparedShapes::wide), and the primitives copied in
-// leaf order for the packets' leaves.
+// The binary tree collapsed into wide nodes (PreparedShapes::wide), and the items copied in leaf
+// order for the packets' leaves (the spheres' from `spheres`).
 template <class T>
-void build_wide(PreparedShapes<T>& s) {
+void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
   using Shapes = PreparedShapes<T>;
   using Wide = typename Shapes::WideNode;
   constexpr int kW = Shapes::kWide;
@@ -244,8 +258,17 @@ void build_wide(PreparedShapes<T>& s) {
   s.leaf.assign(np, typename Shapes::LeafPrim{});
   for (std::size_t j = 0; j < np; ++j) {
     auto& out = s.leaf[j];
-    out.prim = s.order[j];
-    out.ref = s.prim[s.order[j]];
+    const std::uint32_t item = s.order[j];
+    if (item >= s.prim.size()) {  // a sphere
+      const std::size_t k = item - s.prim.size();
+      out.ref = Shapes::kSphereRef;
+      out.prim = std::int32_t(k) - s.first_object;
+      out.v[0] = spheres->cx[k], out.v[1] = spheres->cy[k], out.v[2] = spheres->cz[k];
+      out.v[3] = spheres->r2[k];
+      continue;
+    }
+    out.prim = std::int32_t(item);
+    out.ref = s.prim[item];
     if (out.ref < 0) continue;
     for (int c = 0; c < 3; ++c) {
       const std::uint32_t v = s.tri[3 * std::size_t(out.ref) + std::size_t(c)];
@@ -373,11 +396,13 @@ std::size_t PreparedShapes<T>::bytes() const {
 }
 
 template <class T>
-PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int first_object) {
+PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int first_object,
+                                 const SphereBlock<T>* spheres, int num_spheres) {
   const auto start = std::chrono::steady_clock::now();
   PreparedShapes<T> s;
   s.first_object = first_object;
   s.num_shapes = static_cast<int>(scene.shapes.size());
+  s.spheres = spheres ? num_spheres : 0;
   std::size_t nv = 0, nt = 0, nn = 0, nc = 0;
   bool smooth = false;
   for (const Shape& sh : scene.shapes) {
@@ -394,7 +419,7 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
   if (smooth) reserve_prepared(s.tri_normals, 3 * nt);
   reserve_prepared(s.prim, nt + nc);
   std::vector<Box<T>> boxes;
-  boxes.reserve(nt + nc);
+  boxes.reserve(nt + nc + std::size_t(s.spheres));
   for (int k = 0; k < s.num_shapes; ++k) {
     const Shape& sh = scene.shapes[std::size_t(k)];
     const int object = first_object + k;
@@ -439,8 +464,9 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
       boxes.push_back(box);
     }
   }
+  for (int k = 0; k < s.spheres; ++k) boxes.push_back(sphere_box(*spheres, std::size_t(k)));
   build_hierarchy(s, boxes);
-  build_wide(s);
+  build_wide(s, spheres);
   s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
 }
@@ -457,6 +483,7 @@ ShapeHit<T> shapes_closest(const PreparedShapes<T>& s, const Vec3<T>& o, const V
       [&](std::uint32_t first, std::uint32_t count) {
         for (std::uint32_t j = first; j < first + count; ++j) {
           const std::uint32_t p = s.order[j];
+          if (p >= s.prim.size()) continue;  // a sphere: the reference meets it in its own
           const prim::CylinderHit<T> h = ray.hit(s.prim[p]);
           // Strictly nearer than t_limit; among shapes, an equal t keeps the lower primitive.
           if (h.t < best.t || (h.t == best.t && best.prim >= 0 && std::int64_t(p) < best.prim))
@@ -487,6 +514,7 @@ void shapes_met(const PreparedShapes<T>& s, const Vec3<T>& o, const Vec3<T>& l, 
       [&](std::uint32_t first, std::uint32_t count) {
         for (std::uint32_t j = first; j < first + count; ++j) {
           const std::uint32_t p = s.order[j];
+          if (p >= s.prim.size()) continue;  // a sphere: the reference meets it in its own
           const int object = ray.object(s.prim[p]);
           if (std::find(objects.begin(), objects.end(), object) != objects.end()) continue;
           if (ray.hit(s.prim[p]).t < dist) {
@@ -588,7 +616,8 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
 
 #define LANCER_SHAPES(T)                                                                           \
   template struct PreparedShapes<T>;                                                               \
-  template PreparedShapes<T> prepare_shapes<T>(const Scene&, const Frame&, int);                   \
+  template PreparedShapes<T> prepare_shapes<T>(const Scene&, const Frame&, int,                    \
+                                               const SphereBlock<T>*, int);                        \
   template ShapeHit<T> shapes_closest<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, \
                                          T, T);                                                    \
   template ShapeHit<T> shape_hit<T>(const PreparedShapes<T>&, const Vec3<T>&, const Vec3<T>&, T,   \

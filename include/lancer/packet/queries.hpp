@@ -71,7 +71,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
                                               B& best_t, I& best_id, RayCounts& counts,
                                               const I& leaving = I(Id(-1)),
                                               bool camera = false) noexcept {
-    if (Prims::Bounded::present(s)) {
+    if (spheres_alone(s)) {
       const int reach = !s.bvh.active() ? 2 : kFromEye ? 0 : Tr::reach(s.bvh, valid, o);
       if (reach < 2) {
         Hy::template closest_in_hierarchy<kFromEye>(s, reach, valid, o, d, best_t, best_id, counts,
@@ -84,6 +84,16 @@ struct Queries : Hybrid<Arch, Real, Mode> {
 
     unbounded_closest(s, valid, o, d, best_t, best_id, counts);
     return valid & (best_t < B(std::numeric_limits<T>::infinity()));
+  }
+
+  // Whether the spheres are walked on their own (their hierarchy or loop): not where they are
+  // leaves of the shapes' hierarchy too (one hierarchy over every bounded kind,
+  // Features::spheres_in_shapes), which the kernels without shapes never meet.
+  static bool spheres_alone(const Prepared& s) noexcept {
+    if constexpr (Prims::kShapes)
+      return Prims::Bounded::present(s) && !s.features.spheres_in_shapes;
+    else
+      return Prims::Bounded::present(s);
   }
 
   // The object ids of hit ids (meshes' hits carry their triangle: Primitives::Meshes).
@@ -111,7 +121,7 @@ struct Queries : Hybrid<Arch, Real, Mode> {
                                                           const V* o, const V* d, B* best_t,
                                                           I* best_id, RayCounts& counts) noexcept {
     constexpr int n = kGX * kGY;
-    if (Prims::Bounded::present(s)) {
+    if (spheres_alone(s)) {
       if (s.bvh.active()) {
         closest_group_in_hierarchy<n>(s, valid, o, d, best_t, best_id, counts);
       } else {
@@ -198,7 +208,10 @@ struct Queries : Hybrid<Arch, Real, Mode> {
                                   counts, step);
     };
     M pending = valid;
-    if (Bounded::present(s)) {
+    if constexpr (Prims::kShapes)
+      if (s.features.spheres_in_shapes && s.features.transparency)
+        return any_in_one_hierarchy(s, valid, p, l, dist, eps, counts, step);
+    if (spheres_alone(s)) {
       const int reach = s.bvh.active() ? Tr::reach(s.bvh, valid, p) : 2;
       if (reach < 2) {
         const Spheres sp = leaf_spheres(s);
@@ -226,6 +239,26 @@ struct Queries : Hybrid<Arch, Real, Mode> {
       done = !xsimd::any(pending);
     });
     return pending;
+  }
+
+  // any_hit where the spheres are leaves of the shapes' hierarchy and objects transmit: the
+  // walk's objects in id order around the other unbounded kinds', whose ids lie between the
+  // spheres' and the shapes' (opaque scenes need no order: any_hit's own).
+  template <class Step>
+  [[gnu::noinline]] static M any_in_one_hierarchy(const Prepared& s, const M& valid, V p, V l,
+                                                  B dist, B eps, RayCounts& counts,
+                                                  Step& step) noexcept {
+    using Shapes = typename Prims::Shapes;
+    auto between = [&](M pending) {
+      Prims::Unbounded::each([&](auto kind) {
+        using K = KindOf<decltype(kind)>;
+        if constexpr (!std::is_same_v<K, Shapes>)
+          if (K::present(s) && xsimd::any(pending))
+            pending = K::any(s, pending, p, l, dist, eps, counts, step);
+      });
+      return pending;
+    };
+    return Shapes::any_around(s, valid, p, l, dist, eps, counts, step, between);
   }
 
   // A packet of shadow rays under way: the lanes still looking for what they meet, and each

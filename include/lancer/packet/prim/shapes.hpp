@@ -50,6 +50,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   using typename L::Id;
   using typename L::M;
   using typename L::MI;
+  using typename L::Mth;
   using typename L::Prepared;
   using typename L::T;
   using typename L::V;
@@ -65,11 +66,12 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   using Walk = ShapeWalk<Arch, T>;
   using Ray = typename Walk::Ray;
 
-  // The nearest hit of the primitive at leaf-order position j (its reference `ref`: a triangle
-  // >= 0, else ~cylinder) beyond eps for the lanes of `at`, infinity where none.
+  // The nearest hit of the item at leaf-order position j (its reference `ref`: a triangle >= 0,
+  // a sphere kSphereRef, else ~cylinder) beyond eps for the lanes of `at`, infinity where none.
   static B prim_t(const Shapes& sh, std::size_t j, std::int32_t ref, const Ray& r, const M& at,
                   const B& eps) noexcept {
     if (ref >= 0) return Walk::triangle_t(sh, j, r, at, eps);
+    if (ref == Shapes::kSphereRef) return sphere_t(sh.leaf[j].v, r, at, eps);
     const std::size_t c = std::size_t(~ref);
     const Vec3<T>& a = sh.cyl_base[c];
     const Vec3<T>& ax = sh.cyl_axis[c];
@@ -79,12 +81,26 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         .t;
   }
 
-  // A shape's hit t (primitive id pid) kept where it is nearer for the lanes of `at`: a nearer
-  // t wins, an equal t only over another shape of a higher primitive number (the reference's
-  // order).
-  [[gnu::always_inline]] static void keep_nearer(const B& t, const I& pid, const M& at, Id first,
-                                                 B& best_t, I& best_id) noexcept {
-    const M tie = (t == best_t) & to_m((best_id >= I(first)) & (pid < best_id));
+  // A sphere's nearest hit beyond eps for the lanes of `at` (v: its leaf record's centre and
+  // squared radius), infinity where none: the reference's formulas (formulas.hpp), as the
+  // spheres' own module computes them.
+  [[gnu::noinline]] static B sphere_t(const T* v, const Ray& r, const M& at,
+                                      const B& eps) noexcept {
+    const B inf(std::numeric_limits<T>::infinity());
+    const B r2(v[3]);
+    const V f = r.o - V{B(v[0]), B(v[1]), B(v[2])};
+    const SphereDisc<B> sd = sphere_disc<Mth>(f, r.d, r2);
+    const M m = at & (sd.disc >= B(T(0)));
+    if (!xsimd::any(m)) return inf;
+    const B t = sphere_first_root(sphere_roots<Mth>(sd, sphere_c<Mth>(f, r2)), eps);
+    return xsimd::select(m & (t > eps), t, inf);
+  }
+
+  // A hit t (hit id pid) kept where it is nearer for the lanes of `at`: a nearer t wins, an
+  // equal t only over a hit of a higher id (the reference's order; -1: none).
+  [[gnu::always_inline]] static void keep_nearer(const B& t, const I& pid, const M& at, B& best_t,
+                                                 I& best_id) noexcept {
+    const M tie = (t == best_t) & to_m((best_id >= I(Id(0))) & (pid < best_id));
     const M take = at & ((t < best_t) | tie);
     best_t = xsimd::select(take, t, best_t);
     best_id = xsimd::select(to_mi(take), pid, best_id);
@@ -139,11 +155,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     auto limit = [&] { return best_t; };
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
       for (std::uint32_t j = begin; j < begin + n; ++j) {
-        const std::uint32_t p = sh.leaf[j].prim;
-        tests(counts, at, false);
-        const B t = prim_t(sh, j, sh.leaf[j].ref, r, at, eps);
-        const I pid(Id(first + Id(p)));
-        keep_nearer(t, pid, at, first, best_t, best_id);
+        const std::int32_t ref = sh.leaf[j].ref;
+        tests(counts, at, ref == Shapes::kSphereRef);
+        const B t = prim_t(sh, j, ref, r, at, eps);
+        const I pid(Id(first + Id(sh.leaf[j].prim)));
+        keep_nearer(t, pid, at, best_t, best_id);
       }
       return false;
     };
@@ -220,14 +236,13 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M* at, unsigned packets) {
       count_to.leaf(at, packets);
       for (std::uint32_t j = begin; j < begin + n; ++j) {
-        const std::uint32_t p = sh.leaf[j].prim;
         const std::int32_t ref = sh.leaf[j].ref;
-        const I pid(Id(first + Id(p)));
+        const I pid(Id(first + Id(sh.leaf[j].prim)));
         for (unsigned q = packets; q; q &= q - 1) {
           const int i = __builtin_ctz(q);
-          tests(counts, at[i], false);
+          tests(counts, at[i], ref == Shapes::kSphereRef);
           const B t = prim_t(sh, j, ref, r[i], at[i], eps);
-          keep_nearer(t, pid, at[i], first, bt[i], bi[i]);
+          keep_nearer(t, pid, at[i], bt[i], bi[i]);
         }
       }
       return false;
@@ -353,6 +368,16 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return I::load_aligned(v);
   }
 
+  // An object met by shadow segments and the lanes that meet it (met_objects()).
+  struct Met {
+    int object;
+    unsigned lanes;
+  };
+  struct MetList {
+    const Met* data;
+    std::size_t n;
+  };
+
   // Any hit over the shapes for the lanes still pending, from p along unit l before `dist`.
   // Opaque scenes (no transparency): every object blocks, and the callers' step (queries.hpp
   // shadow_hit, the API's occlusion) only clears its lanes, so the walk returns the lanes still
@@ -367,7 +392,28 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
                                       Step& step) noexcept {
     if (!s.features.transparency) return blocked_walk(s, pending, p, l, dist, eps, counts);
     const MetList met = met_objects(s, pending, p, l, dist, eps, counts);
-    for (std::size_t k = 0; k < met.n && xsimd::any(pending); ++k) {
+    std::size_t k = 0;
+    return step_met(met, k, met.n, pending, step);
+  }
+  // any() in a scene with transparency whose spheres are leaves of this hierarchy: the spheres
+  // met, then between(pending) (the kinds whose ids lie between the spheres' and the shapes'),
+  // then the shapes met, so that every lane's objects come in ascending id.
+  template <class Step, class Between>
+  [[gnu::always_inline]] static M any_around(const Prepared& s, M pending, const V& p, const V& l,
+                                             const B& dist, const B& eps, RayCounts& counts,
+                                             Step& step, Between&& between) noexcept {
+    const MetList met = met_objects(s, pending, p, l, dist, eps, counts);
+    std::size_t k = 0, spheres = 0;
+    while (spheres < met.n && met.data[spheres].object < s.num_spheres) ++spheres;
+    pending = step_met(met, k, spheres, pending, step);
+    if (xsimd::any(pending)) pending = between(pending);
+    return step_met(met, k, met.n, pending, step);
+  }
+  // step() for the objects met[k .. end) while a lane is pending; k left where it stopped.
+  template <class Step>
+  [[gnu::always_inline]] static M step_met(const MetList& met, std::size_t& k, std::size_t end,
+                                           M pending, Step& step) noexcept {
+    for (; k < end && xsimd::any(pending); ++k) {
       const M m = pending & from_bits(met.data[k].lanes);
       if (xsimd::any(m)) pending = step(Id(met.data[k].object), m, pending);
     }
@@ -376,6 +422,11 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
 
   static int object(const Shapes& sh, std::int32_t ref) noexcept {
     return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
+  }
+  // The object of the item at leaf-order position j (a sphere's is its hit id).
+  static int leaf_object(const Shapes& sh, std::size_t j) noexcept {
+    const auto& p = sh.leaf[j];
+    return p.ref == Shapes::kSphereRef ? sh.first_object + p.prim : object(sh, p.ref);
   }
 
   // Leaf-order primitives [begin, begin + n) against the segments of the lanes of at & pending
@@ -388,7 +439,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
                                                   RayCounts& counts, OnHit&& on_hit) noexcept {
     for (std::uint32_t j = begin; j < begin + n; ++j) {
       const M lanes = at & pending;
-      tests(counts, lanes, false);
+      tests(counts, lanes, sh.leaf[j].ref == Shapes::kSphereRef);
       const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
       if (xsimd::any(hit) && on_hit(j, hit)) return true;
     }
@@ -434,14 +485,6 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   // The objects a packet of shadow segments meets in a scene with transparency, each with the
   // lanes that meet it, in ascending object id. The list lives in a buffer of the thread's,
   // valid until its next call.
-  struct Met {
-    int object;
-    unsigned lanes;
-  };
-  struct MetList {
-    const Met* data;
-    std::size_t n;
-  };
   [[gnu::noinline]] static MetList met_objects(const Prepared& s, M pending, V p, V l, B dist,
                                                B eps, RayCounts& counts) noexcept {
     const Shapes& sh = *s.shapes;
@@ -457,7 +500,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
       return segment_leaf(sh, r, begin, n, at, pending, dist, eps, counts,
                           [&](std::uint32_t j, const M& hit) {
-                            add(object(sh, sh.leaf[j].ref), bits(hit));
+                            add(leaf_object(sh, j), bits(hit));
                             return false;
                           });
     };

@@ -11,7 +11,8 @@
 // tested several at a time, the triangles across the register's lanes, by the reference's
 // watertight formula (prim/triangle.hpp on batches; one ray has one shear permutation, so picking
 // the vertices' components is a scalar choice) and the same operations in the same order, so each
-// lane computes the reference's bits. Cylinders are tested by the reference's scalar formula.
+// lane computes the reference's bits. Cylinders and spheres are tested by the reference's scalar
+// formulas.
 // The closest hit is the least (t, primitive), so the order of the tests changes nothing.
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
@@ -22,6 +23,7 @@
 #include <utility>
 #include <xsimd/xsimd.hpp>
 
+#include "lancer/formulas.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/packet/prim/shapes_walk.hpp"
 #include "lancer/prim/cylinder.hpp"
@@ -237,9 +239,20 @@ struct ShapeLone {
         .t;
   }
 
-  // Leaf-order primitives [begin, begin + size), kC at a time: hit(j, t) for each triangle the
-  // ray meets beyond eps (t its hit), then each cylinder of those kC (t its nearest hit beyond
-  // eps, infinity where none); true from hit stops.
+  // The sphere of leaf record v (centre, squared radius): its nearest hit beyond eps, infinity
+  // where none, by the reference's formulas.
+  static T sphere_t(const T* v, const Ray& r, T eps) noexcept {
+    const T inf = std::numeric_limits<T>::infinity();
+    const Vec3<T> f{r.o[0] - v[0], r.o[1] - v[1], r.o[2] - v[2]}, d{r.d[0], r.d[1], r.d[2]};
+    const SphereDisc<T> sd = sphere_disc(f, d, v[3]);
+    if (!(sd.disc >= T(0))) return inf;
+    const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, v[3])), eps);
+    return t > eps ? t : inf;
+  }
+
+  // Leaf-order items [begin, begin + size), kC at a time: hit(j, t) for each triangle the ray
+  // meets beyond eps (t its hit), then each cylinder and sphere of those kC (t its nearest hit
+  // beyond eps, infinity where none); true from hit stops.
   template <class Hit>
   static bool leaf_hits(const Shapes& sh, const Ray& r, T eps, std::uint32_t begin, unsigned size,
                         Hit&& hit) noexcept {
@@ -252,21 +265,24 @@ struct ShapeLone {
       }
       for (unsigned k = 0; k < n; ++k) {
         const auto& p = sh.leaf[begin + j + k];
-        if (p.ref < 0 && hit(begin + j + k, cylinder_t(sh, p.ref, r, eps))) return true;
+        if (p.ref >= 0) continue;
+        const T tk =
+            p.ref == Shapes::kSphereRef ? sphere_t(p.v, r, eps) : cylinder_t(sh, p.ref, r, eps);
+        if (hit(begin + j + k, tk)) return true;
       }
     }
     return false;
   }
 
-  // The closest hit over the shapes, from best_t / best_hit (a hit id: first_hit + primitive for
-  // a shape, lower for anything else, -1 for none): a nearer t wins, an equal t only over a shape
-  // of a higher primitive number. Returns whether it changed.
+  // The closest hit over the hierarchy's items, from best_t / best_hit (a hit id: first_hit +
+  // the leaf record's prim, -1 for none): a nearer t wins, an equal t only over a higher hit id.
+  // Returns whether it changed.
   static bool closest(const Shapes& sh, const Ray& r, T eps, std::int64_t first_hit, T& best_t,
                       std::int64_t& best_hit, std::int32_t child = 0, unsigned count = 0) noexcept {
     bool changed = false;
-    auto consider = [&](T t, std::uint32_t prim) {
+    auto consider = [&](T t, std::int32_t prim) {
       const std::int64_t id = first_hit + std::int64_t(prim);
-      if (t < best_t || (t == best_t && best_hit >= first_hit && id < best_hit))
+      if (t < best_t || (t == best_t && best_hit >= 0 && id < best_hit))
         best_t = t, best_hit = id, changed = true;
     };
     walk(
