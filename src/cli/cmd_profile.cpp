@@ -115,11 +115,12 @@ void print_camera_blocks(const ProfileResult& r) {
   std::printf(
       "  camera rays alone, as bench --mode primary traces them: %.5f s (profiled), %llu rays\n",
       cb.seconds, (unsigned long long)cb.rays);
-  print_shape_groups(cb);
+  // In id order: the spheres' blocks, then the shapes' groups.
   if (bt.together + bt.alone == 0) {
     if (cb.shape_groups.groups == 0)
       std::printf(
           "    camera blocks: none (no hierarchy, or not a pinhole camera: packets one by one)\n");
+    print_shape_groups(cb);
     return;
   }
   std::printf(
@@ -138,6 +139,7 @@ void print_camera_blocks(const ProfileResult& r) {
         "    the tiles' cones passed %.1f%% of tile-sphere pairs on to the per-lane sphere "
         "tests\n",
         100 * cb.cone_kept);
+  print_shape_groups(cb);
 }
 
 // The profile as a table: per stage, then the hierarchy's leaves and the camera blocks.
