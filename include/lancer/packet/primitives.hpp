@@ -58,7 +58,8 @@ struct Primitives {
   using Shapes = ShapePackets<Arch, Real, Mode>;
   using Bounded = Spheres;  // the hierarchy's leaves
   // Triangles, meshes and cylinders: bounded, in a hierarchy of their own walked after the
-  // planes (their ids are higher), so listed with the unbounded kinds.
+  // planes (their ids are higher), so listed with the unbounded kinds. With Accel::one it holds
+  // the spheres too, and the spheres' own walk is skipped (Queries::spheres_alone).
   using Unbounded = std::conditional_t<kShapes, KindList<Planes, Shapes>, KindList<Planes>>;
   using All =
       std::conditional_t<kShapes, KindList<Spheres, Planes, Shapes>, KindList<Spheres, Planes>>;
