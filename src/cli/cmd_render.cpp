@@ -66,12 +66,10 @@ void print_summary(const RenderArgs& a, const Scene& scene, const RenderResult& 
                   st.shape_spheres, st.shape_spheres == 1 ? "" : "s");
     else
       std::printf("           their hierarchy:");
+    const std::size_t items = st.shape_primitives + std::size_t(st.shape_spheres);
     std::printf(" %zu primitives, %zu nodes, built in %.1f ms, %zu bytes (%.1f per primitive)\n",
-                st.shape_primitives + std::size_t(st.shape_spheres), st.shape_nodes,
-                st.shape_build_seconds * 1e3, st.shape_bytes,
-                st.shape_primitives ? double(st.shape_bytes) / double(st.shape_primitives +
-                                                                      std::size_t(st.shape_spheres))
-                                    : 0.0);
+                items, st.shape_nodes, st.shape_build_seconds * 1e3, st.shape_bytes,
+                items ? double(st.shape_bytes) / double(items) : 0.0);
   }
   if (!r.precision_reason.empty())
     std::printf("  auto     chose %s: %s\n", to_string(r.precision), r.precision_reason.c_str());

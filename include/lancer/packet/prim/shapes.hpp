@@ -96,11 +96,12 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return xsimd::select(m & (t > eps), t, inf);
   }
 
-  // A hit t (hit id pid) kept where it is nearer for the lanes of `at`: a nearer t wins, an
-  // equal t only over a hit of a higher id (the reference's order; -1: none).
+  // A hit t (hit id pid, never negative) kept where it is nearer for the lanes of `at`: a nearer
+  // t wins, an equal t only over a hit of a higher id (the reference's order; -1, none, is lower
+  // than every hit id, so a miss at t == best_t never takes it).
   [[gnu::always_inline]] static void keep_nearer(const B& t, const I& pid, const M& at, B& best_t,
                                                  I& best_id) noexcept {
-    const M tie = (t == best_t) & to_m((best_id >= I(Id(0))) & (pid < best_id));
+    const M tie = (t == best_t) & to_m(pid < best_id);
     const M take = at & ((t < best_t) | tie);
     best_t = xsimd::select(take, t, best_t);
     best_id = xsimd::select(to_mi(take), pid, best_id);

@@ -282,7 +282,7 @@ struct ShapeLone {
     bool changed = false;
     auto consider = [&](T t, std::int32_t prim) {
       const std::int64_t id = first_hit + std::int64_t(prim);
-      if (t < best_t || (t == best_t && best_hit >= 0 && id < best_hit))
+      if (t < best_t || (t == best_t && id < best_hit))  // id >= 0: never over -1
         best_t = t, best_hit = id, changed = true;
     };
     walk(
