@@ -44,7 +44,7 @@ void attach_progress(RenderOptions& options);
 inline constexpr int kMaxRepeat = 1000;
 void check_repeat(int repeat);
 
-// --accel's text: auto, none or bvh (InputError naming `option` otherwise).
+// --accel's text: auto, none, bvh or one (InputError naming `option` otherwise).
 Accel parse_accel(const std::string& text, const std::string& option);
 
 }  // namespace lancer::cli
