@@ -49,11 +49,12 @@ struct Info {
   std::string isa;               // "avx512f", "avx2", "sse4.2", "scalar", ...
   // What answers the one-ray queries (intersect<1>, occluded<1>, and a packet's lanes with a
   // tnear beyond epsilon), exact and double precision: the one-ray kernels on "avx512f" or
-  // "avx2", equal to the reference bit for bit; in a scene with triangles, meshes or cylinders,
-  // the narrowest packet kernel, its one lane walking alone ("sse4.2 packet", "avx2 packet":
-  // intersect<1> and occluded<1> from epsilon; the same bits; a ray with its own tnear takes
-  // the reference); or "scalar", the reference itself (width 1, no AVX2). Fast mode answers
-  // them in packets.
+  // "avx2", equal to the reference bit for bit (in a scene with triangles, meshes or
+  // cylinders, a packet's lanes with their own tnear take the reference); without them (SSE4.2
+  // alone), in a scene with shapes, the narrowest packet kernel, its one lane walking alone
+  // ("sse4.2 packet": intersect<1> and occluded<1> from epsilon; the same bits; a ray with its
+  // own tnear takes the reference); or "scalar", the reference itself (width 1, no AVX2). Fast
+  // mode answers them in packets.
   std::string one_ray = "scalar";
   int threads = 1;                      // what render_rows and primary_hits run on
   int nx = 0, ny = 0, supersample = 1;  // the camera's image

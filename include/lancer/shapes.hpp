@@ -92,6 +92,25 @@ struct PreparedShapes {
   // A wide walk's stack bound: every child of a wide node lies a binary level down or more, so
   // at most kWide - 1 entries per binary level, and one.
   static constexpr int kWideStack = (kWide - 1) * kMaxTreeDepth + 2;
+  // One ray's hierarchy (packet/prim/shapes_lone.hpp): lone[i] is wide node i's subtree in
+  // kLone-wide form, wide[i]'s children with the inner one of largest area opened into its own
+  // while they fit. One ray tests a node's eight boxes in one or two registers, so wider nodes
+  // take it down in fewer steps. An inner slot names wide node j, its subtree lone[j]: every
+  // wide node has its own, so a packet's lanes that go on alone at any node walk on from there.
+  // The same padded boxes as the wide nodes', the same leaves; unused slots have empty boxes
+  // (lo +inf, hi -inf), which no ray meets.
+  static constexpr int kLone = 8;
+  struct alignas(64) LoneNode {  // four cache lines (float)
+    T lo_x[kLone], hi_x[kLone], lo_y[kLone], hi_y[kLone], lo_z[kLone], hi_z[kLone];
+    std::int32_t child[kLone];
+    std::uint8_t count[kLone];
+    std::int32_t arity;
+  };
+  static constexpr int lone_lo_plane(int a) { return 2 * kLone * a; }
+  static constexpr int lone_hi_plane(int a) { return 2 * kLone * a + kLone; }
+  BigVector<LoneNode> lone;
+  // Every lone step goes a wide level down or more, pushing kLone - 1 entries at most.
+  static constexpr int kLoneStack = (kLone - 1) * kMaxTreeDepth + 2;
   // The items in leaf order, as the packets' leaves read them, one record each so that a leaf
   // is read contiguously: for triangles the three vertices' coordinates (x0 y0 z0 x1 ... z2; the
   // same bits as vx, vy, vz), for a sphere its centre and squared radius (the same bits as the
@@ -110,6 +129,10 @@ struct PreparedShapes {
   std::size_t triangles() const { return tri_object.size(); }
   std::size_t bytes() const;  // everything above, as allocated
 };
+
+// s.lone from s.wide (shapes_lone.cpp).
+template <class T>
+void build_lone(PreparedShapes<T>& s);
 
 // The scene's shapes in `frame`, rounded to T once per vertex, and their hierarchy. Object ids
 // start at `first_object`. With `spheres` (the scene's, prepared: `num_spheres` of them), the

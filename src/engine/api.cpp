@@ -208,13 +208,13 @@ void trace_alone(const Engine<T>& e, bool any, int w, Chunk<T>& ch) {
   const packet::OneRayScene<T>& spheres = e.one_scene;
   for (int l = 0; l < w; ++l) {
     if (!ch.alone[l]) continue;
-    if (one) {
+    if (one && !s.shapes) {  // a shape's fields need the kernel's primitive or the reference's
       const T o[3] = {ch.rays[l], ch.rays[w + l], ch.rays[2 * w + l]};
       const T d[3] = {ch.rays[3 * w + l], ch.rays[4 * w + l], ch.rays[5 * w + l]};
       if (any)
         ch.out[l] = one->occluded(s, spheres, o, d, ch.tmin[l], ch.t[l]);
       else
-        ch.out[l] = one->closest(s, spheres, o, d, ch.tmin[l], ch.t[l], ch.t[l], ch.id[l]);
+        ch.out[l] = one->closest(s, spheres, o, d, ch.tmin[l], ch.t[l], ch.t[l], ch.id[l], nullptr);
       continue;
     }
     const reference::Hit<T> hit = reference::closest_hit(
@@ -270,13 +270,13 @@ void store_hit(const PreparedScene<T>& s, const Vec3<T>& o, const Vec3<T>& d, T 
 }
 
 // Lane k of a hit packet where the kernel's lane hit primitive `prim` of a triangle, mesh or
-// cylinder (object id): store_hit's fields, from the primitive's number (shape_fields).
+// cylinder (object id), its hits counted beyond tmin: store_hit's fields, from the primitive's
+// number (shape_fields; a cylinder's part is that of its first root beyond tmin).
 template <class T, int N>
-void store_shape_hit(const Engine<T>& e, const Vec3<T>& o, const Vec3<T>& d, T t, int id,
+void store_shape_hit(const Engine<T>& e, const Vec3<T>& o, const Vec3<T>& d, T t, T tmin, int id,
                      std::int64_t prim, HitPacket<N>& h, int k) {
   const PreparedScene<T>& s = e.scene;
-  const ShapeFields<T> f =
-      shape_fields(*s.shapes, e.first_triangle.data(), o, d, t, s.epsilon, prim);
+  const ShapeFields<T> f = shape_fields(*s.shapes, e.first_triangle.data(), o, d, t, tmin, prim);
   h.id[k] = id;
   h.t[k] = static_cast<float>(t);
   h.prim_id[k] = f.surface.prim_in_object;
@@ -312,8 +312,8 @@ void store_hits(const Engine<T>& e, const packet::KernelTable<T>& k, const Chunk
     for (int l = 0; l < n; ++l)
       if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes) {
         if (ch.valid[l])  // the kernel's: its primitive
-          store_shape_hit(e, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
-                          ch.prim[l], h, c + l);
+          store_shape_hit(e, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], s.epsilon,
+                          ch.id[l], ch.prim[l], h, c + l);
         else  // the reference's: its whole hit
           store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
                     ch.shape.at[l], h, c + l);
@@ -338,9 +338,12 @@ void one_ray(const Engine<T>& e, const int* valid, const RayPacket<N>& r, HitPac
     return;
   }
   T t = tfar;
-  std::int32_t id = -1;
-  if (!sees || !e.one->closest(s, e.one_scene, ov, dv, tmin, tfar, t, id)) id = -1;
-  store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
+  std::int32_t id = -1, prim = -1;
+  if (!sees || !e.one->closest(s, e.one_scene, ov, dv, tmin, tfar, t, id, &prim)) id = -1;
+  if (id >= 0 && prim >= 0)
+    store_shape_hit(e, o, d, t, tmin, id, prim, *hit, 0);
+  else
+    store_hit(s, o, d, t, id, ShapeHit<T>{}, *hit, 0);
 }
 
 // A packet of whole chunks in a scene with triangles, meshes or cylinders, in one call of the
@@ -361,8 +364,8 @@ template <class T, int N>
   for (int l = 0; l < N; ++l)
     if (h.id[l] >= first_shape) {
       const T* chunk = rays + 6 * (l - l % w);  // lane l's chunk
-      store_shape_hit(e, lane_vec(chunk, w, l % w, 0), lane_vec(chunk, w, l % w, 3), t[l], h.id[l],
-                      prim[l], h, l);
+      store_shape_hit(e, lane_vec(chunk, w, l % w, 0), lane_vec(chunk, w, l % w, 3), t[l],
+                      s.epsilon, h.id[l], prim[l], h, l);
     }
   return true;
 }
@@ -480,13 +483,12 @@ void choose_widths(Engine<T>& e, const Info& info) {
     e.whole[query_slot(n)] = e.query[query_slot(n)] && n % e.query_width[query_slot(n)] == 0;
   e.render = kernels_of<T>(e.scene, info.width, info.precision);
   // One ray at a time: the one-ray kernels, unless the scene asked for the reference (width 1).
-  // Fast mode has no lone lanes. The one-ray kernels model spheres and planes only: scenes with
-  // triangles, meshes or cylinders answer Ray1 on the narrowest packet kernel instead, whose
+  // Fast mode has no lone lanes. Where the CPU has no one-ray kernels (SSE4.2 alone), scenes
+  // with triangles, meshes or cylinders answer Ray1 on the narrowest packet kernel instead, whose
   // lone lane walks the shapes' hierarchy one ray at a time (packet/prim/shapes_lone.hpp); a
   // ray with its own tnear there stays with the reference.
-  if (info.width > 1 && info.precision != Precision::fast && !e.scene.shapes)
-    e.one = one_ray_of<T>();
-  if (info.width > 1 && e.scene.shapes && e.query_width[query_slot(1)] == 1) {
+  if (info.width > 1 && info.precision != Precision::fast) e.one = one_ray_of<T>();
+  if (!e.one && info.width > 1 && e.scene.shapes && e.query_width[query_slot(1)] == 1) {
     int w = 1;
     for (int cand : widths)
       if (cand > 1 && cand <= info.width) w = cand;  // widest first: the last is the narrowest

@@ -392,7 +392,7 @@ std::size_t PreparedShapes<T>::bytes() const {
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
          nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
-         leaf.capacity() * sizeof(LeafPrim);
+         lone.capacity() * sizeof(LoneNode) + leaf.capacity() * sizeof(LeafPrim);
 }
 
 template <class T>
@@ -467,6 +467,7 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
   for (int k = 0; k < s.spheres; ++k) boxes.push_back(sphere_box(*spheres, std::size_t(k)));
   build_hierarchy(s, boxes);
   build_wide(s, spheres);
+  build_lone(s);
   s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
 }

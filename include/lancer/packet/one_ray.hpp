@@ -24,7 +24,9 @@
 #include "lancer/packet/intrin.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/packet/one_ray_api.hpp"
+#include "lancer/packet/prim/shapes_lone.hpp"
 #include "lancer/prepared.hpp"
+#include "lancer/prim/triangle.hpp"
 #include "lancer/vec3.hpp"
 
 namespace lancer::packet {
@@ -352,8 +354,21 @@ struct OneRayKernel {
     return false;
   }
 
+  // The triangles, meshes and cylinders: ShapeLone's walk over their hierarchy (the walk a
+  // packet's lone lanes take), the ray set up as a packet's lane is (ShapeWalk::Ray): the
+  // reference's shear, and 1 / d (1 where d is 0) for the boxes.
+  using Lone = ShapeLone<Arch, T>;
+  static typename Lone::Ray lone_ray(const T* o, const T* d) noexcept {
+    const prim::RayShear<T> sh = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
+    const int axes[3] = {sh.kx, sh.ky, sh.kz};
+    T f[6] = {sh.sx, sh.sy, sh.sz, T(0), T(0), T(0)};
+    for (int a = 0; a < 3; ++a) f[3 + a] = T(1) / (d[a] == T(0) ? T(1) : d[a]);
+    return typename Lone::Ray(o, d, axes, f);
+  }
+
   static bool closest(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,
-                      T tmin, T tfar, T& t_out, std::int32_t& id_out) noexcept {
+                      T tmin, T tfar, T& t_out, std::int32_t& id_out,
+                      std::int32_t* prim_out) noexcept {
     // Only hits before tfar count: starting from it, nothing at or beyond it is taken (an equal
     // t would need an id below -1), and what is nearer is the reference's minimum.
     T best_t = tfar;
@@ -382,8 +397,23 @@ struct OneRayKernel {
       return false;
     });
     if (best_at) best_id = *best_at;
+    std::int32_t prim = -1;
+    if (s.shapes) {
+      // Shapes' hit ids follow every sphere's and plane's id, so an equal t stays with those
+      // (the reference's lower id); among shapes, primitives are numbered in object-id order.
+      const std::int64_t first = s.num_spheres + s.num_planes;
+      std::int64_t hit = best_id;
+      Lone::closest(*s.shapes, lone_ray(o, d), tmin, first, best_t, hit);
+      if (hit >= first) {
+        prim = std::int32_t(hit - first);
+        best_id = Lone::object(*s.shapes, s.shapes->prim[std::size_t(prim)]);
+      } else {
+        best_id = std::int32_t(hit);  // a sphere item of one hierarchy: its own id
+      }
+    }
     if (best_id < 0) return false;
     t_out = best_t, id_out = best_id;
+    if (prim_out) *prim_out = prim;
     return true;
   }
 
@@ -391,7 +421,8 @@ struct OneRayKernel {
                        T tmin, T tfar) noexcept {
     auto before = [&](auto, T t) { return t < tfar; };
     // The planes first: a few tests, and an unbounded plane blocks most rays that meet it.
-    return planes(s, o, d, tmin, before) || all_spheres<true>(s, one, o, d, tmin, tfar, before);
+    return planes(s, o, d, tmin, before) || all_spheres<true>(s, one, o, d, tmin, tfar, before) ||
+           (s.shapes && Lone::any(*s.shapes, lone_ray(o, d), tmin, tfar));
   }
 };
 

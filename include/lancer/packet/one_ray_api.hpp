@@ -46,17 +46,19 @@ OneRayScene<float> one_ray_scene(const Bvh<float>& h);
 OneRayScene<double> one_ray_scene(const Bvh<double>& h);
 
 // One ray in the prepared frame (origin o, unit direction d), its hits counted at
-// tmin < t < tfar (tmin at least the scene's epsilon). Scenes of spheres and planes only: the
-// triangles, meshes and cylinders stay with the reference.
+// tmin < t < tfar (tmin at least the scene's epsilon). Every kind: the triangles, meshes and
+// cylinders by the walk a packet's lone lanes take (packet/prim/shapes_lone.hpp).
 template <class Real>
 struct OneRayTable {
   const char* isa;  // "avx2", "avx512f"
   // The reference's closest hit (reference::closest_hit from tmin), bit for bit, where it lies
-  // before tfar: returns true and sets t and id (the object id, ties to the lower id); else
-  // leaves them.
+  // before tfar: returns true and sets t and id (the object id, ties to the lower id), and
+  // where prim is non-null, *prim to the primitive number of a triangle, mesh or cylinder hit
+  // (PreparedShapes::prim's index), -1 for a sphere or plane; else leaves them.
   // `one`: one_ray_scene(scene.bvh).
   bool (*closest)(const PreparedScene<Real>&, const OneRayScene<Real>& one, const Real* o,
-                  const Real* d, Real tmin, Real tfar, Real& t, std::int32_t& id);
+                  const Real* d, Real tmin, Real tfar, Real& t, std::int32_t& id,
+                  std::int32_t* prim);
   // Whether some object lies at tmin < t < tfar: exactly where closest would return true.
   // Stops at the first such object.
   bool (*occluded)(const PreparedScene<Real>&, const OneRayScene<Real>& one, const Real* o,

@@ -421,9 +421,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return pending;
   }
 
-  static int object(const Shapes& sh, std::int32_t ref) noexcept {
-    return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
-  }
+  static int object(const Shapes& sh, std::int32_t ref) noexcept { return Lone::object(sh, ref); }
   // The object of the item at leaf-order position j (a sphere's is its hit id).
   static int leaf_object(const Shapes& sh, std::size_t j) noexcept {
     const auto& p = sh.leaf[j];

@@ -1,18 +1,20 @@
-// One ray alone over the shapes' wide hierarchy (PreparedShapes::wide), for a packet's lanes that
-// do not stay together (secondary rays: diffuse bounces, ambient occlusion): the packet walk
-// (shapes_walk.hpp) tests one primitive at a time across every lane, and where the lanes diverge
-// most of that work is for lanes that left the subtree long ago.
+// One ray alone over the shapes' hierarchy, for a packet's lanes that do not stay together
+// (secondary rays: diffuse bounces, ambient occlusion) and for the one-ray kernels: the packet
+// walk (shapes_walk.hpp) tests one primitive at a time across every lane, and where the lanes
+// diverge most of that work is for lanes that left the subtree long ago.
 //
-// A node's four children are tested at once, one register of four T (float: 128 bits; double:
-// 256 where the ISA has AVX, else two registers of two), by the packet walk's own conservative
-// slab form with the ray's values in every lane, so a box it turns away the packet walk turns
-// away too (shapes_walk.hpp's header gives the margins). Children are taken nearest first by the
-// ray's direction code; popped subtrees beyond the best t are culled. A leaf's triangles are
-// tested several at a time, the triangles across the register's lanes, by the reference's
-// watertight formula (prim/triangle.hpp on batches; one ray has one shear permutation, so picking
-// the vertices' components is a scalar choice) and the same operations in the same order, so each
-// lane computes the reference's bits. Cylinders and spheres are tested by the reference's scalar
-// formulas.
+// The walk runs over the lone nodes (PreparedShapes::lone: each wide node's subtree with eight
+// children), so a lane handed over at any wide node goes on from there. A node's eight children
+// are tested at once, in one register of eight floats (AVX; else two of four, and doubles two or
+// four at a time), by the packet walk's own conservative slab form with the ray's values in
+// every lane, so a box it turns away the packet walk turns away too (shapes_walk.hpp's header
+// gives the margins). The closest hit takes met children nearest entry first; occlusion takes
+// them in slot order (Embree's any-hit walk); popped subtrees beyond the limit are culled. A
+// leaf's triangles are tested several at a time, the triangles across the register's lanes, by
+// the reference's watertight formula (prim/triangle.hpp on batches; one ray has one shear
+// permutation, so picking the vertices' components is a scalar choice) and the same operations
+// in the same order, so each lane computes the reference's bits. Cylinders and spheres are
+// tested by the reference's scalar formulas.
 // The closest hit is the least (t, primitive), so the order of the tests changes nothing.
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
@@ -45,18 +47,33 @@ struct LoneArch {
 #endif
 };
 
+// The register of a lone node's boxes: eight floats or four doubles where AVX is there.
+template <class Arch, class T>
+struct LoneNodeArch {
+#if defined(__aarch64__)
+  using type = xsimd::neon64;
+#elif defined(__AVX__)
+  using type = xsimd::avx;
+#else
+  using type = xsimd::sse4_2;
+#endif
+};
+
 template <class Arch, class T>
 struct ShapeLone {
   using Shapes = PreparedShapes<T>;
-  using Wide = typename Shapes::WideNode;
-  using C = xsimd::batch<T, typename LoneArch<Arch, T>::type>;
+  using Node = typename Shapes::LoneNode;
+  using C = xsimd::batch<T, typename LoneArch<Arch, T>::type>;  // a leaf's triangles
   using CM = xsimd::batch_bool<T, typename LoneArch<Arch, T>::type>;
   using CV = Vec3<C>;
+  using N = xsimd::batch<T, typename LoneNodeArch<Arch, T>::type>;  // a node's boxes
+  using NM = xsimd::batch_bool<T, typename LoneNodeArch<Arch, T>::type>;
   static constexpr int kC = static_cast<int>(C::size);
-  static constexpr int kW = Shapes::kWide;
-  static constexpr int kParts = kW / kC;  // registers per node's children
+  static constexpr int kN = static_cast<int>(N::size);
+  static constexpr int kL = Shapes::kLone;
+  static constexpr int kParts = kL / kN;  // registers per node's children
   static constexpr T kWiden = sizeof(T) == 4 ? T(0x1p-20) : T(0x1p-49);
-  static_assert(kW % kC == 0);
+  static_assert(kL % kN == 0);
 
   // One ray as the tests see it: the reference's shear, and the packet walk's slab form.
   struct Ray {
@@ -66,7 +83,7 @@ struct ShapeLone {
     T inv[3];     // 1 / d, 1 where d is 0
     bool zero[3];
     T o_pad, o_lo[3], o_hi[3], o_near[3], o_far[3];
-    int near[3], far[3];  // offsets (in T) in a WideNode of each axis' entry and exit planes
+    int near[3], far[3];  // offsets (in T) in a LoneNode of each axis' entry and exit planes
     unsigned code = 0;
     bool fast = true;  // every |d| at least 2^-60: entry and exit planes known per axis
 
@@ -91,8 +108,8 @@ struct ShapeLone {
         const bool down = d[a] < T(0);
         const T ad = down ? -d[a] : d[a];
         fast = fast && ad >= T(0x1p-60);
-        near[a] = down ? Shapes::hi_plane(a) : Shapes::lo_plane(a);
-        far[a] = down ? Shapes::lo_plane(a) : Shapes::hi_plane(a);
+        near[a] = down ? Shapes::lone_hi_plane(a) : Shapes::lone_lo_plane(a);
+        far[a] = down ? Shapes::lone_lo_plane(a) : Shapes::lone_hi_plane(a);
         o_near[a] = down ? o_hi[a] : o_lo[a], o_far[a] = down ? o_lo[a] : o_hi[a];
         code |= unsigned(d[a] >= T(0)) << a;
       }
@@ -100,77 +117,129 @@ struct ShapeLone {
   };
 
   // The children of n (slot bits) whose boxes [0, lim_w] may meet, and their entry t (widened):
-  // shapes_walk.hpp's child_lanes with one ray in every lane and the children across lanes.
-  static unsigned met_children(const Wide& n, const Ray& r, T lim_w, T* t0_out) noexcept {
+  // shapes_walk.hpp's child_lanes with one ray in every lane and the children across lanes. Nd:
+  // a lone node, or a wide node (the first step of a walk handed over by a packet, whose lines
+  // the packet walk has fetched).
+  template <class Nd>
+  static unsigned met_children(const Nd& n, const Ray& r, T lim_w, T* t0_out) noexcept {
+    constexpr int kW = int(sizeof(n.child) / sizeof(n.child[0]));
+    // A node's boxes in registers of eight (lone nodes, AVX) or four.
+    using R = std::conditional_t<kW % kN == 0, N, C>;
+    using RM = std::conditional_t<kW % kN == 0, NM, CM>;
+    constexpr int kR = int(R::size), kRegs = kW / kR;
+    static_assert(kW % kR == 0);
+    // Plane offsets scale with the node's width (lo: 2 kW a, hi: 2 kW a + kW).
+    auto at = [](int lone_offset) { return lone_offset * kW / kL; };
     unsigned met = 0;
     const T* base = &n.lo_x[0];
-    for (int h = 0; h < kParts; ++h) {
-      auto plane = [&](int off) { return C::load_aligned(base + off + h * kC); };
-      C t0;
-      CM in;
+    for (int h = 0; h < kRegs; ++h) {
+      auto plane = [&](int off) { return R::load_aligned(base + at(off) + h * kR); };
+      R t0;
+      RM in;
       if (r.fast) {
-        const C nx = (plane(r.near[0]) - C(r.o_near[0])) * C(r.inv[0]);
-        const C fx = (plane(r.far[0]) - C(r.o_far[0])) * C(r.inv[0]);
-        const C ny = (plane(r.near[1]) - C(r.o_near[1])) * C(r.inv[1]);
-        const C fy = (plane(r.far[1]) - C(r.o_far[1])) * C(r.inv[1]);
-        const C nz = (plane(r.near[2]) - C(r.o_near[2])) * C(r.inv[2]);
-        const C fz = (plane(r.far[2]) - C(r.o_far[2])) * C(r.inv[2]);
-        t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, C(T(0)))) * C(T(1) - kWiden);
-        const C t1 = xsimd::min(xsimd::min(fx, fy), fz) * C(T(1) + kWiden);
-        in = t0 <= xsimd::min(t1, C(lim_w));
+        const R nx = (plane(r.near[0]) - R(r.o_near[0])) * R(r.inv[0]);
+        const R fx = (plane(r.far[0]) - R(r.o_far[0])) * R(r.inv[0]);
+        const R ny = (plane(r.near[1]) - R(r.o_near[1])) * R(r.inv[1]);
+        const R fy = (plane(r.far[1]) - R(r.o_far[1])) * R(r.inv[1]);
+        const R nz = (plane(r.near[2]) - R(r.o_near[2])) * R(r.inv[2]);
+        const R fz = (plane(r.far[2]) - R(r.o_far[2])) * R(r.inv[2]);
+        t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, R(T(0)))) * R(T(1) - kWiden);
+        const R t1 = xsimd::min(xsimd::min(fx, fy), fz) * R(T(1) + kWiden);
+        in = t0 <= xsimd::min(t1, R(lim_w));
       } else {
-        const C inf(std::numeric_limits<T>::infinity());
-        C near(T(0)), far(lim_w);
-        CM out(false);
+        R near(T(0)), far(lim_w);
+        RM out(false);
         for (int a = 0; a < 3; ++a) {
-          const C lo_t = plane(Shapes::lo_plane(a)), hi_t = plane(Shapes::hi_plane(a));
+          const R lo_t = plane(Shapes::lone_lo_plane(a)), hi_t = plane(Shapes::lone_hi_plane(a));
           if (r.zero[a]) {
-            const C lo = lo_t - C(r.o_pad), hi = hi_t + C(r.o_pad);
-            out = out | (C(r.o[a]) < lo) | (C(r.o[a]) > hi);
+            const R lo = lo_t - R(r.o_pad), hi = hi_t + R(r.o_pad);
+            out = out | (R(r.o[a]) < lo) | (R(r.o[a]) > hi);
             continue;
           }
-          const C ea = (lo_t - C(r.o_lo[a])) * C(r.inv[a]);
-          const C eb = (hi_t - C(r.o_hi[a])) * C(r.inv[a]);
+          const R ea = (lo_t - R(r.o_lo[a])) * R(r.inv[a]);
+          const R eb = (hi_t - R(r.o_hi[a])) * R(r.inv[a]);
           near = xsimd::max(near, xsimd::min(ea, eb));
-          far = xsimd::min(far, xsimd::max(ea, eb) * C(T(1) + kWiden));
+          far = xsimd::min(far, xsimd::max(ea, eb) * R(T(1) + kWiden));
         }
-        t0 = near * C(T(1) - kWiden);
+        t0 = near * R(T(1) - kWiden);
         in = ~out & (t0 <= far);
       }
-      t0.store_unaligned(t0_out + h * kC);
-      met |= lane_bits(in) << (h * kC);
+      t0.store_aligned(t0_out + h * kR);
+      met |= lane_bits(in) << (h * kR);
     }
     return met & ((1u << n.arity) - 1);
   }
 
-  using Packet = ShapeWalk<Arch, T>;  // its node order and prefetch serve one ray too
+  // Lone nodes beyond which a walk handed over below the root stays on the wide nodes (some
+  // 8 MiB of float lone nodes, a mesh of about 200k triangles).
+  static constexpr std::size_t kLoneHandOffNodes = std::size_t(1) << 15;
+
+  // A node's lines (a wide or a lone one), or a leaf's records, on their way before the walk
+  // reaches them.
+  static void prefetch(const Shapes& sh, bool wide, std::int32_t child, unsigned count) noexcept {
+    const std::size_t i = std::size_t(child);
+    const char* p = count != 0 ? reinterpret_cast<const char*>(&sh.leaf[i])
+                    : wide     ? reinterpret_cast<const char*>(&sh.wide[i])
+                               : reinterpret_cast<const char*>(&sh.lone[i]);
+    const std::size_t bytes = count != 0 ? count * sizeof(sh.leaf[0])
+                              : wide     ? sizeof(sh.wide[0])
+                                         : sizeof(Node);
+    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+  }
+
   // Visits the leaves whose boxes the ray may meet before limit() (re-read after each leaf),
-  // children nearest first: leaf(first, count) returns true to stop.
-  template <class Limit, class Leaf>
+  // from wide node `child` (count 0) or the leaf (child, count): leaf(first, count) returns true
+  // to stop. kNear: met children nearest entry first (closest hit); else in slot order.
+  template <bool kNear, class Limit, class Leaf>
   static void walk(const Shapes& sh, const Ray& r, Limit&& limit, Leaf&& leaf,
                    std::int32_t child = 0, unsigned count = 0) noexcept {
-    if (sh.wide.empty()) return;
-    std::int32_t st_child[Shapes::kWideStack];
-    std::uint8_t st_count[Shapes::kWideStack];
-    T st_t0[Shapes::kWideStack];
+    if (sh.lone.empty()) return;
+    std::int32_t st_child[Shapes::kLoneStack];
+    std::uint8_t st_count[Shapes::kLoneStack];
+    T st_t0[Shapes::kLoneStack];
     int sp = 0;
     const T widen = T(1) + kWiden;
+    // Handed over below the root in a large hierarchy (more lone nodes than kLoneHandOffNodes),
+    // the walk stays on the wide nodes: the packet walk has fetched the node it hands over, and
+    // the lone nodes' twice as many lines cost more than their fewer steps save once they come
+    // from memory (docs/notebook/2026-11-incoherent-rays.md). Either kind walks the same
+    // subtree: lone node j stands for wide node j.
+    const bool wide = count == 0 && child != 0 && sh.lone.size() > kLoneHandOffNodes;
     for (;;) {
       if (count == 0) {
-        const Wide& n = sh.wide[std::size_t(child)];
-        alignas(32) T t0[kW];
-        const unsigned met = met_children(n, r, limit() * widen, t0);
+        alignas(64) T t0[kL];
+        unsigned met;
+        const std::int32_t* kids;
+        const std::uint8_t* counts;
+        if (wide) {
+          const auto& n = sh.wide[std::size_t(child)];
+          met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
+        } else {
+          const Node& n = sh.lone[std::size_t(child)];
+          met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
+        }
         if (met != 0) {
-          int slots[kW];
-          const int c = Packet::near_first(n, r.code, met, slots);
-          for (int q = c - 1; q >= 0; --q) {
-            const int s = slots[q];
-            Packet::prefetch(sh, n.child[s], n.count[s]);
-            if (q == 0) break;
-            st_child[sp] = n.child[s], st_count[sp] = n.count[s], st_t0[sp] = t0[s];
-            ++sp;
+          // Pushed farthest first (kNear: each met child placed by its rank, no branch on the
+          // distances), the nearest, on top, taken at once.
+          const int c = __builtin_popcount(met);
+          for (unsigned m = met; m; m &= m - 1) {
+            const int k = __builtin_ctz(m);
+            int at = sp;
+            if constexpr (kNear) {
+              int nearer = 0;  // met children before k: nearer, or as near in a lower slot
+              for (unsigned q = met; q; q &= q - 1) {
+                const int j = __builtin_ctz(q);
+                nearer += t0[j] < t0[k] || (t0[j] == t0[k] && j < k);
+              }
+              at = sp + c - 1 - nearer;
+            } else {
+              at = sp + c - 1 - __builtin_popcount(met & ((1u << k) - 1u));
+            }
+            st_child[at] = kids[k], st_count[at] = counts[k], st_t0[at] = t0[k];
+            prefetch(sh, wide, kids[k], counts[k]);
           }
-          child = n.child[slots[0]], count = n.count[slots[0]];
+          sp += c - 1;
+          child = st_child[sp], count = st_count[sp];
           continue;
         }
       } else if (leaf(std::uint32_t(child), count)) {
@@ -230,6 +299,11 @@ struct ShapeLone {
     return hit;
   }
 
+  // The object of primitive reference ref (PreparedShapes::prim's entry).
+  static int object(const Shapes& sh, std::int32_t ref) noexcept {
+    return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
+  }
+
   // The cylinder ~ref's nearest hit beyond eps (infinity where none): the reference's.
   static T cylinder_t(const Shapes& sh, std::int32_t ref, const Ray& r, T eps) noexcept {
     const std::size_t c = std::size_t(~ref);
@@ -285,7 +359,7 @@ struct ShapeLone {
       if (t < best_t || (t == best_t && id < best_hit))  // id >= 0: never over -1
         best_t = t, best_hit = id, changed = true;
     };
-    walk(
+    walk<true>(
         sh, r, [&] { return best_t; },
         [&](std::uint32_t begin, unsigned size) {
           return leaf_hits(sh, r, eps, begin, size, [&](std::uint32_t j, T t) {
@@ -302,7 +376,7 @@ struct ShapeLone {
   static bool any(const Shapes& sh, const Ray& r, T eps, T dist, std::int32_t child = 0,
                   unsigned count = 0) noexcept {
     bool found = false;
-    walk(
+    walk<false>(
         sh, r, [&] { return dist; },
         [&](std::uint32_t begin, unsigned size) {
           return leaf_hits(sh, r, eps, begin, size,
