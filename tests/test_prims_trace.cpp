@@ -188,6 +188,82 @@ TEST(Prims, WatertightGeneratedSphere) {
   expect_no_packet_leaks(c, "generated sphere");
 }
 
+// The leaf ranges (first, count) under wide node i, through the wide nodes (kLone false) or the
+// lone nodes, sorted; and each slot's box met on the way, keyed by the slot's (child, count).
+template <class T, bool kLone>
+void subtree(const PreparedShapes<T>& s, std::int32_t i,
+             std::vector<std::pair<std::int32_t, int>>& leaves,
+             std::map<std::pair<std::int32_t, int>, std::vector<T>>* boxes) {
+  const auto& n = [&]() -> const auto& {
+    if constexpr (kLone)
+      return s.lone[std::size_t(i)];
+    else
+      return s.wide[std::size_t(i)];
+  }
+  ();
+  for (int k = 0; k < n.arity; ++k) {
+    if (boxes)
+      (*boxes)[{n.child[k], n.count[k]}] = {n.lo_x[k], n.lo_y[k], n.lo_z[k],
+                                            n.hi_x[k], n.hi_y[k], n.hi_z[k]};
+    if (n.count[k] > 0)
+      leaves.push_back({n.child[k], n.count[k]});
+    else
+      subtree<T, kLone>(s, n.child[k], leaves, boxes);
+  }
+}
+
+// Lone node i holds wide node i's subtree (the same leaves, each once, the same box bits for
+// the same child), eight children at most, more than four where the collapse could open one,
+// and empty boxes in its unused slots: what lets a packet hand a lane over at any node.
+template <class T>
+void expect_lone_nodes(const Scene& scene) {
+  const PreparedScene<T> p = prepare<T>(scene);
+  ASSERT_TRUE(p.shapes);
+  const PreparedShapes<T>& s = *p.shapes;
+  ASSERT_EQ(s.lone.size(), s.wide.size());
+  std::map<std::pair<std::int32_t, int>, std::vector<T>> wide_boxes;
+  std::vector<std::pair<std::int32_t, int>> all;
+  subtree<T, false>(s, 0, all, &wide_boxes);
+  std::size_t items = 0;
+  for (const auto& l : all) items += std::size_t(l.second);
+  EXPECT_EQ(items, s.items());
+  int wider = 0;
+  for (std::size_t i = 0; i < s.wide.size(); ++i) {
+    std::vector<std::pair<std::int32_t, int>> a, b;
+    std::map<std::pair<std::int32_t, int>, std::vector<T>> lone_boxes;
+    subtree<T, false>(s, std::int32_t(i), a, nullptr);
+    subtree<T, true>(s, std::int32_t(i), b, &lone_boxes);
+    std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
+    ASSERT_EQ(a, b) << "lone node " << i;
+    const auto& n = s.lone[i];
+    ASSERT_LE(n.arity, PreparedShapes<T>::kLone);
+    wider += n.arity > PreparedShapes<T>::kWide;
+    for (const auto& [slot, box] : lone_boxes)
+      ASSERT_EQ(std::memcmp(box.data(), wide_boxes.at(slot).data(), sizeof(T) * 6), 0)
+          << "lone node " << i;
+    for (int k = n.arity; k < PreparedShapes<T>::kLone; ++k)
+      EXPECT_TRUE(n.lo_x[k] > n.hi_x[k] && n.lo_y[k] > n.hi_y[k] && n.lo_z[k] > n.hi_z[k]);
+  }
+  EXPECT_GT(wider, int(s.wide.size()) / 4);
+}
+
+TEST(Prims, LoneNodesHoldTheirWideNodesSubtree) {
+  MeshFile f = parse_ply(generate::sphere_ply(3000), "g.ply");
+  Shape sh;
+  place_mesh(std::move(f), MeshTransform{}, false, "g.ply", sh.mesh);
+  Scene s = empty_scene();
+  s.shapes.push_back(std::move(sh));
+  for (int k = 0; k < 12; ++k) {
+    Shape cyl;
+    cyl.kind = Shape::Kind::cylinder;
+    cyl.cylinder.base = {0.2 * k - 1, -1, -2}, cyl.cylinder.top = {0.2 * k - 1, 1, -2.5};
+    cyl.cylinder.radius = 0.05;
+    s.shapes.push_back(cyl);
+  }
+  expect_lone_nodes<float>(s);
+  expect_lone_nodes<double>(s);
+}
+
 // The Stanford bunny of Debian's glmark2-data (a triangle soup: its triangles share edges by
 // coordinates only), at the edges shared by exactly two triangles.
 TEST(Prims, WatertightStanfordBunny) {

@@ -84,7 +84,6 @@ struct ShapeLone {
     bool zero[3];
     T o_pad, o_lo[3], o_hi[3], o_near[3], o_far[3];
     int near[3], far[3];  // offsets (in T) in a LoneNode of each axis' entry and exit planes
-    unsigned code = 0;
     bool fast = true;  // every |d| at least 2^-60: entry and exit planes known per axis
 
     Ray() = default;
@@ -111,15 +110,13 @@ struct ShapeLone {
         near[a] = down ? Shapes::lone_hi_plane(a) : Shapes::lone_lo_plane(a);
         far[a] = down ? Shapes::lone_lo_plane(a) : Shapes::lone_hi_plane(a);
         o_near[a] = down ? o_hi[a] : o_lo[a], o_far[a] = down ? o_lo[a] : o_hi[a];
-        code |= unsigned(d[a] >= T(0)) << a;
       }
     }
   };
 
   // The children of n (slot bits) whose boxes [0, lim_w] may meet, and their entry t (widened):
   // shapes_walk.hpp's child_lanes with one ray in every lane and the children across lanes. Nd:
-  // a lone node, or a wide node (the first step of a walk handed over by a packet, whose lines
-  // the packet walk has fetched).
+  // a lone node, or a wide node (walk() below says when).
   template <class Nd>
   static unsigned met_children(const Nd& n, const Ray& r, T lim_w, T* t0_out) noexcept {
     constexpr int kW = int(sizeof(n.child) / sizeof(n.child[0]));
