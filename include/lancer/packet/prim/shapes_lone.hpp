@@ -27,7 +27,6 @@
 
 #include "lancer/formulas.hpp"
 #include "lancer/packet/lanes.hpp"
-#include "lancer/packet/prim/shapes_walk.hpp"
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
 #include "lancer/shapes.hpp"
@@ -84,7 +83,7 @@ struct ShapeLone {
     bool zero[3];
     T o_pad, o_lo[3], o_hi[3], o_near[3], o_far[3];
     int near[3], far[3];  // offsets (in T) in a LoneNode of each axis' entry and exit planes
-    bool fast = true;  // every |d| at least 2^-60: entry and exit planes known per axis
+    bool fast = true;     // every |d| at least 2^-60: entry and exit planes known per axis
 
     Ray() = default;
     // A packet's lane, its shear and quotients as the packet's Ray (shapes_walk.hpp) computed
