@@ -162,7 +162,7 @@ struct ShapeFrustum {
           B tl[kW];
           for (unsigned b = met; b; b &= b - 1) {
             const int k = __builtin_ctz(b);
-            m[k] = Packet::template child_lanes<true>(n, k, r, mask, lim_w, tl[k]);
+            m[k] = Packet::template child_lanes<Packet::BoxTest::fast>(n, k, r, mask, lim_w, tl[k]);
             if (!xsimd::any(m[k])) met &= ~(1u << k);
           }
           if (met != 0 && !have_f) f = Bounds(r, lanes), have_f = true;
@@ -243,7 +243,8 @@ struct ShapeFrustum {
             unsigned q = 0;
             for (unsigned p = at; p; p &= p - 1) {
               const int i = __builtin_ctz(p);
-              m[k][i] = Packet::template child_lanes<true>(n, k, r[i], mask[i], lim_w[i], tl[k][i]);
+              m[k][i] = Packet::template child_lanes<Packet::BoxTest::fast>(n, k, r[i], mask[i],
+                                                                            lim_w[i], tl[k][i]);
               count_to.box_test();
               q |= unsigned(xsimd::any(m[k][i])) << i;
             }

@@ -35,6 +35,13 @@ struct ShapeWalk {
   static_assert(offsetof(Wide, lo_z) == sizeof(T) * Shapes::lo_plane(2) &&
                 offsetof(Wide, hi_z) == sizeof(T) * Shapes::hi_plane(2));
 
+  // The box test's forms, by what every live lane's direction has: fast, the same sign per axis
+  // over the lanes and no component below 2^-60 in magnitude (the entry and exit planes known
+  // per packet); no_zero, no zero component (each lane's slab the min and max of its two
+  // planes' distances, with no case for an origin that must lie within a slab: incoherent
+  // packets); generic, anything. Where a form applies, it gives what the generic one gives.
+  enum class BoxTest { generic, no_zero, fast };
+
   // v's component k per lane, k given as the masks k == 0 and k == 1.
   static B pick(const V& v, const M& is0, const M& is1) noexcept {
     return xsimd::select(is0, v.x, xsimd::select(is1, v.y, v.z));
@@ -62,6 +69,7 @@ struct ShapeWalk {
     // overflow) and its sign is the same on each axis; near[a], far[a]: the offsets (in T) in a
     // WideNode of axis a's planes the rays enter and leave by.
     bool fast = false;
+    bool no_zero = false;  // no live lane's direction has a zero component (BoxTest::no_zero)
     int near[3] = {Shapes::lo_plane(0), Shapes::lo_plane(1), Shapes::lo_plane(2)};
     int far[3] = {Shapes::hi_plane(0), Shapes::hi_plane(1), Shapes::hi_plane(2)};
 
@@ -106,6 +114,7 @@ struct ShapeWalk {
       const B tiny(T(0x1p-60));
       const M dead = ~valid;
       fast = true;
+      no_zero = xsimd::all(dead | ~(zero_x | zero_y | zero_z));
       const B* comp[3] = {&d.x, &d.y, &d.z};
       for (int a = 0; a < 3; ++a) {
         const B& c = *comp[a];
@@ -139,10 +148,10 @@ struct ShapeWalk {
 
   // The lanes of `lanes` whose segment [0, limit] may meet child k's box (lim_w: limit widened
   // by 1 + kWiden); t0: where they enter it, widened (the walk culls popped subtrees by it).
-  template <bool kFast>
+  template <BoxTest kTest>
   [[gnu::always_inline]] static M child_lanes(const Wide& n, int k, const Ray& r, const M& lanes,
                                               const B& lim_w, B& t0) noexcept {
-    if constexpr (kFast) {
+    if constexpr (kTest == BoxTest::fast) {
       // Every lane's direction has the same signs: entry and exit planes known per packet,
       // the values of the generic form's min and max (rounding is monotonic).
       const T* base = &n.lo_x[0] + k;
@@ -156,6 +165,21 @@ struct ShapeWalk {
       t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, B(T(0)))) * B(T(1) - kWiden);
       const B t1 = xsimd::min(xsimd::min(fx, fy), fz) * B(T(1) + kWiden);
       return lanes & (t0 <= xsimd::min(t1, lim_w));
+    } else if constexpr (kTest == BoxTest::no_zero) {
+      // The generic form below, operation for operation, where no lane's direction has a zero
+      // component: its selects would take the slab's values, and no origin is tested against
+      // a slab.
+      B near(T(0)), far = lim_w;
+      auto slab = [&](T lo_t, T hi_t, const B& olo, const B& ohi, const B& inv) {
+        const B a = (B(lo_t) - olo) * inv, b = (B(hi_t) - ohi) * inv;
+        near = xsimd::max(near, xsimd::min(a, b));
+        far = xsimd::min(far, xsimd::max(a, b) * B(T(1) + kWiden));
+      };
+      slab(n.lo_x[k], n.hi_x[k], r.o_lo.x, r.o_hi.x, r.inv.x);
+      slab(n.lo_y[k], n.hi_y[k], r.o_lo.y, r.o_hi.y, r.inv.y);
+      slab(n.lo_z[k], n.hi_z[k], r.o_lo.z, r.o_hi.z, r.inv.z);
+      t0 = near * B(T(1) - kWiden);
+      return lanes & (t0 <= far);
     } else {
       const B inf(std::numeric_limits<T>::infinity());
       B near(T(0)), far = lim_w;
@@ -241,17 +265,17 @@ struct ShapeWalk {
   // Visits the leaves of the wide hierarchy that some lane of `lanes` may reach before limit()
   // (re-read after each leaf: popped subtrees are culled by it), children nearest first by the
   // packet's direction code: leaf(first, count, lanes_at_leaf) returns true to stop.
-  template <bool kFast, class Limit, class Leaf>
+  template <BoxTest kTest, class Limit, class Leaf>
   [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
                                           Limit& limit, Leaf& leaf) noexcept {
     auto never = [](std::int32_t, unsigned, const M&) { return false; };
-    walk_lanes<kFast, false>(sh, r, lanes, limit, leaf, never, 0);
+    walk_lanes<kTest, false>(sh, r, lanes, limit, leaf, never, 0);
   }
 
   // The same walk with the hybrid switch (Benthin et al.) where kHybrid: a subtree (a node or a
   // leaf) that `lone` live lanes or fewer reach goes to alone(child, count, lanes), which walks
   // it for them one ray at a time (prim/shapes_lone.hpp) and returns true to stop the walk.
-  template <bool kFast, bool kHybrid, class Limit, class Leaf, class Alone>
+  template <BoxTest kTest, bool kHybrid, class Limit, class Leaf, class Alone>
   [[gnu::always_inline]] static void walk_lanes(const Shapes& sh, const Ray& r, const M& lanes,
                                                 Limit& limit, Leaf& leaf, Alone& alone,
                                                 int lone) noexcept {
@@ -273,7 +297,7 @@ struct ShapeWalk {
         B t0[kW];
         unsigned met = 0;
         for (int k = 0; k < kW; ++k) {
-          m[k] = child_lanes<kFast>(n, k, r, mask, lim_w, t0[k]);
+          m[k] = child_lanes<kTest>(n, k, r, mask, lim_w, t0[k]);
           met |= unsigned(xsimd::any(m[k])) << k;
         }
         met &= (1u << n.arity) - 1;
