@@ -183,6 +183,20 @@ struct ShapeLone {
     for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
   }
 
+  // The slots of a node's kL entry distances t0 beyond t, and at t.
+  static unsigned entries_beyond(const T* t0, T t) noexcept {
+    unsigned bits = 0;
+    for (int h = 0; h < kParts; ++h)
+      bits |= lane_bits(N::load_aligned(t0 + h * kN) > N(t)) << (h * kN);
+    return bits;
+  }
+  static unsigned entries_at(const T* t0, T t) noexcept {
+    unsigned bits = 0;
+    for (int h = 0; h < kParts; ++h)
+      bits |= lane_bits(N::load_aligned(t0 + h * kN) == N(t)) << (h * kN);
+    return bits;
+  }
+
   // Visits the leaves whose boxes the ray may meet before limit() (re-read after each leaf),
   // from wide node `child` (count 0) or the leaf (child, count): leaf(first, count) returns true
   // to stop. kNear: met children nearest entry first (closest hit); else in slot order.
@@ -210,6 +224,8 @@ struct ShapeLone {
         if (wide) {
           const auto& n = sh.wide[std::size_t(child)];
           met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
+          // The slots a wide node lacks, compared with the others (never met) but set.
+          for (int q = Shapes::kWide; q < kL; ++q) t0[q] = T(0);
         } else {
           const Node& n = sh.lone[std::size_t(child)];
           met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
@@ -222,12 +238,11 @@ struct ShapeLone {
             const int k = __builtin_ctz(m);
             int at = sp;
             if constexpr (kNear) {
-              int nearer = 0;  // met children before k: nearer, or as near in a lower slot
-              for (unsigned q = met; q; q &= q - 1) {
-                const int j = __builtin_ctz(q);
-                nearer += t0[j] < t0[k] || (t0[j] == t0[k] && j < k);
-              }
-              at = sp + c - 1 - nearer;
+              // Below k: the met children farther than it, or as far in a higher slot (one
+              // compare of the node's entries against k's, no branch on the distances).
+              const unsigned above = ~((2u << k) - 1u);
+              at = sp + __builtin_popcount(
+                            met & (entries_beyond(t0, t0[k]) | (entries_at(t0, t0[k]) & above)));
             } else {
               at = sp + c - 1 - __builtin_popcount(met & ((1u << k) - 1u));
             }
@@ -259,13 +274,15 @@ struct ShapeLone {
   }
 
   // Leaf-order primitives [j, j + n) (n <= kC), triangles only in lanes: their hits t beyond
-  // eps, in t_out. Returns the lanes hit (none past n or on a cylinder).
+  // eps, in t_out. Returns the lanes hit (none past n or on a cylinder); tri_out: the lanes of
+  // triangles.
   static unsigned triangles_t(const Shapes& sh, std::uint32_t j, unsigned n, const Ray& r, T eps,
-                              T* t_out) noexcept {
+                              T* t_out, unsigned& tri_out) noexcept {
     const T* v[kC];
     unsigned tri = 0;
     for (unsigned k = 0; k < n; ++k)
       if (sh.leaf[j + k].ref >= 0) tri |= 1u << k, v[k] = sh.leaf[j + k].v;
+    tri_out = tri;
     if (tri == 0) return 0;
     // Lanes without a triangle repeat the first (masked out below), so that no zero edge
     // function sends the register through the exact recomputation.
@@ -329,13 +346,15 @@ struct ShapeLone {
     for (unsigned j = 0; j < size; j += unsigned(kC)) {
       const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
       alignas(32) T t[kC];
-      for (unsigned m = triangles_t(sh, begin + j, n, r, eps, t); m; m &= m - 1) {
+      unsigned tri;
+      for (unsigned m = triangles_t(sh, begin + j, n, r, eps, t, tri); m; m &= m - 1) {
         const unsigned k = unsigned(__builtin_ctz(m));
         if (hit(begin + j + k, t[k])) return true;
       }
-      for (unsigned k = 0; k < n; ++k) {
+      // The others: cylinders and spheres (none in a mesh's leaves).
+      for (unsigned others = ~tri & ((1u << n) - 1u); others; others &= others - 1) {
+        const unsigned k = unsigned(__builtin_ctz(others));
         const auto& p = sh.leaf[begin + j + k];
-        if (p.ref >= 0) continue;
         const T tk =
             p.ref == Shapes::kSphereRef ? sphere_t(p.v, r, eps) : cylinder_t(sh, p.ref, r, eps);
         if (hit(begin + j + k, tk)) return true;
