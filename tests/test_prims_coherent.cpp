@@ -1,6 +1,7 @@
-// Coherent packets of triangles (camera tiles, shadow rays towards a light) against the
-// reference: closest hits bit for bit and segments blocked exactly before the hit, at every
-// packet width, through the per-lane walk and the frustum walk.
+// Coherent packets of triangles (camera tiles, shadow rays towards a light), and incoherent ones
+// with zero direction components, against the reference: closest hits bit for bit and segments
+// blocked exactly before the hit, at every packet width, through the per-lane walk and the
+// frustum walk.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -122,6 +123,80 @@ TEST(Prims, CoherentPacketsFromScatteredOriginsGetTheReferencesHits) {
       expect_coherent_packets_agree<float>(box, eye, "float box", spread, 16);
     }
   }
+}
+
+// Incoherent packets (random directions from scattered origins, as ambient occlusion and
+// diffuse bounces make them) in which every third ray has a zero direction component, or two
+// (the axis turning from ray to ray), beside packets with none: the shapes' walk tests boxes by
+// the generic form where a live lane has a zero component (its origin must then lie within
+// that slab) and by the no_zero form where none has (shapes_walk.hpp's BoxTest). Over a box of
+// axis-aligned faces, rays with zero components run within its faces' planes and its boxes'
+// sides. Closest hits and blocked segments are the reference's at every width.
+template <class T>
+void expect_incoherent_packets_agree(const Shape& mesh, const Vec3<double>& c, double reach,
+                                     const char* what) {
+  Scene s = empty_scene();
+  s.shapes.push_back(mesh);
+  const PreparedScene<T> p = prepare<T>(s);
+  std::mt19937_64 rng(11);
+  std::vector<std::pair<Vec3<T>, Vec3<T>>> rays;
+  for (int r = 0; r < 4096; ++r) {
+    // Packets of 16 rays from near one point; the first packet of each four has no zero.
+    const bool zeros = (r / 16) % 4 != 0;
+    const Vec3<double> at = c + random_unit(rng) * log_uniform(rng, reach * 1e-3, reach);
+    Vec3<double> d = random_unit(rng);
+    if (zeros && r % 3 == 0) {
+      double* comp[3] = {&d.x, &d.y, &d.z};
+      *comp[r % 9 / 3] = 0;
+      if (r % 27 == 0) *comp[(r % 9 / 3 + 1) % 3] = 0;
+      d = normalize(d);
+    }
+    // The box's own planes: a ray with a zero component starting on one of them.
+    const Vec3<double> o = r % 5 == 0 ? Vec3<double>{at.x, at.y, std::round(at.z)} : at;
+    rays.push_back({Vec3<T>::from(o), Vec3<T>::from(d)});
+  }
+  std::vector<reference::Hit<T>> ref(rays.size());
+  std::size_t hit = 0;
+  for (std::size_t r = 0; r < rays.size(); ++r) {
+    ref[r] = reference::closest_hit(p, rays[r].first, rays[r].second);
+    hit += ref[r].id >= 0;
+  }
+  EXPECT_GT(hit, rays.size() / 4) << what;
+  EXPECT_LT(hit, rays.size()) << what;
+  std::size_t checked = 0;
+  for (const int width :
+       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
+    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
+    if (!k) continue;
+    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
+    std::size_t differ = 0;
+    for (std::size_t r = 0; r < rays.size(); ++r)
+      differ += hits[r].id != ref[r].id ||
+                (ref[r].id >= 0 && std::memcmp(&hits[r].t, &ref[r].t, sizeof(T)));
+    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
+                          << " hits not the reference's";
+    for (const bool past : {false, true}) {
+      const std::vector<char> blocked = packet_blocked(p, *k, rays, [&](std::size_t r) {
+        const T t = ref[r].id >= 0 ? ref[r].t : std::numeric_limits<T>::max();
+        return past ? std::nextafter(t, std::numeric_limits<T>::infinity()) : t;
+      });
+      std::size_t wrong = 0;
+      for (std::size_t r = 0; r < rays.size(); ++r)
+        wrong += bool(blocked[r]) != (past && ref[r].id >= 0);
+      EXPECT_EQ(wrong, 0u) << what << ", width " << width << ", segments " << (past ? "past" : "to")
+                           << " the hit: " << wrong << " of " << rays.size() << " wrong";
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 0u) << what << ": no packet width ran";
+}
+
+TEST(Prims, IncoherentPacketsWithZeroDirectionComponentsGetTheReferencesHits) {
+  const Vec3<double> c{0.5, -0.25, -6};
+  const Shape box = grid_box(c - Vec3<double>{2, 2, 2}, c + Vec3<double>{2, 2, 2}, 8);
+  expect_incoherent_packets_agree<float>(box, c, 4, "float box");
+  expect_incoherent_packets_agree<double>(box, c, 4, "double box");
+  expect_incoherent_packets_agree<float>(uv_sphere(c, 1.5, 32, 64), c, 3, "float sphere");
 }
 
 }  // namespace
