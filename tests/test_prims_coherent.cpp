@@ -24,6 +24,48 @@ namespace {
 
 using namespace prims_test;
 
+// The packets' closest hits of `rays` (prepared frame) are the reference's at every width, and
+// their segments are blocked exactly before the hit and not at it. Returns how many rays hit.
+template <class T>
+std::size_t expect_packets_match(const PreparedScene<T>& p,
+                                 const std::vector<std::pair<Vec3<T>, Vec3<T>>>& rays,
+                                 const char* what) {
+  std::vector<reference::Hit<T>> ref(rays.size());
+  std::size_t hit = 0;
+  for (std::size_t r = 0; r < rays.size(); ++r) {
+    ref[r] = reference::closest_hit(p, rays[r].first, rays[r].second);
+    hit += ref[r].id >= 0;
+  }
+  std::size_t checked = 0;
+  for (const int width :
+       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
+    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
+    if (!k) continue;
+    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
+    std::size_t differ = 0;
+    for (std::size_t r = 0; r < rays.size(); ++r)
+      differ += hits[r].id != ref[r].id ||
+                (ref[r].id >= 0 && std::memcmp(&hits[r].t, &ref[r].t, sizeof(T)));
+    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
+                          << " hits not the reference's";
+    // Segments ending at the hit (nothing before it) and just past it (the hit blocks).
+    for (const bool past : {false, true}) {
+      const std::vector<char> blocked = packet_blocked(p, *k, rays, [&](std::size_t r) {
+        const T t = ref[r].id >= 0 ? ref[r].t : std::numeric_limits<T>::max();
+        return past ? std::nextafter(t, std::numeric_limits<T>::infinity()) : t;
+      });
+      std::size_t wrong = 0;
+      for (std::size_t r = 0; r < rays.size(); ++r)
+        wrong += bool(blocked[r]) != (past && ref[r].id >= 0);
+      EXPECT_EQ(wrong, 0u) << what << ", width " << width << ", segments " << (past ? "past" : "to")
+                           << " the hit: " << wrong << " of " << rays.size() << " wrong";
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 0u) << what << ": no packet width ran";
+  return hit;
+}
+
 // Coherent packets, as a camera's tiles make them: directions of one sign per axis within a
 // small cone, aimed at a mesh's vertices and edge points, where the rays pass exactly through
 // the corners and faces of the hierarchy's boxes; from one origin, or (spread > 0) from origins
@@ -62,40 +104,7 @@ void expect_coherent_packets_agree(const Shape& mesh, const Vec3<double>& eye, c
   });
   std::vector<std::pair<Vec3<T>, Vec3<T>>> rays;
   for (const auto& [cell, o, d] : keyed) rays.push_back({o, d});
-  std::vector<reference::Hit<T>> ref(rays.size());
-  std::size_t hit = 0;
-  for (std::size_t r = 0; r < rays.size(); ++r) {
-    ref[r] = reference::closest_hit(p, rays[r].first, rays[r].second);
-    hit += ref[r].id >= 0;
-  }
-  EXPECT_GT(hit, rays.size() / 3) << what;
-  std::size_t checked = 0;
-  for (const int width :
-       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
-    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
-    if (!k) continue;
-    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
-    std::size_t differ = 0;
-    for (std::size_t r = 0; r < rays.size(); ++r)
-      differ += hits[r].id != ref[r].id ||
-                (ref[r].id >= 0 && std::memcmp(&hits[r].t, &ref[r].t, sizeof(T)));
-    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
-                          << " hits not the reference's";
-    // Segments ending at the hit (nothing before it) and just past it (the hit blocks).
-    for (const bool past : {false, true}) {
-      const std::vector<char> blocked = packet_blocked(p, *k, rays, [&](std::size_t r) {
-        const T t = ref[r].id >= 0 ? ref[r].t : std::numeric_limits<T>::max();
-        return past ? std::nextafter(t, std::numeric_limits<T>::infinity()) : t;
-      });
-      std::size_t wrong = 0;
-      for (std::size_t r = 0; r < rays.size(); ++r)
-        wrong += bool(blocked[r]) != (past && ref[r].id >= 0);
-      EXPECT_EQ(wrong, 0u) << what << ", width " << width << ", segments " << (past ? "past" : "to")
-                           << " the hit: " << wrong << " of " << rays.size() << " wrong";
-    }
-    ++checked;
-  }
-  EXPECT_GT(checked, 0u) << what << ": no packet width ran";
+  EXPECT_GT(expect_packets_match(p, rays, what), rays.size() / 3) << what;
 }
 
 TEST(Prims, CoherentPacketsGetTheReferencesHits) {
@@ -155,40 +164,9 @@ void expect_incoherent_packets_agree(const Shape& mesh, const Vec3<double>& c, d
     const Vec3<double> o = r % 5 == 0 ? Vec3<double>{at.x, at.y, std::round(at.z)} : at;
     rays.push_back({Vec3<T>::from(o), Vec3<T>::from(d)});
   }
-  std::vector<reference::Hit<T>> ref(rays.size());
-  std::size_t hit = 0;
-  for (std::size_t r = 0; r < rays.size(); ++r) {
-    ref[r] = reference::closest_hit(p, rays[r].first, rays[r].second);
-    hit += ref[r].id >= 0;
-  }
+  const std::size_t hit = expect_packets_match(p, rays, what);
   EXPECT_GT(hit, rays.size() / 4) << what;
   EXPECT_LT(hit, rays.size()) << what;
-  std::size_t checked = 0;
-  for (const int width :
-       packet::supported_widths(std::is_same_v<T, float> ? Precision::exact : Precision::dbl)) {
-    const packet::KernelTable<T>* k = width > 1 ? kernels_of<T>(width) : nullptr;
-    if (!k) continue;
-    const std::vector<reference::Hit<T>> hits = packet_hits(p, *k, rays);
-    std::size_t differ = 0;
-    for (std::size_t r = 0; r < rays.size(); ++r)
-      differ += hits[r].id != ref[r].id ||
-                (ref[r].id >= 0 && std::memcmp(&hits[r].t, &ref[r].t, sizeof(T)));
-    EXPECT_EQ(differ, 0u) << what << ", width " << width << ": " << differ << " of " << rays.size()
-                          << " hits not the reference's";
-    for (const bool past : {false, true}) {
-      const std::vector<char> blocked = packet_blocked(p, *k, rays, [&](std::size_t r) {
-        const T t = ref[r].id >= 0 ? ref[r].t : std::numeric_limits<T>::max();
-        return past ? std::nextafter(t, std::numeric_limits<T>::infinity()) : t;
-      });
-      std::size_t wrong = 0;
-      for (std::size_t r = 0; r < rays.size(); ++r)
-        wrong += bool(blocked[r]) != (past && ref[r].id >= 0);
-      EXPECT_EQ(wrong, 0u) << what << ", width " << width << ", segments " << (past ? "past" : "to")
-                           << " the hit: " << wrong << " of " << rays.size() << " wrong";
-    }
-    ++checked;
-  }
-  EXPECT_GT(checked, 0u) << what << ": no packet width ran";
 }
 
 TEST(Prims, IncoherentPacketsWithZeroDirectionComponentsGetTheReferencesHits) {
