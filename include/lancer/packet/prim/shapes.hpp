@@ -113,13 +113,9 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
                                           Limit&& limit, Leaf&& leaf) noexcept {
     if (sh.wide.empty()) return;
-    using Test = typename Walk::BoxTest;
-    if (r.fast)
-      Walk::template walk<Test::fast>(sh, r, lanes, limit, leaf);
-    else if (r.no_zero)
-      Walk::template walk<Test::no_zero>(sh, r, lanes, limit, leaf);
-    else
-      Walk::template walk<Test::generic>(sh, r, lanes, limit, leaf);
+    Walk::with_box_test(r, [&](auto test) {
+      Walk::template walk<decltype(test)::value>(sh, r, lanes, limit, leaf);
+    });
   }
 
   // A coherent packet's walk: the frustum first (packet/prim/shapes_frustum.hpp) on hierarchies
@@ -310,13 +306,10 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   static void hybrid(const Shapes& sh, const Ray& r, const M& lanes, Limit& limit, Leaf& leaf,
                      Alone& alone, int lone) noexcept {
     if (sh.wide.empty()) return;
-    using Test = typename Walk::BoxTest;
-    if (r.fast)
-      Walk::template walk_lanes<Test::fast, true>(sh, r, lanes, limit, leaf, alone, lone);
-    else if (r.no_zero)
-      Walk::template walk_lanes<Test::no_zero, true>(sh, r, lanes, limit, leaf, alone, lone);
-    else
-      Walk::template walk_lanes<Test::generic, true>(sh, r, lanes, limit, leaf, alone, lone);
+    Walk::with_box_test(r, [&](auto test) {
+      Walk::template walk_lanes<decltype(test)::value, true>(sh, r, lanes, limit, leaf, alone,
+                                                             lone);
+    });
   }
   // A packet's rays lane by lane, each made ready for ShapeLone when it first goes alone.
   struct LoneRays {

@@ -183,17 +183,14 @@ struct ShapeLone {
     for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
   }
 
-  // The slots of a node's kL entry distances t0 beyond t, and at t.
-  static unsigned entries_beyond(const T* t0, T t) noexcept {
+  // The slots whose entry distance (d: a node's kL of them, in registers) lies beyond t, or at t
+  // in a slot of `after`: those a child entered at t goes before, nearest first.
+  static unsigned behind(const N* d, T t, unsigned after) noexcept {
     unsigned bits = 0;
-    for (int h = 0; h < kParts; ++h)
-      bits |= lane_bits(N::load_aligned(t0 + h * kN) > N(t)) << (h * kN);
-    return bits;
-  }
-  static unsigned entries_at(const T* t0, T t) noexcept {
-    unsigned bits = 0;
-    for (int h = 0; h < kParts; ++h)
-      bits |= lane_bits(N::load_aligned(t0 + h * kN) == N(t)) << (h * kN);
+    for (int h = 0; h < kParts; ++h) {
+      const unsigned beyond = lane_bits(d[h] > N(t)), at = lane_bits(d[h] == N(t));
+      bits |= (beyond | (at & (after >> (h * kN)))) << (h * kN);
+    }
     return bits;
   }
 
@@ -215,17 +212,16 @@ struct ShapeLone {
     // from memory (docs/notebook/2026-11-incoherent-rays.md). Either kind walks the same
     // subtree: lone node j stands for wide node j.
     const bool wide = count == 0 && child != 0 && sh.lone.size() > kLoneHandOffNodes;
+    // A node's entry distances; a wide node sets four, and the others, never met, stay 0.
+    alignas(64) T t0[kL] = {};
     for (;;) {
       if (count == 0) {
-        alignas(64) T t0[kL];
         unsigned met;
         const std::int32_t* kids;
         const std::uint8_t* counts;
         if (wide) {
           const auto& n = sh.wide[std::size_t(child)];
           met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
-          // The slots a wide node lacks, compared with the others (never met) but set.
-          for (int q = Shapes::kWide; q < kL; ++q) t0[q] = T(0);
         } else {
           const Node& n = sh.lone[std::size_t(child)];
           met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
@@ -234,15 +230,16 @@ struct ShapeLone {
           // Pushed farthest first (kNear: each met child placed by its rank, no branch on the
           // distances), the nearest, on top, taken at once.
           const int c = __builtin_popcount(met);
+          [[maybe_unused]] N d[kParts];
+          if constexpr (kNear)
+            for (int h = 0; h < kParts; ++h) d[h] = N::load_aligned(t0 + h * kN);
           for (unsigned m = met; m; m &= m - 1) {
             const int k = __builtin_ctz(m);
             int at = sp;
             if constexpr (kNear) {
               // Below k: the met children farther than it, or as far in a higher slot (one
               // compare of the node's entries against k's, no branch on the distances).
-              const unsigned above = ~((2u << k) - 1u);
-              at = sp + __builtin_popcount(
-                            met & (entries_beyond(t0, t0[k]) | (entries_at(t0, t0[k]) & above)));
+              at = sp + __builtin_popcount(met & behind(d, t0[k], ~((2u << k) - 1u)));
             } else {
               at = sp + c - 1 - __builtin_popcount(met & ((1u << k) - 1u));
             }

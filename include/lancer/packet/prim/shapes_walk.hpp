@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "lancer/packet/lane_traits.hpp"
 #include "lancer/prim/triangle.hpp"
@@ -146,6 +147,18 @@ struct ShapeWalk {
     }
   };
 
+  // f(form) with the box test's form for r (an std::integral_constant of BoxTest): the one
+  // place the walks choose it.
+  template <class F>
+  [[gnu::always_inline]] static void with_box_test(const Ray& r, F&& f) noexcept {
+    if (r.fast)
+      f(std::integral_constant<BoxTest, BoxTest::fast>{});
+    else if (r.no_zero)
+      f(std::integral_constant<BoxTest, BoxTest::no_zero>{});
+    else
+      f(std::integral_constant<BoxTest, BoxTest::generic>{});
+  }
+
   // The lanes of `lanes` whose segment [0, limit] may meet child k's box (lim_w: limit widened
   // by 1 + kWiden); t0: where they enter it, widened (the walk culls popped subtrees by it).
   template <BoxTest kTest>
@@ -165,32 +178,27 @@ struct ShapeWalk {
       t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, B(T(0)))) * B(T(1) - kWiden);
       const B t1 = xsimd::min(xsimd::min(fx, fy), fz) * B(T(1) + kWiden);
       return lanes & (t0 <= xsimd::min(t1, lim_w));
-    } else if constexpr (kTest == BoxTest::no_zero) {
-      // The generic form below, operation for operation, where no lane's direction has a zero
-      // component: its selects would take the slab's values, and no origin is tested against
-      // a slab.
-      B near(T(0)), far = lim_w;
-      auto slab = [&](T lo_t, T hi_t, const B& olo, const B& ohi, const B& inv) {
-        const B a = (B(lo_t) - olo) * inv, b = (B(hi_t) - ohi) * inv;
-        near = xsimd::max(near, xsimd::min(a, b));
-        far = xsimd::min(far, xsimd::max(a, b) * B(T(1) + kWiden));
-      };
-      slab(n.lo_x[k], n.hi_x[k], r.o_lo.x, r.o_hi.x, r.inv.x);
-      slab(n.lo_y[k], n.hi_y[k], r.o_lo.y, r.o_hi.y, r.inv.y);
-      slab(n.lo_z[k], n.hi_z[k], r.o_lo.z, r.o_hi.z, r.inv.z);
-      t0 = near * B(T(1) - kWiden);
-      return lanes & (t0 <= far);
     } else {
+      // Per plane, each lane's slab the min and max of its two distances. generic: a lane with
+      // a zero component on an axis has no distance there (a select drops it) and must start
+      // within that slab; no_zero leaves out those selects and checks (no lane needs them),
+      // the same operations on the same values otherwise.
+      constexpr bool kZero = kTest == BoxTest::generic;
       const B inf(std::numeric_limits<T>::infinity());
       B near(T(0)), far = lim_w;
       M out = ~lanes;
       auto slab = [&](T lo_t, T hi_t, const B& o, const B& olo, const B& ohi, const B& inv,
                       const M& zero) {
-        const B lo = B(lo_t) - r.o_pad, hi = B(hi_t) + r.o_pad;
         const B a = (B(lo_t) - olo) * inv, b = (B(hi_t) - ohi) * inv;
-        near = xsimd::max(near, xsimd::select(zero, -inf, xsimd::min(a, b)));
-        far = xsimd::min(far, xsimd::select(zero, inf, xsimd::max(a, b) * B(T(1) + kWiden)));
-        out = out | (zero & ((o < lo) | (o > hi)));
+        if constexpr (kZero) {
+          const B lo = B(lo_t) - r.o_pad, hi = B(hi_t) + r.o_pad;
+          near = xsimd::max(near, xsimd::select(zero, -inf, xsimd::min(a, b)));
+          far = xsimd::min(far, xsimd::select(zero, inf, xsimd::max(a, b) * B(T(1) + kWiden)));
+          out = out | (zero & ((o < lo) | (o > hi)));
+        } else {
+          near = xsimd::max(near, xsimd::min(a, b));
+          far = xsimd::min(far, xsimd::max(a, b) * B(T(1) + kWiden));
+        }
       };
       slab(n.lo_x[k], n.hi_x[k], r.o.x, r.o_lo.x, r.o_hi.x, r.inv.x, r.zero_x);
       slab(n.lo_y[k], n.hi_y[k], r.o.y, r.o_lo.y, r.o_hi.y, r.inv.y, r.zero_y);
