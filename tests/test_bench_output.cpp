@@ -126,6 +126,9 @@ TEST(BenchTiming, WarmupAndMinTime) {
   plan.repeat = 2, plan.warmup = 3, plan.min_seconds = 0, plan.min_time = 0.55;
   const RoundSamples s = time_rounds(run, plan);
   EXPECT_EQ(s.wall[0].size(), 6u);  // 0.1 s a round: six rounds reach 0.55 s
+  EXPECT_EQ(calls, 3 + 2 * 6);      // each timed run after an untimed one (hot)
+  plan.hot = false, calls = 0;
+  EXPECT_EQ(time_rounds(run, plan).wall[0].size(), 6u);
   EXPECT_EQ(calls, 3 + 6);
   EXPECT_EQ(s.cpu[0].size(), 6u);
   plan.min_time = 0, plan.warmup = 0, calls = 0;
@@ -135,10 +138,31 @@ TEST(BenchTiming, WarmupAndMinTime) {
   EXPECT_EQ(time_rounds(run, plan).wall[0].size(), 7u);
 }
 
+// Hot: every timed run directly follows a run of its own configuration, never another's; shared:
+// interleaved runs follow each other's.
+TEST(BenchTiming, HotRunsFollowTheirOwnConfiguration) {
+  int last = -1;
+  auto config = [&last](int k) {
+    return [&last, k] {
+      const double seconds = last == k ? 1.0 : 100.0;  // 1 s after its own run, else 100 s
+      last = k;
+      return seconds;
+    };
+  };
+  const std::vector<std::function<double()>> run{config(0), config(1), config(2)};
+  TimingPlan plan;
+  plan.repeat = 4, plan.warmup = 1, plan.min_seconds = 0;
+  for (const std::vector<double>& samples : time_rounds(run, plan).wall)
+    EXPECT_EQ(samples, std::vector<double>(4, 1.0));
+  plan.hot = false;
+  for (const std::vector<double>& samples : time_rounds(run, plan).wall)
+    EXPECT_EQ(samples, std::vector<double>(4, 100.0));
+}
+
 TEST(BenchTiming, OptionsAreBounded) {
   const std::string scene = " " + source_path("scenes/lorenzi-diffuse.json");
   for (const char* bad : {" --warmup -1", " --warmup 101", " --min-time -1", " --min-time 3601",
-                          " --time-unit hours", " --format xml", " --repeat 0"}) {
+                          " --time-unit hours", " --format xml", " --repeat 0", " --cache cold"}) {
     const auto r = run_command(cli() + " bench" + scene + bad);
     EXPECT_EQ(r.status, 2) << bad << ": " << r.out;
   }
@@ -149,6 +173,12 @@ TEST(BenchTiming, OptionsAreBounded) {
   // counts what ran.
   EXPECT_GE(j["repeats"].get<int>(), 4);
   EXPECT_EQ(j["results"][0]["samples_seconds"].size(), j["repeats"].get<std::size_t>());
+  EXPECT_EQ(j["timing"]["cache"], "hot");
+  EXPECT_EQ(j["timing"]["min_time"], 0.2);
+  const auto shared = run_command(tiny_bench("--width 1 --repeat 1 --cache shared --json"));
+  ASSERT_EQ(shared.status, 0) << shared.out;
+  EXPECT_EQ(nlohmann::json::parse(shared.out.substr(shared.out.find('{')))["timing"]["cache"],
+            "shared");
 }
 
 // Tukey's fences, as hyperfine's outlier warning.

@@ -67,6 +67,8 @@ struct BenchOptions {
   // all (0: exactly `repeat` rounds), at most max_rounds rounds in all.
   double min_time = 0;
   int max_rounds = 1000;
+  // Each timed run after an untimed run of its own configuration (TimingPlan::hot).
+  bool hot = true;
   // Each timed run renders the scene as often as it takes to last this long, so that a small
   // scene is timed over milliseconds, not microseconds; its time per render is what counts.
   double min_seconds = 0.05;
@@ -136,9 +138,10 @@ std::vector<SideBySide> bench_side_by_side(const std::vector<BenchResult>& resul
 double median(std::vector<double> v);
 
 // Times configurations side by side: one untimed warm-up of each, then `repeat` rounds with the
-// configurations interleaved (machine noise falls on all alike), each timed run repeated until
-// it lasts min_seconds. run[k]() does one render of configuration k and returns the seconds of
-// its work alone. Returns each configuration's median seconds per render.
+// configurations interleaved (machine noise falls on all alike), each timed run after an untimed
+// one of its own (TimingPlan::hot) and repeated until it lasts min_seconds. run[k]() does one
+// render of configuration k and returns the seconds of its work alone. Returns each configuration's
+// median seconds per render.
 std::vector<double> time_interleaved(const std::vector<std::function<double()>>& run, int repeat,
                                      double min_seconds);
 // The same, returning every repeat's seconds per render (samples[k][rep]).
@@ -146,12 +149,19 @@ std::vector<std::vector<double>> time_interleaved_samples(
     const std::vector<std::function<double()>>& run, int repeat, double min_seconds);
 
 // How configurations are timed: `warmup` untimed runs of each, then rounds with the
-// configurations interleaved, each timed run repeated until it lasts min_seconds; `repeat`
+// configurations interleaved, each timed run (after an untimed one of its own where hot)
+// repeated until it lasts min_seconds; `repeat`
 // rounds, and more while a configuration's timed seconds add up to less than min_time, up to
 // max_rounds.
 struct TimingPlan {
   int repeat = 5;
   int warmup = 1;
+  // hot: each timed run follows one untimed run of its own configuration, so none is timed on
+  // the caches, TLB and pages the configuration before it left (Embree's rows evicted the data
+  // of the lancer row after them: a mesh's ao row through the API ran 20% below the same rays
+  // straight into the kernels, which followed that row). Else each run starts as the one before
+  // left the machine.
+  bool hot = true;
   double min_seconds = 0.05;
   double min_time = 0;
   int max_rounds = 1000;

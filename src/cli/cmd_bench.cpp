@@ -34,6 +34,7 @@ struct BenchArgs {
   bool repeat_given = false;
   int warmup = 1;
   double min_time = 0;
+  std::string cache = "hot";
   std::string time_unit = "auto";
   bool json = false;
   std::string format;  // table, json, csv or gbench (Google Benchmark's JSON)
@@ -78,6 +79,7 @@ void print_peaks(const std::vector<PeakRow>& peaks) {
 struct Timing {
   int warmup = 1;
   double min_time = 0;
+  bool hot = true;
 };
 
 // As hyperfine does: a warning naming the rows whose repeats spread too widely for their median
@@ -162,8 +164,8 @@ void print_ray_sets(const BenchResult& result) {
 void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
                  const StructureInfo& structure, const Timing& timing, bool peak) {
   const int rounds = rows.empty() ? 0 : int(rows[0].samples.size());
-  std::printf("lancer bench: %s, median of %d runs, configurations interleaved", scene.c_str(),
-              rounds);
+  std::printf("lancer bench: %s, median of %d runs, configurations interleaved%s", scene.c_str(),
+              rounds, timing.hot ? ", each after an untimed run of its own" : ", caches shared");
   if (timing.warmup != 1) std::printf(", %d warm-up runs each", timing.warmup);
   if (timing.min_time > 0) std::printf(", at least %g s timed each", timing.min_time);
   std::printf("\n");
@@ -224,6 +226,12 @@ void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
         "packets). of peak: GFLOP/s / (that width's single-thread peak x threads), the peak\n"
         "  timed in the same rounds. primary times camera rays, the kernel and the stores; "
         "kernel the intersection\n  kernel alone, over camera rays made beforehand.\n");
+}
+
+// How the rows were timed (--warmup, --min-time, --cache), for --json.
+nlohmann::json timing_json(const BenchOptions& opt) {
+  return {
+      {"warmup", opt.warmup}, {"min_time", opt.min_time}, {"cache", opt.hot ? "hot" : "shared"}};
 }
 
 nlohmann::json peaks_json(const std::vector<PeakRow>& peaks) {
@@ -416,6 +424,9 @@ void run_bench_cmd(const BenchArgs& a) {
   if (!(a.min_time >= 0 && a.min_time <= kMaxMinTime))
     throw InputError("--min-time: must be 0 to " + std::to_string(int(kMaxMinTime)) + " seconds");
   opt.min_time = a.min_time;
+  if (a.cache != "hot" && a.cache != "shared")
+    throw InputError("--cache: hot or shared, not '" + a.cache + "'");
+  opt.hot = a.cache == "hot";
   opt.max_rounds = kMaxRounds;
   if (a.time_unit != "auto" && a.time_unit != "ns" && a.time_unit != "us" && a.time_unit != "ms" &&
       a.time_unit != "s")
@@ -481,10 +492,12 @@ void run_bench_cmd(const BenchArgs& a) {
   } else if (json && scenes.size() == 1) {
     nlohmann::json out = result_json(a.scenes[0], results[0], a.peak ? &results[0].peaks : nullptr);
     out["context"] = context();
+    out["timing"] = timing_json(opt);
     std::printf("%s\n", out.dump(2).c_str());
   } else if (json) {
     nlohmann::json out;
     out["context"] = context();
+    out["timing"] = timing_json(opt);
     out["scenes"] = nlohmann::json::array();
     for (std::size_t i = 0; i < scenes.size(); ++i)
       out["scenes"].push_back(result_json(a.scenes[i], results[i], nullptr));
@@ -493,8 +506,8 @@ void run_bench_cmd(const BenchArgs& a) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     for (std::size_t i = 0; i < scenes.size(); ++i) {
-      print_table(a.scenes[i], results[i].rows, results[i].structure, {opt.warmup, opt.min_time},
-                  a.peak);
+      print_table(a.scenes[i], results[i].rows, results[i].structure,
+                  {opt.warmup, opt.min_time, opt.hot}, a.peak);
       print_ray_sets(results[i]);
     }
     if (scenes.size() > 1) print_side_by_side(a.scenes, results, ratios);
@@ -542,6 +555,10 @@ void add_bench(CLI::App& app) {
                   "timed at least this long in all (at most " +
                       std::to_string(int(kMaxMinTime)) + " s, " + std::to_string(kMaxRounds) +
                       " rounds)");
+  cmd->add_option("--cache", args->cache,
+                  "hot: each timed run after an untimed run of its own configuration (none timed "
+                  "on the caches another left); shared: each as the run before left the caches")
+      ->capture_default_str();
   cmd->add_option("--time-unit", args->time_unit,
                   "--format gbench's unit: ns, us, ms, s, or auto (per row, the largest in which "
                   "its median is >= 100; fix it when comparing runs whose rows may cross a unit)")

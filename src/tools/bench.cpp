@@ -444,6 +444,7 @@ std::vector<BenchResult> run_bench(const std::vector<const Scene*>& scenes,
   TimingPlan plan;
   plan.repeat = opt.repeat;
   plan.warmup = opt.warmup;
+  plan.hot = opt.hot;
   plan.min_seconds = opt.min_seconds;
   plan.min_time = opt.min_time;
   plan.max_rounds = std::max(opt.max_rounds, opt.repeat);
@@ -544,6 +545,7 @@ RoundSamples time_rounds(const std::vector<std::function<double()>>& run, const 
     for (std::size_t k = 0; k < run.size(); ++k) {
       double seconds = 0;
       int renders = 0;
+      if (plan.hot) run[k]();
       const double cpu0 = process_cpu_seconds();
       do {
         seconds += run[k]();
