@@ -295,20 +295,22 @@ TEST(Prims, OneHierarchyHoldsTheSpheresBesideTheShapes) {
   EXPECT_TRUE(p.features.spheres_in_shapes);
   const PreparedShapes<float>& sh = *p.shapes;
   ASSERT_EQ(sh.spheres, 20);
-  ASSERT_EQ(sh.leaf.size(), sh.items());
   std::vector<int> seen(sh.items(), 0);
-  for (const auto& rec : sh.leaf) {
-    if (rec.ref != PreparedShapes<float>::kSphereRef) {
-      ++seen[std::size_t(rec.prim)];
-      continue;
+  for (const auto& leaf : sh.leaves)
+    for (unsigned k = 0; k < leaf.count; ++k) {
+      if (leaf.ref[k] != PreparedShapes<float>::kSphereRef) {
+        ++seen[std::size_t(leaf.prim[k])];
+        continue;
+      }
+      const int id = sh.first_object + leaf.prim[k];
+      ASSERT_GE(id, 0);
+      ASSERT_LT(id, 20);
+      ++seen[sh.prim.size() + std::size_t(id)];
+      EXPECT_EQ(leaf.v[0][k], p.spheres.cx[std::size_t(id)]);
+      EXPECT_EQ(leaf.v[1][k], p.spheres.cy[std::size_t(id)]);
+      EXPECT_EQ(leaf.v[2][k], p.spheres.cz[std::size_t(id)]);
+      EXPECT_EQ(leaf.v[3][k], p.spheres.r2[std::size_t(id)]);
     }
-    const int id = sh.first_object + rec.prim;
-    ASSERT_GE(id, 0);
-    ASSERT_LT(id, 20);
-    ++seen[sh.prim.size() + std::size_t(id)];
-    EXPECT_EQ(rec.v[0], p.spheres.cx[std::size_t(id)]);
-    EXPECT_EQ(rec.v[3], p.spheres.r2[std::size_t(id)]);
-  }
   for (int n : seen) EXPECT_EQ(n, 1);
   for (Accel two : {Accel::automatic, Accel::bvh, Accel::none}) {
     const PreparedScene<float> q = prepare<float>(scene, two);

@@ -188,7 +188,7 @@ TEST(Prims, WatertightGeneratedSphere) {
   expect_no_packet_leaks(c, "generated sphere");
 }
 
-// The leaf ranges (first, count) under wide node i, through the wide nodes (kLone false) or the
+// The leaves (index, count) under wide node i, through the wide nodes (kLone false) or the
 // lone nodes, sorted; and each slot's box met on the way, keyed by the slot's (child, count).
 template <class T, bool kLone>
 void subtree(const PreparedShapes<T>& s, std::int32_t i,
@@ -245,6 +245,41 @@ void expect_lone_nodes(const Scene& scene) {
       EXPECT_TRUE(n.lo_x[k] > n.hi_x[k] && n.lo_y[k] > n.hi_y[k] && n.lo_z[k] > n.hi_z[k]);
   }
   EXPECT_GT(wider, int(s.wide.size()) / 4);
+  // The leaves: the binary tree's, in leaf order, each named once; each item's reference and
+  // number as prim's, a triangle's vertices the bits of vx, vy, vz, and the rows an item leaves
+  // free the leaf's first triangle's (zeros where it has none).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> tree;  // (first, count)
+  for (const auto& b : s.nodes)
+    if (b.count > 0) tree.push_back({b.first, b.count});
+  std::sort(tree.begin(), tree.end());
+  ASSERT_EQ(s.leaves.size(), tree.size());
+  for (std::size_t i = 0; i < all.size(); ++i) ASSERT_EQ(all[i].first, std::int32_t(i));
+  for (std::size_t i = 0; i < tree.size(); ++i) {
+    const auto& l = s.leaves[i];
+    ASSERT_EQ(l.count, tree[i].second);
+    for (unsigned k = 0; k < l.count; ++k) {
+      const std::uint32_t item = s.order[tree[i].first + k];
+      ASSERT_LT(item, s.prim.size());  // no spheres in these scenes
+      EXPECT_EQ(l.prim[k], std::int32_t(item));
+      EXPECT_EQ(l.ref[k], s.prim[item]);
+      EXPECT_EQ((l.tri >> k & 1u) != 0, s.prim[item] >= 0);
+      if (s.prim[item] < 0) continue;
+      for (int c = 0; c < 3; ++c) {
+        const std::uint32_t v = s.tri[3 * std::size_t(s.prim[item]) + std::size_t(c)];
+        const T want[3] = {s.vx[v], s.vy[v], s.vz[v]};
+        for (int q = 0; q < 3; ++q)
+          ASSERT_EQ(std::memcmp(&l.v[3 * c + q][k], &want[q], sizeof(T)), 0) << "leaf " << i;
+      }
+    }
+    const int from = l.tri ? __builtin_ctz(l.tri) : -1;
+    for (unsigned k = 0; k < unsigned(PreparedShapes<T>::kLeafItems); ++k) {
+      if (l.tri >> k & 1u) continue;
+      for (int q = 0; q < 9; ++q) {
+        const T want = from < 0 ? T(0) : l.v[q][unsigned(from)];
+        ASSERT_EQ(std::memcmp(&l.v[q][k], &want, sizeof(T)), 0) << "leaf " << i << " lane " << k;
+      }
+    }
+  }
 }
 
 TEST(Prims, LoneNodesHoldTheirWideNodesSubtree) {

@@ -60,13 +60,15 @@ struct PreparedShapes {
   std::size_t items() const { return prim.size() + std::size_t(spheres); }
   // The tree's depth bound: its walks keep fixed stacks of this many entries.
   static constexpr int kMaxTreeDepth = 128;
+  // A leaf's items at most.
+  static constexpr int kLeafItems = 4;
   std::vector<std::uint32_t> order;  // items in leaf order
 
   // The packets' hierarchy: the binary tree above collapsed into kWide-wide nodes (the inner
   // child of largest surface area opened until a node has kWide children), their children's
   // boxes structure-of-arrays, so a packet tests every child of a node per lane. Child slot k <
-  // arity: count[k] > 0 a leaf of leaf-order positions child[k] .. + count[k] (the binary
-  // tree's leaves, unchanged), else the wide node child[k]. order[u], per direction code u (bit
+  // arity: count[k] > 0 the leaf leaves[child[k]] of count[k] items (the binary tree's leaves,
+  // unchanged), else the wide node child[k]. order[u], per direction code u (bit
   // a set: the packet's summed direction goes up axis a): the slots by their box centres along
   // that diagonal, nearest first, kOrderBits each; the walk only reorders by it. wide[0] is the
   // root; empty when there are no primitives.
@@ -111,19 +113,28 @@ struct PreparedShapes {
   BigVector<LoneNode> lone;
   // Every lone step goes a wide level down or more, pushing kLone - 1 entries at most.
   static constexpr int kLoneStack = (kLone - 1) * kMaxTreeDepth + 2;
-  // The items in leaf order, as the packets' leaves read them, one record each so that a leaf
-  // is read contiguously: for triangles the three vertices' coordinates (x0 y0 z0 x1 ... z2; the
-  // same bits as vx, vy, vz), for a sphere its centre and squared radius (the same bits as the
-  // spheres' block), zeros for a cylinder; the primitive's reference (prim's entry, kSphereRef
-  // for a sphere) and its hit id less first_object: a primitive's number, a sphere's id less
-  // first_object (negative), so that hit ids order as object ids do.
+  // The tree's leaves, as both walks read them: every leaf of the binary tree once (kLeafItems
+  // items at most), in leaf order; the wide and the lone nodes name a leaf child by its index
+  // here. Per leaf, each coordinate of its items' vertices in a row (structure of arrays,
+  // Embree's triangle4v): one ray tests a leaf's triangles across a register with one load per
+  // coordinate, and a packet broadcasts an item's coordinate from the same lines. Per item its
+  // reference (prim's entry; kSphereRef for a sphere) and its hit id less first_object: a
+  // primitive's number, a sphere's id less first_object (negative), so that hit ids order as
+  // object ids do.
   static constexpr std::int32_t kSphereRef = std::numeric_limits<std::int32_t>::min();
-  struct LeafPrim {
-    T v[9];
-    std::int32_t ref;
-    std::int32_t prim;
+  struct alignas(64) Leaf {  // three cache lines (float)
+    // Item k's vertex c, coordinate q at v[3c + q][k] (a triangle's: the bits of vx, vy, vz); a
+    // sphere's centre and squared radius at v[0..3][k] (the spheres' block's bits). The rows an
+    // item leaves free (a sphere's last five, a cylinder's, those past count) repeat the leaf's
+    // first triangle, so that every lane of the one-ray test computes a real triangle's edges
+    // (zeros where the leaf has no triangle).
+    T v[9][kLeafItems];
+    std::int32_t ref[kLeafItems];
+    std::int32_t prim[kLeafItems];
+    std::uint32_t count = 0;  // items
+    std::uint32_t tri = 0;    // bit k: item k is a triangle
   };
-  BigVector<LeafPrim> leaf;
+  BigVector<Leaf> leaves;
   double build_seconds = 0;
 
   std::size_t triangles() const { return tri_object.size(); }

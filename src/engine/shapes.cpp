@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include "lancer/huge_pages.hpp"
 #include "lancer/prim/cylinder.hpp"
@@ -17,7 +19,7 @@ namespace lancer {
 namespace {
 
 constexpr int kBins = 16;
-constexpr std::uint32_t kLeafSize = 4;
+constexpr std::uint32_t kLeafSize = PreparedShapes<float>::kLeafItems;
 constexpr int kMedianDepth = 64;
 constexpr int kMaxDepth = PreparedShapes<float>::kMaxTreeDepth;
 
@@ -172,15 +174,63 @@ void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
   }
 }
 
-// The binary tree collapsed into wide nodes (PreparedShapes::wide), and the items copied in leaf
-// order for the packets' leaves (the spheres' from `spheres`).
+// The binary tree's leaves as the walks read them (PreparedShapes::leaves), in leaf order (the
+// spheres' from `spheres`); returns each binary node's leaf index (leaves only).
+template <class T>
+std::vector<std::uint32_t> build_leaves(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
+  using Shapes = PreparedShapes<T>;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> firsts;  // (first, node)
+  for (std::uint32_t i = 0; i < s.nodes.size(); ++i)
+    if (s.nodes[i].count > 0) firsts.push_back({s.nodes[i].first, i});
+  std::sort(firsts.begin(), firsts.end());
+  std::vector<std::uint32_t> leaf_of(s.nodes.size(), 0);
+  s.leaves.assign(firsts.size(), typename Shapes::Leaf{});
+  for (std::size_t i = 0; i < firsts.size(); ++i) {
+    const auto& node = s.nodes[firsts[i].second];
+    leaf_of[firsts[i].second] = std::uint32_t(i);
+    auto& l = s.leaves[i];
+    l.count = node.count;
+    int rows[Shapes::kLeafItems] = {};  // the rows item k fills
+    for (std::uint32_t k = 0; k < node.count; ++k) {
+      const std::uint32_t item = s.order[node.first + k];
+      if (item >= s.prim.size()) {  // a sphere
+        const std::size_t j = item - s.prim.size();
+        l.ref[k] = Shapes::kSphereRef;
+        l.prim[k] = std::int32_t(j) - s.first_object;
+        const T c[4] = {spheres->cx[j], spheres->cy[j], spheres->cz[j], spheres->r2[j]};
+        for (int q = 0; q < 4; ++q) l.v[q][k] = c[q];
+        rows[k] = 4;
+        continue;
+      }
+      l.prim[k] = std::int32_t(item);
+      l.ref[k] = s.prim[item];
+      if (l.ref[k] < 0) continue;
+      l.tri |= 1u << k, rows[k] = 9;
+      for (int c = 0; c < 3; ++c) {
+        const std::uint32_t v = s.tri[3 * std::size_t(l.ref[k]) + std::size_t(c)];
+        l.v[3 * c][k] = s.vx[v], l.v[3 * c + 1][k] = s.vy[v], l.v[3 * c + 2][k] = s.vz[v];
+      }
+    }
+    const int copy = l.tri != 0 ? __builtin_ctz(l.tri) : -1;
+    for (int k = 0; k < Shapes::kLeafItems; ++k) {
+      if (std::uint32_t(k) >= node.count) l.ref[k] = 0, l.prim[k] = -1;
+      for (int q = rows[k]; q < 9; ++q) l.v[q][k] = copy < 0 ? T(0) : l.v[q][copy];
+    }
+  }
+  return leaf_of;
+}
+
+// The binary tree collapsed into wide nodes (PreparedShapes::wide), over the leaves
+// (build_leaves; the spheres' from `spheres`).
 template <class T>
 void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
   using Shapes = PreparedShapes<T>;
   using Wide = typename Shapes::WideNode;
   constexpr int kW = Shapes::kWide;
   s.wide.clear();
+  s.leaves.clear();
   if (s.order.empty()) return;
+  const std::vector<std::uint32_t> leaf_of = build_leaves(s, spheres);
   auto area = [&](std::uint32_t b) {
     const auto& n = s.nodes[b];
     Box<T> box;
@@ -233,7 +283,7 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
       w.hi_x[k] = up(b.hi[0]), w.hi_y[k] = up(b.hi[1]), w.hi_z[k] = up(b.hi[2]);
       for (int a = 0; a < 3; ++a) centre[k][a] = 0.5 * (double(b.lo[a]) + double(b.hi[a]));
       if (b.count > 0) {
-        w.child[k] = std::int32_t(b.first), w.count[k] = std::uint8_t(b.count);
+        w.child[k] = std::int32_t(leaf_of[kids[k]]), w.count[k] = std::uint8_t(b.count);
       } else {
         w.child[k] = std::int32_t(s.wide.size()), w.count[k] = 0;
         jobs.push_back({kids[k], std::uint32_t(s.wide.size())});
@@ -253,27 +303,6 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
       w.order[code] = std::uint8_t(packed);
     }
     s.wide[job.wide] = w;
-  }
-  const std::size_t np = s.order.size();
-  s.leaf.assign(np, typename Shapes::LeafPrim{});
-  for (std::size_t j = 0; j < np; ++j) {
-    auto& out = s.leaf[j];
-    const std::uint32_t item = s.order[j];
-    if (item >= s.prim.size()) {  // a sphere
-      const std::size_t k = item - s.prim.size();
-      out.ref = Shapes::kSphereRef;
-      out.prim = std::int32_t(k) - s.first_object;
-      out.v[0] = spheres->cx[k], out.v[1] = spheres->cy[k], out.v[2] = spheres->cz[k];
-      out.v[3] = spheres->r2[k];
-      continue;
-    }
-    out.prim = std::int32_t(item);
-    out.ref = s.prim[item];
-    if (out.ref < 0) continue;
-    for (int c = 0; c < 3; ++c) {
-      const std::uint32_t v = s.tri[3 * std::size_t(out.ref) + std::size_t(c)];
-      out.v[3 * c] = s.vx[v], out.v[3 * c + 1] = s.vy[v], out.v[3 * c + 2] = s.vz[v];
-    }
   }
 }
 
@@ -392,7 +421,7 @@ std::size_t PreparedShapes<T>::bytes() const {
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
          nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
-         lone.capacity() * sizeof(LoneNode) + leaf.capacity() * sizeof(LeafPrim);
+         lone.capacity() * sizeof(LoneNode) + leaves.capacity() * sizeof(Leaf);
 }
 
 template <class T>

@@ -1,5 +1,5 @@
 // One ray's hierarchy over the shapes (PreparedShapes::lone): each wide node's subtree as a
-// node of kLone children, built from the wide nodes alone.
+// node of kLone children, built from the wide nodes alone (the same leaves, by index).
 #include <algorithm>
 #include <cstddef>
 #include <limits>

@@ -66,12 +66,13 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   using Walk = ShapeWalk<Arch, T>;
   using Ray = typename Walk::Ray;
 
-  // The nearest hit of the item at leaf-order position j (its reference `ref`: a triangle >= 0,
-  // a sphere kSphereRef, else ~cylinder) beyond eps for the lanes of `at`, infinity where none.
-  static B prim_t(const Shapes& sh, std::size_t j, std::int32_t ref, const Ray& r, const M& at,
-                  const B& eps) noexcept {
-    if (ref >= 0) return Walk::triangle_t(sh, j, r, at, eps);
-    if (ref == Shapes::kSphereRef) return sphere_t(sh.leaf[j].v, r, at, eps);
+  using Leaf = typename Shapes::Leaf;
+  // The nearest hit of leaf l's item k (its reference `ref`: a triangle >= 0, a sphere
+  // kSphereRef, else ~cylinder) beyond eps for the lanes of `at`, infinity where none.
+  static B prim_t(const Shapes& sh, const Leaf& l, unsigned k, std::int32_t ref, const Ray& r,
+                  const M& at, const B& eps) noexcept {
+    if (ref >= 0) return Walk::triangle_t(&l.v[0][k], r, at, eps);
+    if (ref == Shapes::kSphereRef) return sphere_t(l, k, r, at, eps);
     const std::size_t c = std::size_t(~ref);
     const Vec3<T>& a = sh.cyl_base[c];
     const Vec3<T>& ax = sh.cyl_axis[c];
@@ -81,14 +82,14 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
         .t;
   }
 
-  // A sphere's nearest hit beyond eps for the lanes of `at` (v: its leaf record's centre and
-  // squared radius), infinity where none: the reference's formulas (formulas.hpp), as the
-  // spheres' own module computes them.
-  [[gnu::noinline]] static B sphere_t(const T* v, const Ray& r, const M& at,
+  // Leaf l's item k, a sphere (its centre and squared radius in rows 0 to 3): its nearest hit
+  // beyond eps for the lanes of `at`, infinity where none: the reference's formulas
+  // (formulas.hpp), as the spheres' own module computes them.
+  [[gnu::noinline]] static B sphere_t(const Leaf& l, unsigned k, const Ray& r, const M& at,
                                       const B& eps) noexcept {
     const B inf(std::numeric_limits<T>::infinity());
-    const B r2(v[3]);
-    const V f = r.o - V{B(v[0]), B(v[1]), B(v[2])};
+    const B r2(l.v[3][k]);
+    const V f = r.o - V{B(l.v[0][k]), B(l.v[1][k]), B(l.v[2][k])};
     const SphereDisc<B> sd = sphere_disc<Mth>(f, r.d, r2);
     const M m = at & (sd.disc >= B(T(0)));
     if (!xsimd::any(m)) return inf;
@@ -108,7 +109,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   }
 
   // Visits the leaves of the shapes' wide hierarchy that some lane of `lanes` may reach before
-  // limit(): leaf(first, count, lanes_at_leaf) returns true to stop.
+  // limit(): leaf(leaf index, count, lanes_at_leaf) returns true to stop.
   template <class Limit, class Leaf>
   [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
                                           Limit&& limit, Leaf&& leaf) noexcept {
@@ -127,7 +128,7 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   template <class Limit, class Leaf>
   [[gnu::always_inline]] static void coherent_walk(const Shapes& sh, const Ray& r, const M& lanes,
                                                    Limit& limit, Leaf& leaf) noexcept {
-    if (sh.leaf.size() >= kFrustumFrom)
+    if (sh.items() >= kFrustumFrom)
       ShapeFrustum<Arch, T>::walk(sh, r, lanes, limit, leaf);
     else
       walk(sh, r, lanes, limit, leaf);
@@ -153,12 +154,13 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
     auto limit = [&] { return best_t; };
-    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-      for (std::uint32_t j = begin; j < begin + n; ++j) {
-        const std::int32_t ref = sh.leaf[j].ref;
+    auto leaf = [&](std::uint32_t index, std::uint32_t n, const M& at) {
+      const Leaf& l = sh.leaves[index];
+      for (unsigned k = 0; k < n; ++k) {
+        const std::int32_t ref = l.ref[k];
         tests(counts, at, ref == Shapes::kSphereRef);
-        const B t = prim_t(sh, j, ref, r, at, eps);
-        const I pid(Id(first + Id(sh.leaf[j].prim)));
+        const B t = prim_t(sh, l, k, ref, r, at, eps);
+        const I pid(Id(first + Id(l.prim[k])));
         keep_nearer(t, pid, at, best_t, best_id);
       }
       return false;
@@ -233,15 +235,16 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     const B eps(s.epsilon);
     const Id first = Id(first_id(s));
     auto limit = [&](int i) { return bt[i]; };
-    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M* at, unsigned packets) {
+    auto leaf = [&](std::uint32_t index, std::uint32_t n, const M* at, unsigned packets) {
       count_to.leaf(at, packets);
-      for (std::uint32_t j = begin; j < begin + n; ++j) {
-        const std::int32_t ref = sh.leaf[j].ref;
-        const I pid(Id(first + Id(sh.leaf[j].prim)));
+      const Leaf& l = sh.leaves[index];
+      for (unsigned k = 0; k < n; ++k) {
+        const std::int32_t ref = l.ref[k];
+        const I pid(Id(first + Id(l.prim[k])));
         for (unsigned q = packets; q; q &= q - 1) {
           const int i = __builtin_ctz(q);
           tests(counts, at[i], ref == Shapes::kSphereRef);
-          const B t = prim_t(sh, j, ref, r[i], at[i], eps);
+          const B t = prim_t(sh, l, k, ref, r[i], at[i], eps);
           keep_nearer(t, pid, at[i], bt[i], bi[i]);
         }
       }
@@ -421,25 +424,25 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   }
 
   static int object(const Shapes& sh, std::int32_t ref) noexcept { return Lone::object(sh, ref); }
-  // The object of the item at leaf-order position j (a sphere's is its hit id).
-  static int leaf_object(const Shapes& sh, std::size_t j) noexcept {
-    const auto& p = sh.leaf[j];
-    return p.ref == Shapes::kSphereRef ? sh.first_object + p.prim : object(sh, p.ref);
+  // The object of leaf l's item k (a sphere's is its hit id).
+  static int leaf_object(const Shapes& sh, const Leaf& l, unsigned k) noexcept {
+    return l.ref[k] == Shapes::kSphereRef ? sh.first_object + l.prim[k] : object(sh, l.ref[k]);
   }
 
-  // Leaf-order primitives [begin, begin + n) against the segments of the lanes of at & pending
-  // (pending re-read at each primitive): on_hit(j, lanes) where some lane meets primitive j
-  // beyond eps before `dist`; true from it stops.
+  // Leaf `index`'s first n items against the segments of the lanes of at & pending (pending
+  // re-read at each item): on_hit(leaf, item, lanes) where some lane meets the item beyond eps
+  // before `dist`; true from it stops.
   template <class OnHit>
   [[gnu::always_inline]] static bool segment_leaf(const Shapes& sh, const Ray& r,
-                                                  std::uint32_t begin, std::uint32_t n, const M& at,
+                                                  std::uint32_t index, std::uint32_t n, const M& at,
                                                   const M& pending, const B& dist, const B& eps,
                                                   RayCounts& counts, OnHit&& on_hit) noexcept {
-    for (std::uint32_t j = begin; j < begin + n; ++j) {
+    const Leaf& l = sh.leaves[index];
+    for (unsigned k = 0; k < n; ++k) {
       const M lanes = at & pending;
-      tests(counts, lanes, sh.leaf[j].ref == Shapes::kSphereRef);
-      const M hit = lanes & (prim_t(sh, j, sh.leaf[j].ref, r, lanes, eps) < dist);
-      if (xsimd::any(hit) && on_hit(j, hit)) return true;
+      tests(counts, lanes, l.ref[k] == Shapes::kSphereRef);
+      const M hit = lanes & (prim_t(sh, l, k, l.ref[k], r, lanes, eps) < dist);
+      if (xsimd::any(hit) && on_hit(l, k, hit)) return true;
     }
     return false;
   }
@@ -451,9 +454,9 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     const Shapes& sh = *s.shapes;
     const Ray r(p, l, pending);
     auto limit = [&] { return dist; };
-    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-      return segment_leaf(sh, r, begin, n, at, pending, dist, eps, counts,
-                          [&](std::uint32_t, const M& hit) {
+    auto leaf = [&](std::uint32_t index, std::uint32_t n, const M& at) {
+      return segment_leaf(sh, r, index, n, at, pending, dist, eps, counts,
+                          [&](const Leaf&, unsigned, const M& hit) {
                             pending = pending & ~hit;
                             return !xsimd::any(pending);
                           });
@@ -495,10 +498,10 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
       it->lanes |= lanes;
     };
     auto limit = [&] { return dist; };
-    auto leaf = [&](std::uint32_t begin, std::uint32_t n, const M& at) {
-      return segment_leaf(sh, r, begin, n, at, pending, dist, eps, counts,
-                          [&](std::uint32_t j, const M& hit) {
-                            add(leaf_object(sh, j), bits(hit));
+    auto leaf = [&](std::uint32_t index, std::uint32_t n, const M& at) {
+      return segment_leaf(sh, r, index, n, at, pending, dist, eps, counts,
+                          [&](const Leaf& at_leaf, unsigned k, const M& hit) {
+                            add(leaf_object(sh, at_leaf, k), bits(hit));
                             return false;
                           });
     };

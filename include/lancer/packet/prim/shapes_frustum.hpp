@@ -136,8 +136,8 @@ struct ShapeFrustum {
   }
 
   // Packet::walk's visits for the lanes of `lanes` (a packet with r.fast), a node's children
-  // tested by the frustum first: leaf(first, count, lanes_at_leaf) returns true to stop. Out of
-  // line: forced inline into its callers, with the children's loop unrolled, the 1M-triangle
+  // tested by the frustum first: leaf(leaf index, count, lanes_at_leaf) returns true to stop. Out
+  // of line: forced inline into its callers, with the children's loop unrolled, the 1M-triangle
   // mesh's primary rays lost what the frustum gains (width 16, AVX-512).
   template <class Limit, class Leaf>
   [[gnu::noinline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes, Limit& limit,
@@ -209,7 +209,7 @@ struct ShapeFrustum {
   // walk()'s visits for kN packets together (camera tiles side by side, each r[i] with r.fast
   // and the same signs: same_signs), whose lanes are lanes[i] for the packets of `live` (bits): one
   // frustum over all of them, then the per-lane test of each packet that reaches a child.
-  // leaf(first, count, masks, packets) returns true to stop; limit(i) is packet i's limit.
+  // leaf(leaf index, count, masks, packets) returns true to stop; limit(i) is packet i's limit.
   // count_to: a NoGroupCount's interface, told of each node entered and per-lane box test.
   template <int kN, class Limit, class Leaf, class Count>
   [[gnu::noinline]] static void walk_group(const Shapes& sh, const Ray* r, const M* lanes,

@@ -22,7 +22,6 @@
 #include <cstdint>
 #include <limits>
 #include <type_traits>
-#include <utility>
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/formulas.hpp"
@@ -170,14 +169,14 @@ struct ShapeLone {
   // 8 MiB of float lone nodes, a mesh of about 200k triangles).
   static constexpr std::size_t kLoneHandOffNodes = std::size_t(1) << 15;
 
-  // A node's lines (a wide or a lone one), or a leaf's records, on their way before the walk
-  // reaches them.
+  // A node's lines (a wide or a lone one), or a leaf's, on their way before the walk reaches
+  // them.
   static void prefetch(const Shapes& sh, bool wide, std::int32_t child, unsigned count) noexcept {
     const std::size_t i = std::size_t(child);
-    const char* p = count != 0 ? reinterpret_cast<const char*>(&sh.leaf[i])
+    const char* p = count != 0 ? reinterpret_cast<const char*>(&sh.leaves[i])
                     : wide     ? reinterpret_cast<const char*>(&sh.wide[i])
                                : reinterpret_cast<const char*>(&sh.lone[i]);
-    const std::size_t bytes = count != 0 ? count * sizeof(sh.leaf[0])
+    const std::size_t bytes = count != 0 ? sizeof(sh.leaves[0])
                               : wide     ? sizeof(sh.wide[0])
                                          : sizeof(Node);
     for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
@@ -195,8 +194,8 @@ struct ShapeLone {
   }
 
   // Visits the leaves whose boxes the ray may meet before limit() (re-read after each leaf),
-  // from wide node `child` (count 0) or the leaf (child, count): leaf(first, count) returns true
-  // to stop. kNear: met children nearest entry first (closest hit); else in slot order.
+  // from wide node `child` (count 0) or the leaf `child` (count items): leaf(the leaf) returns
+  // true to stop. kNear: met children nearest entry first (closest hit); else in slot order.
   template <bool kNear, class Limit, class Leaf>
   static void walk(const Shapes& sh, const Ray& r, Limit&& limit, Leaf&& leaf,
                    std::int32_t child = 0, unsigned count = 0) noexcept {
@@ -250,7 +249,7 @@ struct ShapeLone {
           child = st_child[sp], count = st_count[sp];
           continue;
         }
-      } else if (leaf(std::uint32_t(child), count)) {
+      } else if (leaf(sh.leaves[std::size_t(child)])) {
         return;
       }
       for (;;) {
@@ -264,34 +263,20 @@ struct ShapeLone {
     }
   }
 
-  // Component q of the vertices at v[0], v[1], ... across the lanes.
-  template <std::size_t... K>
-  static C lanes_of(const T* const* v, int q, std::index_sequence<K...>) noexcept {
-    return C{v[K][q]...};
-  }
-
-  // Leaf-order primitives [j, j + n) (n <= kC), triangles only in lanes: their hits t beyond
-  // eps, in t_out. Returns the lanes hit (none past n or on a cylinder); tri_out: the lanes of
-  // triangles.
-  static unsigned triangles_t(const Shapes& sh, std::uint32_t j, unsigned n, const Ray& r, T eps,
-                              T* t_out, unsigned& tri_out) noexcept {
-    const T* v[kC];
-    unsigned tri = 0;
-    for (unsigned k = 0; k < n; ++k)
-      if (sh.leaf[j + k].ref >= 0) tri |= 1u << k, v[k] = sh.leaf[j + k].v;
+  // Items [j, j + n) of leaf `l` (n <= kC, j a multiple of kC), triangles only in lanes: their
+  // hits t beyond eps, in t_out. Returns the lanes hit (none past n or on a cylinder); tri_out:
+  // the lanes of triangles.
+  static unsigned triangles_t(const typename Shapes::Leaf& l, unsigned j, unsigned n, const Ray& r,
+                              T eps, T* t_out, unsigned& tri_out) noexcept {
+    const unsigned tri = (l.tri >> j) & ((1u << n) - 1u);
     tri_out = tri;
     if (tri == 0) return 0;
-    // Lanes without a triangle repeat the first (masked out below), so that no zero edge
-    // function sends the register through the exact recomputation.
-    const T* first = v[__builtin_ctz(tri)];
-    for (int k = 0; k < kC; ++k)
-      if (!(tri >> k & 1u)) v[k] = first;
     const int perm[3] = {r.shear.kx, r.shear.ky, r.shear.kz};
     auto vertex = [&](int c) {
       CV p;
       C* out[3] = {&p.x, &p.y, &p.z};
       for (int a = 0; a < 3; ++a)
-        *out[a] = lanes_of(v, 3 * c + perm[a], std::make_index_sequence<kC>{}) - C(r.o_perm[a]);
+        *out[a] = C::load_aligned(&l.v[3 * c + perm[a]][j]) - C(r.o_perm[a]);
       return p;
     };
     const CV a = vertex(0), b = vertex(1), c = vertex(2);
@@ -323,38 +308,42 @@ struct ShapeLone {
         .t;
   }
 
-  // The sphere of leaf record v (centre, squared radius): its nearest hit beyond eps, infinity
-  // where none, by the reference's formulas.
-  static T sphere_t(const T* v, const Ray& r, T eps) noexcept {
+  // The sphere of leaf l's item k (its centre and squared radius in rows 0 to 3): its nearest
+  // hit beyond eps, infinity where none, by the reference's formulas.
+  static T sphere_t(const typename Shapes::Leaf& l, unsigned k, const Ray& r, T eps) noexcept {
     const T inf = std::numeric_limits<T>::infinity();
-    const Vec3<T> f{r.o[0] - v[0], r.o[1] - v[1], r.o[2] - v[2]}, d{r.d[0], r.d[1], r.d[2]};
-    const SphereDisc<T> sd = sphere_disc(f, d, v[3]);
+    const Vec3<T> f{r.o[0] - l.v[0][k], r.o[1] - l.v[1][k], r.o[2] - l.v[2][k]};
+    const Vec3<T> d{r.d[0], r.d[1], r.d[2]};
+    const T r2 = l.v[3][k];
+    const SphereDisc<T> sd = sphere_disc(f, d, r2);
     if (!(sd.disc >= T(0))) return inf;
-    const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, v[3])), eps);
+    const T t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
     return t > eps ? t : inf;
   }
 
-  // Leaf-order items [begin, begin + size), kC at a time: hit(j, t) for each triangle the ray
-  // meets beyond eps (t its hit), then each cylinder and sphere of those kC (t its nearest hit
+  // Leaf l's items, kC at a time: hit(prim, t) for each triangle the ray meets beyond eps (prim
+  // its record's, t its hit), then each cylinder and sphere of those kC (t its nearest hit
   // beyond eps, infinity where none); true from hit stops.
   template <class Hit>
-  static bool leaf_hits(const Shapes& sh, const Ray& r, T eps, std::uint32_t begin, unsigned size,
+  static bool leaf_hits(const Shapes& sh, const Ray& r, T eps, const typename Shapes::Leaf& l,
                         Hit&& hit) noexcept {
-    for (unsigned j = 0; j < size; j += unsigned(kC)) {
-      const unsigned n = size - j < unsigned(kC) ? size - j : unsigned(kC);
+    static_assert(Shapes::kLeafItems % kC == 0);
+    for (unsigned j = 0; j < l.count; j += unsigned(kC)) {
+      const unsigned n = l.count - j < unsigned(kC) ? l.count - j : unsigned(kC);
       alignas(32) T t[kC];
       unsigned tri;
-      for (unsigned m = triangles_t(sh, begin + j, n, r, eps, t, tri); m; m &= m - 1) {
+      for (unsigned m = triangles_t(l, j, n, r, eps, t, tri); m; m &= m - 1) {
         const unsigned k = unsigned(__builtin_ctz(m));
-        if (hit(begin + j + k, t[k])) return true;
+        if (hit(l.prim[j + k], t[k])) return true;
       }
       // The others: cylinders and spheres (none in a mesh's leaves).
       for (unsigned others = ~tri & ((1u << n) - 1u); others; others &= others - 1) {
         const unsigned k = unsigned(__builtin_ctz(others));
-        const auto& p = sh.leaf[begin + j + k];
+        const unsigned i = j + k;
+        const std::int32_t ref = l.ref[i];
         const T tk =
-            p.ref == Shapes::kSphereRef ? sphere_t(p.v, r, eps) : cylinder_t(sh, p.ref, r, eps);
-        if (hit(begin + j + k, tk)) return true;
+            ref == Shapes::kSphereRef ? sphere_t(l, i, r, eps) : cylinder_t(sh, ref, r, eps);
+        if (hit(l.prim[i], tk)) return true;
       }
     }
     return false;
@@ -373,9 +362,9 @@ struct ShapeLone {
     };
     walk<true>(
         sh, r, [&] { return best_t; },
-        [&](std::uint32_t begin, unsigned size) {
-          return leaf_hits(sh, r, eps, begin, size, [&](std::uint32_t j, T t) {
-            consider(t, sh.leaf[j].prim);
+        [&](const typename Shapes::Leaf& l) {
+          return leaf_hits(sh, r, eps, l, [&](std::int32_t prim, T t) {
+            consider(t, prim);
             return false;
           });
         },
@@ -390,9 +379,8 @@ struct ShapeLone {
     bool found = false;
     walk<false>(
         sh, r, [&] { return dist; },
-        [&](std::uint32_t begin, unsigned size) {
-          return leaf_hits(sh, r, eps, begin, size,
-                           [&](std::uint32_t, T t) { return found = t < dist; });
+        [&](const typename Shapes::Leaf& l) {
+          return leaf_hits(sh, r, eps, l, [&](std::int32_t, T t) { return found = t < dist; });
         },
         child, count);
     return found;

@@ -65,7 +65,8 @@ struct ShapeWalk {
     // Every live lane has the same axes (kx, ky, kz): the vertices are permuted once, scalar.
     bool uniform = false;
     int kx = 0, ky = 1, kz = 2;
-    V o_perm;  // o permuted into (kx, ky, kz), where uniform
+    int row_x = 0, row_y = 0, row_z = 0;  // where uniform: kx, ky, kz's offsets in a leaf's column
+    V o_perm;                             // o permuted into (kx, ky, kz), where uniform
     // The fast box test: every live lane's |d| is at least 2^-60 on every axis (no zero, no
     // overflow) and its sign is the same on each axis; near[a], far[a]: the offsets (in T) in a
     // WideNode of axis a's planes the rays enter and leave by.
@@ -107,6 +108,8 @@ struct ShapeWalk {
         ky = kx == 2 ? 0 : kx + 1;
         if (all_neg) std::swap(kx, ky);
         o_perm = {axis(o, kx), axis(o, ky), axis(o, kz)};
+        const int items = Shapes::kLeafItems;
+        row_x = items * kx, row_y = items * ky, row_z = items * kz;
       }
       set_code(valid);
     }
@@ -208,13 +211,11 @@ struct ShapeWalk {
     }
   }
 
-  // Starts loading a subtree's node (count 0) or leaf records, for when it is popped.
+  // Starts loading a subtree's node (count 0) or leaf, for when it is popped.
   static void prefetch(const Shapes& sh, std::int32_t child, unsigned count) noexcept {
     const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
-                               : reinterpret_cast<const char*>(&sh.leaf[std::size_t(child)]);
-    const std::size_t bytes = count == 0 ? sizeof(Wide) : count * sizeof(sh.leaf[0]);
-    // From p by lines: a leaf starting mid-line leaves its last line to the hardware (every
-    // line, from p's, was no faster on the 1M mesh and slower on the 64k one: the notebook).
+                               : reinterpret_cast<const char*>(&sh.leaves[std::size_t(child)]);
+    const std::size_t bytes = count == 0 ? sizeof(Wide) : sizeof(sh.leaves[0]);
     for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
   }
 
@@ -272,7 +273,7 @@ struct ShapeWalk {
 
   // Visits the leaves of the wide hierarchy that some lane of `lanes` may reach before limit()
   // (re-read after each leaf: popped subtrees are culled by it), children nearest first by the
-  // packet's direction code: leaf(first, count, lanes_at_leaf) returns true to stop.
+  // packet's direction code: leaf(leaf index, count, lanes_at_leaf) returns true to stop.
   template <BoxTest kTest, class Limit, class Leaf>
   [[gnu::always_inline]] static void walk(const Shapes& sh, const Ray& r, const M& lanes,
                                           Limit& limit, Leaf& leaf) noexcept {
@@ -320,24 +321,25 @@ struct ShapeWalk {
     }
   }
 
-  // The triangle at leaf-order position j: its hit t beyond eps for the lanes of `at`
-  // (infinity elsewhere, and where it misses), by the reference's watertight formula.
+  // A leaf's triangle (col: its column of the leaf's rows, &Leaf::v[0][k]): its hit t beyond eps
+  // for the lanes of `at` (infinity elsewhere, and where it misses), by the reference's
+  // watertight formula.
   // Out of line: inlined into the walks' leaf loops it ran a quarter fewer instructions at width 8
   // but some 4% slower at width 16 (AVX-512).
-  static B triangle_t(const Shapes& sh, std::size_t j, const Ray& r, const M& at,
-                      const B& eps) noexcept {
-    const T* v = sh.leaf[j].v;
+  static B triangle_t(const T* col, const Ray& r, const M& at, const B& eps) noexcept {
+    constexpr int kRow = Shapes::kLeafItems;  // the distance between a column's coordinates
     V a, b, c;
     if (r.uniform) {
       auto vertex = [&](const T* p) {
-        return V{B(p[r.kx]) - r.o_perm.x, B(p[r.ky]) - r.o_perm.y, B(p[r.kz]) - r.o_perm.z};
+        return V{B(p[r.row_x]) - r.o_perm.x, B(p[r.row_y]) - r.o_perm.y,
+                 B(p[r.row_z]) - r.o_perm.z};
       };
-      a = vertex(v), b = vertex(v + 3), c = vertex(v + 6);
+      a = vertex(col), b = vertex(col + 3 * kRow), c = vertex(col + 6 * kRow);
     } else {
       auto vertex = [&](const T* p) {
-        return r.permuted(V{B(p[0]) - r.o.x, B(p[1]) - r.o.y, B(p[2]) - r.o.z});
+        return r.permuted(V{B(p[0]) - r.o.x, B(p[kRow]) - r.o.y, B(p[2 * kRow]) - r.o.z});
       };
-      a = vertex(v), b = vertex(v + 3), c = vertex(v + 6);
+      a = vertex(col), b = vertex(col + 3 * kRow), c = vertex(col + 6 * kRow);
     }
     const B inf(std::numeric_limits<T>::infinity());
     prim::TriangleEdges<B> e = prim::triangle_uvw<T>(a, b, c, r.sx, r.sy);
