@@ -63,7 +63,8 @@ std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
     rows[k].hit_mismatch_frac = ids.empty() ? 0 : double(mismatched) / double(ids.size());
   }
 
-  // Speed: configurations interleaved within each repeat, each timed run at least min_seconds.
+  // Speed: configurations interleaved within each repeat, each timed run (after an untimed one
+  // of its own) at least min_seconds.
   std::vector<std::function<double()>> run;
   std::vector<std::uint64_t> rays(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k)
