@@ -150,17 +150,14 @@ std::vector<std::vector<double>> time_interleaved_samples(
 
 // How configurations are timed: `warmup` untimed runs of each, then rounds with the
 // configurations interleaved, each timed run (after an untimed one of its own where hot)
-// repeated until it lasts min_seconds; `repeat`
-// rounds, and more while a configuration's timed seconds add up to less than min_time, up to
-// max_rounds.
+// repeated until it lasts min_seconds; `repeat` rounds, and more while a configuration's timed
+// seconds add up to less than min_time, up to max_rounds.
 struct TimingPlan {
   int repeat = 5;
   int warmup = 1;
   // hot: each timed run follows one untimed run of its own configuration, so none is timed on
-  // the caches, TLB and pages the configuration before it left (Embree's rows evicted the data
-  // of the lancer row after them: a mesh's ao row through the API ran 20% below the same rays
-  // straight into the kernels, which followed that row). Else each run starts as the one before
-  // left the machine.
+  // the caches, TLB and pages another configuration left (a peer's rows evict the data of the
+  // row after them; docs/tools.md). Else each run starts as the one before left the machine.
   bool hot = true;
   double min_seconds = 0.05;
   double min_time = 0;
