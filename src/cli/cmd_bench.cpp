@@ -75,13 +75,6 @@ void print_peaks(const std::vector<PeakRow>& peaks) {
                 p.width >= 8 ? "fma (2 flops)" : "mul+add (2 flops)", p.gflops, p.muladd_gflops);
 }
 
-// What the timing ran with, for the summaries.
-struct Timing {
-  int warmup = 1;
-  double min_time = 0;
-  bool hot = true;
-};
-
 // As hyperfine does: a warning naming the rows whose repeats spread too widely for their median
 // to be trusted, and those with outliers.
 void print_noise_warning(const std::vector<BenchRow>& rows) {
@@ -162,12 +155,12 @@ void print_ray_sets(const BenchResult& result) {
 }
 
 void print_table(const std::string& scene, const std::vector<BenchRow>& rows,
-                 const StructureInfo& structure, const Timing& timing, bool peak) {
+                 const StructureInfo& structure, const BenchOptions& opt, bool peak) {
   const int rounds = rows.empty() ? 0 : int(rows[0].samples.size());
   std::printf("lancer bench: %s, median of %d runs, configurations interleaved%s", scene.c_str(),
-              rounds, timing.hot ? ", each after an untimed run of its own" : ", caches shared");
-  if (timing.warmup != 1) std::printf(", %d warm-up runs each", timing.warmup);
-  if (timing.min_time > 0) std::printf(", at least %g s timed each", timing.min_time);
+              rounds, opt.hot ? ", each after an untimed run of its own" : ", caches shared");
+  if (opt.warmup != 1) std::printf(", %d warm-up runs each", opt.warmup);
+  if (opt.min_time > 0) std::printf(", at least %g s timed each", opt.min_time);
   std::printf("\n");
   std::printf("  %-8s %-8s %-9s %5s %-10s %7s %12s %10s %10s %9s", "engine", "mode", "precision",
               "width", "isa", "threads", "rays", "seconds", "Mrays/s", "vs w=1");
@@ -506,8 +499,7 @@ void run_bench_cmd(const BenchArgs& a) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     for (std::size_t i = 0; i < scenes.size(); ++i) {
-      print_table(a.scenes[i], results[i].rows, results[i].structure,
-                  {opt.warmup, opt.min_time, opt.hot}, a.peak);
+      print_table(a.scenes[i], results[i].rows, results[i].structure, opt, a.peak);
       print_ray_sets(results[i]);
     }
     if (scenes.size() > 1) print_side_by_side(a.scenes, results, ratios);

@@ -212,10 +212,8 @@ std::vector<std::uint32_t> build_leaves(PreparedShapes<T>& s, const SphereBlock<
       }
     }
     const int copy = l.tri != 0 ? __builtin_ctz(l.tri) : -1;
-    for (int k = 0; k < Shapes::kLeafItems; ++k) {
-      if (std::uint32_t(k) >= node.count) l.ref[k] = 0, l.prim[k] = -1;
+    for (int k = 0; k < Shapes::kLeafItems; ++k)
       for (int q = rows[k]; q < 9; ++q) l.v[q][k] = copy < 0 ? T(0) : l.v[q][copy];
-    }
   }
   return leaf_of;
 }

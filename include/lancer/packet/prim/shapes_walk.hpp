@@ -64,7 +64,6 @@ struct ShapeWalk {
     unsigned code = 0;         // direction code: bit a set where the lanes' summed d goes up a
     // Every live lane has the same axes (kx, ky, kz): the vertices are permuted once, scalar.
     bool uniform = false;
-    int kx = 0, ky = 1, kz = 2;
     int row_x = 0, row_y = 0, row_z = 0;  // where uniform: kx, ky, kz's offsets in a leaf's column
     V o_perm;                             // o permuted into (kx, ky, kz), where uniform
     // The fast box test: every live lane's |d| is at least 2^-60 on every axis (no zero, no
@@ -103,9 +102,10 @@ struct ShapeWalk {
       const int kzs = all(kz0) ? 0 : all(kz1) ? 1 : all(kz2) ? 2 : -1;
       const bool all_neg = all(neg), all_pos = all(~neg);
       if (kzs >= 0 && (all_neg || all_pos)) {
-        uniform = true, kz = kzs;
-        kx = kz == 2 ? 0 : kz + 1;
-        ky = kx == 2 ? 0 : kx + 1;
+        uniform = true;
+        const int kz = kzs;
+        int kx = kz == 2 ? 0 : kz + 1;
+        int ky = kx == 2 ? 0 : kx + 1;
         if (all_neg) std::swap(kx, ky);
         o_perm = {axis(o, kx), axis(o, ky), axis(o, kz)};
         const int items = Shapes::kLeafItems;
@@ -324,8 +324,9 @@ struct ShapeWalk {
   // A leaf's triangle (col: its column of the leaf's rows, &Leaf::v[0][k]): its hit t beyond eps
   // for the lanes of `at` (infinity elsewhere, and where it misses), by the reference's
   // watertight formula.
-  // Out of line: inlined into the walks' leaf loops it ran a quarter fewer instructions at width 8
-  // but some 4% slower at width 16 (AVX-512).
+  // Not forced inline: forced into every walk's leaf loop it ran some 4% slower at width 16
+  // (AVX-512), and the camera groups' loop grew; GCC inlines it where the walk is small (the
+  // shadow rays' frustum walk).
   static B triangle_t(const T* col, const Ray& r, const M& at, const B& eps) noexcept {
     constexpr int kRow = Shapes::kLeafItems;  // the distance between a column's coordinates
     V a, b, c;
