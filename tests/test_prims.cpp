@@ -322,6 +322,54 @@ TEST(Prims, OneHierarchyHoldsTheSpheresBesideTheShapes) {
   EXPECT_FALSE(prepare<float>(scene, Accel::one).features.spheres_in_shapes);
 }
 
+// The packets and the one-ray kernels find a hit primitive's object from the shapes' ranges of
+// primitive numbers (PreparedShapes::prim_object); the reference reads it from the primitive's
+// own entry. Both agree on every primitive, across cylinders and meshes in any order, a mesh
+// whose triangles all collapsed (an empty range) among them.
+TEST(Prims, PrimitiveObjectsFromTheShapesRanges) {
+  Scene scene;
+  scene.spheres.push_back({{0, 0, -9}, 0.5, 0});
+  scene.planes.push_back({{0, -2, 0}, {0, 1, 0}, 0});
+  scene.materials.push_back({});
+  auto cylinder = [&](double x) {
+    Shape c;
+    c.kind = Shape::Kind::cylinder;
+    c.cylinder.base = {x, -1, -5}, c.cylinder.top = {x, 1, -5}, c.cylinder.radius = 0.2;
+    scene.shapes.push_back(c);
+  };
+  auto mesh = [&](int triangles, double z) {
+    Shape m;
+    m.kind = Shape::Kind::mesh;
+    for (int k = 0; k < triangles; ++k) {
+      const std::uint32_t v = std::uint32_t(m.mesh.vertices.size());
+      m.mesh.vertices.push_back({0.1 * k, 0, z});
+      m.mesh.vertices.push_back({0.1 * k + 0.1, 0, z});
+      m.mesh.vertices.push_back({0.1 * k, 0.1, z});
+      m.mesh.indices.insert(m.mesh.indices.end(), {v, v + 1, v + 2});
+    }
+    scene.shapes.push_back(m);
+  };
+  cylinder(-2), mesh(7, -6), mesh(0, -6), cylinder(2), cylinder(3), mesh(1, -7), mesh(12, -8);
+  for (Accel accel : {Accel::automatic, Accel::one}) {
+    const PreparedScene<float> p = prepare<float>(scene, accel);
+    ASSERT_TRUE(p.shapes);
+    const PreparedShapes<float>& sh = *p.shapes;
+    ASSERT_EQ(sh.prim.size(), 23u);
+    ASSERT_EQ(sh.shape_prims.size(), scene.shapes.size() + 1);
+    EXPECT_EQ(sh.shape_prims.front(), 0);
+    EXPECT_EQ(sh.shape_prims.back(), 23);
+    std::vector<int> per_object(scene.shapes.size(), 0);
+    for (std::size_t k = 0; k < sh.prim.size(); ++k) {
+      const std::int32_t ref = sh.prim[k];
+      const int object =
+          ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
+      EXPECT_EQ(sh.prim_object(std::int32_t(k)), object) << "primitive " << k;
+      ++per_object[std::size_t(object - sh.first_object)];
+    }
+    EXPECT_EQ(per_object, (std::vector<int>{1, 7, 0, 1, 1, 1, 12})) << to_string(accel);
+  }
+}
+
 // Camera rays reach a mesh in square tiles also where the spheres have no hierarchy (fewer than
 // kBvhMinSpheres): the spheres' camera blocks, which need that hierarchy, must not take them. A
 // regression case: primary mode once crashed on such a scene (a sphere of glass over a mesh).

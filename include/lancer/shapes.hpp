@@ -8,6 +8,7 @@
 // ray's transmittance multiplies the objects met in object-id order.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -36,6 +37,16 @@ struct PreparedShapes {
 
   // Primitives in order: >= 0 a triangle's index, < 0 ~(a cylinder's index).
   std::vector<std::int32_t> prim;
+  // Shape k's primitives are those numbered shape_prims[k] .. shape_prims[k + 1] - 1
+  // (num_shapes + 1 entries, ascending from 0).
+  std::vector<std::int32_t> shape_prims;
+  // The object id of primitive p, by a search in the shapes' ranges (num_shapes + 1 entries, in
+  // the cache) rather than by prim[p] and tri_object as the reference reads it: incoherent hits
+  // find those per-primitive entries out of the cache.
+  int prim_object(std::int32_t p) const {
+    const auto after = std::upper_bound(shape_prims.begin() + 1, shape_prims.end(), p);
+    return first_object + int(after - shape_prims.begin()) - 1;
+  }
   // Triangles: 3 vertex indices each, their object id, and, for smooth meshes, 3 normal indices
   // (kNoNormal for flat ones; empty when no mesh is smooth).
   static constexpr std::uint32_t kNoNormal = 0xffffffffu;

@@ -415,7 +415,7 @@ std::size_t PreparedShapes<T>::bytes() const {
           nz.capacity() + cyl_h.capacity() + cyl_r2.capacity()) *
              sizeof(T) +
          (prim.capacity() + tri.capacity() + tri_object.capacity() + tri_normals.capacity() +
-          cyl_object.capacity() + order.capacity()) *
+          cyl_object.capacity() + order.capacity() + shape_prims.capacity()) *
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
          nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
@@ -447,9 +447,11 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
   reserve_prepared(s.prim, nt + nc);
   std::vector<Box<T>> boxes;
   boxes.reserve(nt + nc + std::size_t(s.spheres));
+  s.shape_prims.reserve(std::size_t(s.num_shapes) + 1);
   for (int k = 0; k < s.num_shapes; ++k) {
     const Shape& sh = scene.shapes[std::size_t(k)];
     const int object = first_object + k;
+    s.shape_prims.push_back(std::int32_t(s.prim.size()));
     if (sh.kind == Shape::Kind::cylinder) {
       const Cylinder& c = sh.cylinder;
       const Vec3<double> a = frame.point(c.base), b = frame.point(c.top);
@@ -491,6 +493,7 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
       boxes.push_back(box);
     }
   }
+  s.shape_prims.push_back(std::int32_t(s.prim.size()));
   for (int k = 0; k < s.spheres; ++k) boxes.push_back(sphere_box(*spheres, std::size_t(k)));
   build_hierarchy(s, boxes);
   build_wide(s, spheres);

@@ -2,12 +2,22 @@
 // Include only from code built for the batch's ISA.
 #pragma once
 
+#include <cstddef>
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/packet/intrin.hpp"
 
 namespace lancer::packet {
+
+// Starts loading the lines of `bytes` bytes at p (a node or a leaf the walk will reach). Always
+// inlined, and so must be every helper that calls it: GCC (12) finds a function that only
+// prefetches "pure", and where it does not inline such a function early it deletes the calls,
+// prefetches and all.
+[[gnu::always_inline]] inline void prefetch_lines(const void* p, std::size_t bytes) noexcept {
+  const char* c = static_cast<const char*>(p);
+  for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(c + b);
+}
 
 // AVX-512 masks already are bits; SSE and AVX masks are vectors whose sign bits movemask
 // collects.

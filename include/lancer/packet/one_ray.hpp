@@ -129,15 +129,6 @@ struct OneRayKernel {
     Entry stack[7 * (Bvh<T>::kMaxTreeDepth / 2) + 2 + 8];
     int sp = 0;
     std::int32_t node = 0;
-    // A node or leaf the walk may come back to: its lines on their way meanwhile (a node's four;
-    // a leaf block's two, its first line twice).
-    auto prefetch = [&](std::int32_t child, std::int32_t count) {
-      const bool inner = count < 0;
-      const char* p = inner ? reinterpret_cast<const char*>(nodes + child) : leaf_at(child);
-      const char* q = inner ? p + 128 : p;
-      _mm_prefetch(p, _MM_HINT_T0), _mm_prefetch(p + 64, _MM_HINT_T0);
-      _mm_prefetch(q, _MM_HINT_T0), _mm_prefetch(q + 64, _MM_HINT_T0);
-    };
     for (;;) {
       const OneRayNode8& n = nodes[std::size_t(node)];
       const char* base = reinterpret_cast<const char*>(&n);
@@ -162,11 +153,9 @@ struct OneRayKernel {
           else
             e = {n.child[k], n.count[k]};
         } else if constexpr (!kSort) {
-          store_met8(n, met, stack + sp);  // slot order
-          for (unsigned m = met; m; m &= m - 1) {
-            const int j = __builtin_ctz(m);
-            prefetch(n.child[j], n.count[j]);
-          }
+          // Slot order, nothing prefetched: the pushed entries' lines, prefetched, measured no
+          // faster at 65536 spheres and a million (docs/notebook/2026-11-incoherent-rays.md).
+          store_met8(n, met, stack + sp);
           // The top entry, the last met slot, taken from the node rather than read back from
           // the vector just stored (no store-to-load forwarding to wait on).
           const int top = 31 - __builtin_clz(met);
@@ -188,8 +177,8 @@ struct OneRayKernel {
             const int rank = __builtin_popcount(met & (farther | (same & below)));
             Entry& x = stack[sp + rank];
             x.child = n.child[k], x.count = n.count[k], x.tnear = _mm256_cvtss_f32(dk);
-            // As prefetch(x.child, x.count), written out: through the lambda GCC lays out the
-            // closest-hit walk less well (measurably slower).
+            // The pushed child's lines on their way meanwhile (a node's four; a leaf block's two,
+            // its first line twice).
             const bool inner = x.count < 0;
             const char* p =
                 inner ? reinterpret_cast<const char*>(nodes + x.child) : leaf_at(x.child);
@@ -406,7 +395,7 @@ struct OneRayKernel {
       Lone::closest(*s.shapes, lone_ray(o, d), tmin, first, best_t, hit);
       if (hit >= first) {
         prim = std::int32_t(hit - first);
-        best_id = Lone::object(*s.shapes, s.shapes->prim[std::size_t(prim)]);
+        best_id = s.shapes->prim_object(prim);
       } else {
         best_id = std::int32_t(hit);  // a sphere item of one hierarchy: its own id
       }

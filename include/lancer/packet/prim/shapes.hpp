@@ -345,12 +345,12 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
   static std::int32_t object_of(const Prepared& s, std::int32_t hit_id) noexcept {
     const int first = first_id(s);
     if (hit_id < first) return hit_id;
-    return object(*s.shapes, s.shapes->prim[std::size_t(hit_id - first)]);
+    return s.shapes->prim_object(hit_id - first);
   }
-  // The object ids of hit ids (unchanged below first_id). Primitives are numbered in object-id
-  // order: where the lowest and the highest shape hit of the lanes are on one object, every
-  // shape hit between is on it too, and two look-ups serve the packet (the per-primitive tables
-  // are large, and incoherent lanes' look-ups miss the cache).
+  // The object ids of hit ids (unchanged below first_id), from the shapes' primitive ranges
+  // (PreparedShapes::prim_object). Primitives are numbered in object-id order: where the lowest
+  // and the highest shape hit of the lanes are on one object, every shape hit between is on it
+  // too, and two searches serve the packet.
   [[gnu::noinline]] static I object_of(const Prepared& s, I hit_id) noexcept {
     const Shapes& sh = *s.shapes;
     const Id first = Id(first_id(s));
@@ -360,14 +360,14 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     Id lo = std::numeric_limits<Id>::max(), hi = first;
     for (int k = 0; k < W; ++k)
       if (v[k] >= first) lo = v[k] < lo ? v[k] : lo, hi = v[k] > hi ? v[k] : hi;
-    const Id obj = Id(object(sh, sh.prim[std::size_t(lo - first)]));
-    if (lo == hi || obj == Id(object(sh, sh.prim[std::size_t(hi - first)]))) {
+    const Id obj = Id(sh.prim_object(std::int32_t(lo - first)));
+    if (lo == hi || obj == Id(sh.prim_object(std::int32_t(hi - first)))) {
       for (int k = 0; k < W; ++k)
         if (v[k] >= first) v[k] = obj;
       return I::load_aligned(v);
     }
     for (int k = 0; k < W; ++k)
-      if (v[k] >= first) v[k] = Id(object(sh, sh.prim[std::size_t(v[k] - first)]));
+      if (v[k] >= first) v[k] = Id(sh.prim_object(std::int32_t(v[k] - first)));
     return I::load_aligned(v);
   }
 
@@ -423,10 +423,9 @@ struct ShapePackets : Lanes<Arch, Real, Mode> {
     return pending;
   }
 
-  static int object(const Shapes& sh, std::int32_t ref) noexcept { return Lone::object(sh, ref); }
   // The object of leaf l's item k (a sphere's is its hit id).
   static int leaf_object(const Shapes& sh, const Leaf& l, unsigned k) noexcept {
-    return l.ref[k] == Shapes::kSphereRef ? sh.first_object + l.prim[k] : object(sh, l.ref[k]);
+    return l.ref[k] == Shapes::kSphereRef ? sh.first_object + l.prim[k] : sh.prim_object(l.prim[k]);
   }
 
   // Leaf `index`'s first n items against the segments of the lanes of at & pending (pending

@@ -170,16 +170,16 @@ struct ShapeLone {
   static constexpr std::size_t kLoneHandOffNodes = std::size_t(1) << 15;
 
   // A node's lines (a wide or a lone one), or a leaf's, on their way before the walk reaches
-  // them.
-  static void prefetch(const Shapes& sh, bool wide, std::int32_t child, unsigned count) noexcept {
+  // them. Always inlined, as prefetch_lines (lanes.hpp) says why.
+  [[gnu::always_inline]] static void prefetch(const Shapes& sh, bool wide, std::int32_t child,
+                                              unsigned count) noexcept {
     const std::size_t i = std::size_t(child);
-    const char* p = count != 0 ? reinterpret_cast<const char*>(&sh.leaves[i])
-                    : wide     ? reinterpret_cast<const char*>(&sh.wide[i])
-                               : reinterpret_cast<const char*>(&sh.lone[i]);
-    const std::size_t bytes = count != 0 ? sizeof(sh.leaves[0])
-                              : wide     ? sizeof(sh.wide[0])
-                                         : sizeof(Node);
-    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+    if (count != 0)
+      prefetch_lines(&sh.leaves[i], sizeof(sh.leaves[0]));
+    else if (wide)
+      prefetch_lines(&sh.wide[i], sizeof(sh.wide[0]));
+    else
+      prefetch_lines(&sh.lone[i], sizeof(Node));
   }
 
   // The slots whose entry distance (d: a node's kL of them, in registers) lies beyond t, or at t
@@ -227,26 +227,32 @@ struct ShapeLone {
         }
         if (met != 0) {
           // Pushed farthest first (kNear: each met child placed by its rank, no branch on the
-          // distances), the nearest, on top, taken at once.
+          // distances), the nearest, on top, taken at once: from the node, not read back from
+          // the stack just written (no store-to-load forwarding on the walk's path). A lone met
+          // child is not pushed at all.
           const int c = __builtin_popcount(met);
-          [[maybe_unused]] N d[kParts];
-          if constexpr (kNear)
-            for (int h = 0; h < kParts; ++h) d[h] = N::load_aligned(t0 + h * kN);
-          for (unsigned m = met; m; m &= m - 1) {
-            const int k = __builtin_ctz(m);
-            int at = sp;
-            if constexpr (kNear) {
-              // Below k: the met children farther than it, or as far in a higher slot (one
-              // compare of the node's entries against k's, no branch on the distances).
-              at = sp + __builtin_popcount(met & behind(d, t0[k], ~((2u << k) - 1u)));
-            } else {
-              at = sp + c - 1 - __builtin_popcount(met & ((1u << k) - 1u));
+          int top = __builtin_ctz(met);  // the nearest (kNear), else the first slot met
+          if (c > 1) {
+            [[maybe_unused]] N d[kParts];
+            if constexpr (kNear)
+              for (int h = 0; h < kParts; ++h) d[h] = N::load_aligned(t0 + h * kN);
+            for (unsigned m = met; m; m &= m - 1) {
+              const int k = __builtin_ctz(m);
+              int at = sp;
+              if constexpr (kNear) {
+                // Below k: the met children farther than it, or as far in a higher slot (one
+                // compare of the node's entries against k's, no branch on the distances).
+                at = sp + __builtin_popcount(met & behind(d, t0[k], ~((2u << k) - 1u)));
+                top = at == sp + c - 1 ? k : top;
+              } else {
+                at = sp + c - 1 - __builtin_popcount(met & ((1u << k) - 1u));
+              }
+              st_child[at] = kids[k], st_count[at] = counts[k], st_t0[at] = t0[k];
+              prefetch(sh, wide, kids[k], counts[k]);
             }
-            st_child[at] = kids[k], st_count[at] = counts[k], st_t0[at] = t0[k];
-            prefetch(sh, wide, kids[k], counts[k]);
+            sp += c - 1;
           }
-          sp += c - 1;
-          child = st_child[sp], count = st_count[sp];
+          child = kids[top], count = counts[top];
           continue;
         }
       } else if (leaf(sh.leaves[std::size_t(child)])) {
@@ -292,11 +298,6 @@ struct ShapeLone {
       if (t_out[k] > eps) hit |= 1u << k;
     }
     return hit;
-  }
-
-  // The object of primitive reference ref (PreparedShapes::prim's entry).
-  static int object(const Shapes& sh, std::int32_t ref) noexcept {
-    return ref >= 0 ? sh.tri_object[std::size_t(ref)] : sh.cyl_object[std::size_t(~ref)];
   }
 
   // The cylinder ~ref's nearest hit beyond eps (infinity where none): the reference's.

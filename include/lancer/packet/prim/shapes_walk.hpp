@@ -211,12 +211,14 @@ struct ShapeWalk {
     }
   }
 
-  // Starts loading a subtree's node (count 0) or leaf, for when it is popped.
-  static void prefetch(const Shapes& sh, std::int32_t child, unsigned count) noexcept {
-    const char* p = count == 0 ? reinterpret_cast<const char*>(&sh.wide[std::size_t(child)])
-                               : reinterpret_cast<const char*>(&sh.leaves[std::size_t(child)]);
-    const std::size_t bytes = count == 0 ? sizeof(Wide) : sizeof(sh.leaves[0]);
-    for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+  // Starts loading a subtree's node (count 0) or leaf, for when it is popped. Always inlined, as
+  // prefetch_lines (lanes.hpp) says why.
+  [[gnu::always_inline]] static void prefetch(const Shapes& sh, std::int32_t child,
+                                              unsigned count) noexcept {
+    if (count == 0)
+      prefetch_lines(&sh.wide[std::size_t(child)], sizeof(Wide));
+    else
+      prefetch_lines(&sh.leaves[std::size_t(child)], sizeof(sh.leaves[0]));
   }
 
   // The slots of node n's met children (bits of `met`), nearest first for direction code
@@ -299,8 +301,9 @@ struct ShapeWalk {
       if (few) {
         if (alone(child, count, mask)) return;
       } else if (count == 0) {
+        // The children are not prefetched here (the frustum walk's are): incoherent packets ran
+        // slower with it (docs/notebook/2026-11-incoherent-rays.md).
         const Wide& n = sh.wide[std::size_t(child)];
-        for (int k = 0; k < n.arity; ++k) prefetch(sh, n.child[k], n.count[k]);
         const B lim_w = limit() * widen;
         M m[kW];
         B t0[kW];
