@@ -170,7 +170,7 @@ struct ShapeLone {
   static constexpr std::size_t kLoneHandOffNodes = std::size_t(1) << 15;
 
   // A node's lines (a wide or a lone one), or a leaf's, on their way before the walk reaches
-  // them. Always inlined, as prefetch_lines (lanes.hpp) says why.
+  // them. Always inlined: the walk calls it for every child it pushes.
   [[gnu::always_inline]] static void prefetch(const Shapes& sh, bool wide, std::int32_t child,
                                               unsigned count) noexcept {
     const std::size_t i = std::size_t(child);

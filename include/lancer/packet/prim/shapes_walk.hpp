@@ -211,8 +211,8 @@ struct ShapeWalk {
     }
   }
 
-  // Starts loading a subtree's node (count 0) or leaf, for when it is popped. Always inlined, as
-  // prefetch_lines (lanes.hpp) says why.
+  // Starts loading a subtree's node (count 0) or leaf, for when it is popped. Always inlined: the
+  // frustum walk calls it for every child of every node it enters.
   [[gnu::always_inline]] static void prefetch(const Shapes& sh, std::int32_t child,
                                               unsigned count) noexcept {
     if (count == 0)
