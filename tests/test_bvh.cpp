@@ -465,14 +465,14 @@ TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
   }
 }
 
-// The sphere counts from which secondary rays and their shadow rays go one at a time (float and
-// double alike).
+// The sphere counts from which secondary rays and their shadow rays go one at a time, and up to
+// which clustered packets walk as packets (float and double alike).
 TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
-  for (const auto& [n, lanes, shadow] :
-       std::vector<std::tuple<int, int, int>>{{kOneRayShadowMinSpheres - 1, 0, 0},
-                                              {kOneRayShadowMinSpheres, 0, kOneRayShadowLanes},
-                                              {kOneRayMinSpheres - 1, 0, kOneRayShadowLanes},
-                                              {kOneRayMinSpheres, kMaxLanes, kOneRayShadowLanes}}) {
+  for (const auto& [n, lanes, shadow, clustered] : std::vector<std::tuple<int, int, int, int>>{
+           {kOneRayShadowMinSpheres - 1, 0, 0, 0},
+           {kOneRayShadowMinSpheres, 0, kOneRayShadowLanes, 0},
+           {kOneRayMinSpheres - 1, 0, kOneRayShadowLanes, 0},
+           {kOneRayMinSpheres, kMaxLanes, kOneRayShadowLanes, kClusteredLanes}}) {
     CloudOptions o;
     o.spheres = n;
     o.duplicates = 0;
@@ -484,6 +484,16 @@ TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
     EXPECT_EQ(f.walk.shadow_one_ray_lanes, shadow) << n << " spheres";
     EXPECT_EQ(d.walk.one_ray_lanes, lanes) << n << " spheres";
     EXPECT_EQ(d.walk.shadow_one_ray_lanes, shadow) << n << " spheres";
+    EXPECT_EQ(f.walk.clustered_lanes, clustered) << n << " spheres";
+    EXPECT_EQ(d.walk.clustered_lanes, clustered) << n << " spheres";
+  }
+  // Clustered packets up to kClusteredMaxSpheres (prepare() takes walk_settings as above).
+  for (const auto& [n, clustered] : std::vector<std::pair<int, int>>{
+           {kClusteredMaxSpheres - 1, kClusteredLanes}, {kClusteredMaxSpheres, kMaxLanes}}) {
+    const WalkSettings<float> w = walk_settings<float>(n);
+    EXPECT_EQ(w.one_ray_lanes, kMaxLanes) << n << " spheres";
+    EXPECT_EQ(w.clustered_lanes, clustered) << n << " spheres";
+    EXPECT_EQ(w.shadow_one_ray_lanes, kOneRayShadowLanes) << n << " spheres";
   }
 }
 
@@ -518,6 +528,14 @@ TEST(Bvh, SummaryReportsTheSecondaryWalkThatRan) {
   EXPECT_EQ(secondary_walk(st, 8),
             "closest hits one ray at a time, 8 walks interleaved (a packet whole where its rays "
             "stay together); shadow rays one ray at a time, 8 walks interleaved");
+  st.clustered_lanes = kClusteredLanes;
+  EXPECT_EQ(secondary_walk(st, 16),
+            "closest hits one ray at a time, 16 walks interleaved (a packet whole where its rays "
+            "stay together, one ray alone at 4 lanes or fewer where they leave one leaf box); "
+            "shadow rays one ray at a time, 16 walks interleaved");
+  EXPECT_EQ(secondary_walk(st, 4),
+            "closest hits one ray at a time, 4 walks interleaved (a packet whole where its rays "
+            "stay together); shadow rays one ray at a time, 4 walks interleaved");
 }
 
 // lancer bench prepares a scene once and times many frames of it (PreparedRun): each frame, at

@@ -165,7 +165,8 @@ TEST(Profile, OrthographicCameraRaysStayPackets) {
 
 // Where secondary rays go one at a time (from kOneRayMinSpheres spheres), a packet whose rays
 // stay together walks whole: the reflections of a flat mirror mostly do, those of a cloud of
-// spheres mostly do not. Below the threshold no packet is counted either way.
+// spheres mostly do not, and a few of those leave from within one leaf box (clustered). Below
+// the threshold no packet is counted any way.
 TEST(Profile, SecondaryPacketsWalkWholeWhereTheirRaysStayTogether) {
   generate::Options g;
   // A row of 16 pixels must span a small angle: at 64x40 it spans a quarter of the view, and
@@ -191,12 +192,20 @@ TEST(Profile, SecondaryPacketsWalkWholeWhereTheirRaysStayTogether) {
     EXPECT_GT(m.walked_whole, 3 * m.walked_apart) << m.walked_apart << " apart";
     const ProfileResult pc = profile_render(parse_scene(cloud, "cloud"), width);
     const auto& c = pc.stages[kReflection];
-    EXPECT_GT(c.walked_apart, 3 * c.walked_whole) << c.walked_whole << " whole";
+    EXPECT_GT(c.walked_apart + c.walked_clustered, 3 * c.walked_whole)
+        << c.walked_whole << " whole";
     EXPECT_GT(c.walked_whole, 0u);
+    // A tile on one sphere reflects from within one leaf box: clustered, unless together, where
+    // the packet is wider than the lanes that go on alone (else every lane alone: apart).
+    if (width > kClusteredLanes)
+      EXPECT_GT(c.walked_clustered, 0u);
+    else
+      EXPECT_EQ(c.walked_clustered, 0u);
+    EXPECT_GT(c.walked_apart, 0u);
     const ProfileResult pf = profile_render(parse_scene(fewer, "fewer"), width);
     const auto& f = pf.stages[kReflection];
     EXPECT_GT(f.rays, 0u);
-    EXPECT_EQ(f.walked_whole + f.walked_apart, 0u);
+    EXPECT_EQ(f.walked_whole + f.walked_clustered + f.walked_apart, 0u);
   }
 }
 

@@ -34,6 +34,15 @@ inline constexpr int kOneRayMinSpheres = 8192;
 // structure (a flat mirror's reflections, camera-like rays through the library API): it walks
 // as a packet (Bvh::coherent_spread; measured 4 to 16 alike, docs/accel.md thirteenth round).
 inline constexpr int kCoherentLeaves = 8;
+// ... and a packet whose live lanes leave from within one leaf box of each other (the median
+// leaf's diagonal: several rays from each hit point, as ambient occlusion and diffuse bounces
+// are cast) walks as a packet until at most kClusteredLanes of its lanes enter a subtree, which
+// then go on alone: their walks share the path down to their common leaf. Below
+// kClusteredMaxSpheres only: above it, every lane alone from the root keeps more node loads in
+// flight at once, which wins when the hierarchy lies beyond the caches (docs/accel.md,
+// "Clustered packets").
+inline constexpr int kClusteredLanes = 4;
+inline constexpr int kClusteredMaxSpheres = 262144;
 // The shadow rays of secondary hits (exact float and double packets): from
 // kOneRayShadowMinSpheres, a lane goes on alone into a subtree no other lane of its packet enters
 // (docs/accel.md, tenth round).
@@ -92,8 +101,8 @@ struct Bvh {
   // Where secondary rays go one at a time, a packet whose live lanes stay together walks whole:
   // the spread of their origins plus `diagonal` (the root box's) times the spread of their
   // directions (the sides of the boxes around each) at most coherent_spread, kCoherentLeaves
-  // times the median leaf box's diagonal.
-  T diagonal = T(0), coherent_spread = T(0);
+  // times the median leaf box's diagonal, leaf_diagonal.
+  T diagonal = T(0), coherent_spread = T(0), leaf_diagonal = T(0);
   double build_seconds = 0;
 
   // The binary tree's depth bound; every inner child of a wide node lies two binary levels down,

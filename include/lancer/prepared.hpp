@@ -92,6 +92,9 @@ struct WalkSettings {
   // enter (0: packets only; 16 or more: every lane alone from the root), from the sphere count
   // (kOneRayMinSpheres: 0 or kMaxLanes).
   int one_ray_lanes = 0;
+  // The same for secondary packets whose lanes leave from within one leaf box of each other
+  // (kClusteredLanes below kClusteredMaxSpheres, else one_ray_lanes).
+  int clustered_lanes = 0;
   // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
   int shadow_one_ray_lanes = 0;
 };
@@ -186,6 +189,18 @@ inline constexpr double kNaiveSphereRatio = 1.0 / 256.0;
 
 // The widest packet, in lanes: tables that packets read whole batches from are padded by this.
 inline constexpr int kMaxLanes = 16;
+
+// How a scene of n spheres walks its hierarchy (kOneRayMinSpheres, kClusteredMaxSpheres,
+// kOneRayShadowMinSpheres).
+template <class T>
+WalkSettings<T> walk_settings(int spheres) noexcept {
+  WalkSettings<T> w;
+  w.one_ray_lanes = spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
+  w.clustered_lanes =
+      w.one_ray_lanes > 0 && spheres < kClusteredMaxSpheres ? kClusteredLanes : w.one_ray_lanes;
+  w.shadow_one_ray_lanes = spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
+  return w;
+}
 
 // Shininess at or below this, and whole, is raised by repeated squaring (power_int).
 inline constexpr double kMaxIntegerShininess = 1 << 20;

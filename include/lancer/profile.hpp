@@ -27,8 +27,9 @@ struct ProfileResult {
     std::uint64_t leaves = 0;              // leaf visits by its packets
     std::vector<std::uint64_t> histogram;  // packets by active lanes
     // Where its scene sends secondary rays one at a time: packets that walked the hierarchy
-    // whole (their rays stay together) and packets that went lane by lane (0 and 0 elsewhere).
-    std::uint64_t walked_whole = 0, walked_apart = 0;
+    // whole (their rays stay together), as a packet down to their common leaf (clustered: their
+    // origins within one leaf box) and packets that went lane by lane (all 0 elsewhere).
+    std::uint64_t walked_whole = 0, walked_clustered = 0, walked_apart = 0;
   };
   int width = 0;
   std::string isa;

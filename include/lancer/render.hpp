@@ -32,6 +32,7 @@ struct StructureInfo {
   // Secondary rays' closest hits, as they ran: a lane went on alone into a subtree at most this
   // many lanes of its packet entered (0: packets only; the width or more: every ray alone).
   int one_ray_lanes = 0;
+  int clustered_lanes = 0;       // the same for packets whose rays leave from within one leaf box
   int shadow_one_ray_lanes = 0;  // the same for the shadow rays from secondary hits
   // Triangles, meshes and cylinders: their own hierarchy (lancer/shapes.hpp), when any.
   std::size_t shape_primitives = 0, shape_nodes = 0, shape_bytes = 0;

@@ -33,8 +33,9 @@ struct StageProfile {
   // Hierarchy leaves visited per stage and the lanes active in them (traversal occupancy).
   std::array<std::uint64_t, kStageCount> leaf_packets{}, leaf_lanes{};
   // Secondary packets in a scene whose secondary rays go one at a time (Bvh::one_ray_lanes):
-  // those that walked whole (their rays stay together) and those that went lane by lane.
-  std::array<std::uint64_t, kStageCount> walked_whole{}, walked_apart{};
+  // those that walked whole (their rays stay together), as a packet down to their common leaf
+  // (clustered: their origins within one leaf box) and those that went lane by lane.
+  std::array<std::uint64_t, kStageCount> walked_whole{}, walked_clustered{}, walked_apart{};
   int current = 0;  // the stage whose rays are being traced (set by Kernel::occupancy)
   // The camera blocks' walk (primary mode's path, Traversal::closest_coherent): blocks whose
   // tiles walked the hierarchy together (on the image's centre lines, one walk per side, a tile

@@ -46,6 +46,7 @@ void print_profile_json(const ProfileArgs& a, const ProfileResult& r) {
          // No leaves visited (no hierarchy, or not this stage's): null.
          {"leaf_occupancy", st.leaves ? nlohmann::json(st.leaf_occupancy) : nlohmann::json()},
          {"packets_walked_whole", st.walked_whole},
+         {"packets_walked_clustered", st.walked_clustered},
          {"packets_walked_apart", st.walked_apart},
          {"lane_histogram", or_null(st.histogram)}});
   }
@@ -181,12 +182,13 @@ void print_profile_table(const ProfileArgs& a, const ProfileResult& r) {
     }
   bool apart = false;
   for (const auto& st : r.stages)
-    if (st.walked_whole + st.walked_apart) {
+    if (st.walked_whole + st.walked_clustered + st.walked_apart) {
       if (!apart)
         std::printf("  secondary packets, one ray at a time unless their rays stay together\n");
       apart = true;
-      std::printf("  %-22s %12llu whole %12llu lane by lane\n", st.name.c_str(),
-                  (unsigned long long)st.walked_whole, (unsigned long long)st.walked_apart);
+      std::printf("  %-22s %12llu whole %12llu clustered %12llu lane by lane\n", st.name.c_str(),
+                  (unsigned long long)st.walked_whole, (unsigned long long)st.walked_clustered,
+                  (unsigned long long)st.walked_apart);
     }
   std::printf("  %-22s %10.5f %6.1f%%   (stages add up to %.1f%% of the total)\n", "total",
               r.total_seconds, 100.0, r.total_seconds > 0 ? 100 * staged / r.total_seconds : 0);

@@ -441,6 +441,7 @@ void set_spread_scale(Bvh<T>& bvh, const Box<T>& all) {
   if (leaves.empty()) return;
   const auto mid = leaves.begin() + std::ptrdiff_t(leaves.size() / 2);
   std::nth_element(leaves.begin(), mid, leaves.end());
+  bvh.leaf_diagonal = T(*mid);
   bvh.coherent_spread = T(kCoherentLeaves * *mid);
 }
 

@@ -103,8 +103,7 @@ void add_bvh(PreparedScene<T>& p) {
                 p.frame.depth);
   const bool eye = !p.eye.c.empty();
   const std::size_t n = order.size();
-  p.walk.one_ray_lanes = p.num_spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
-  p.walk.shadow_one_ray_lanes = p.num_spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
+  p.walk = walk_settings<T>(p.num_spheres);
   // Fresh arrays, their pages huge and present before the first write (lancer/huge_pages.hpp):
   // at one million spheres, 15 ms instead of 55 for these nine arrays on a VM.
   for (auto* v : {&h.cx, &h.cy, &h.cz, &h.r2}) reserve_prepared(*v, n), v->resize(n);

@@ -464,10 +464,17 @@ std::string walk_of(int lanes, int width) {
 std::string secondary_walk(const StructureInfo& st, int width) {
   if (width <= 1) return "one ray at a time (the reference)";
   // Where closest hits go one ray at a time, a packet whose rays stay together walks whole
-  // (Bvh::coherent_spread).
-  return "closest hits " + walk_of(st.one_ray_lanes, width) +
-         (st.one_ray_lanes > 0 ? " (a packet whole where its rays stay together)" : "") +
-         "; shadow rays " + walk_of(st.shadow_one_ray_lanes, width);
+  // (Bvh::coherent_spread), one whose rays leave one leaf box clustered (Bvh::leaf_diagonal).
+  std::string packets;
+  if (st.one_ray_lanes > 0) {
+    packets = " (a packet whole where its rays stay together";
+    if (st.clustered_lanes > 0 && st.clustered_lanes < std::min(st.one_ray_lanes, width))
+      packets += ", one ray alone at " + std::to_string(st.clustered_lanes) +
+                 " lanes or fewer where they leave one leaf box";
+    packets += ")";
+  }
+  return "closest hits " + walk_of(st.one_ray_lanes, width) + packets + "; shadow rays " +
+         walk_of(st.shadow_one_ray_lanes, width);
 }
 
 struct PreparedRun::State {
@@ -524,6 +531,7 @@ void PreparedRun::frame(Result& res, int width, int threads, Body body) const {
     const bool packets =
         (st.precision == Precision::exact || st.precision == Precision::dbl) && res.width > 1;
     res.structure.one_ray_lanes = packets ? prepared.walk.one_ray_lanes : 0;
+    res.structure.clustered_lanes = packets ? prepared.walk.clustered_lanes : 0;
     res.structure.shadow_one_ray_lanes = packets ? prepared.walk.shadow_one_ray_lanes : 0;
     res.seconds = timed([&] {
       res.rays = run_tiles(st.ny, res.threads, st.opt,

@@ -78,6 +78,7 @@ ProfileResult profile_render(const Scene& scene, int width, Accel accel) {
     row.leaf_occupancy =
         row.leaves ? double(prof.leaf_lanes[st]) / (double(row.leaves) * res.width) : 0;
     row.walked_whole = prof.walked_whole[st], row.walked_apart = prof.walked_apart[st];
+    row.walked_clustered = prof.walked_clustered[st];
     row.histogram.assign(prof.histogram[st].begin(), prof.histogram[st].begin() + res.width + 1);
     res.stages.push_back(row);
   }

@@ -22,6 +22,11 @@
 
 namespace lancer::packet {
 
+// How a secondary packet walks the hierarchy where its scene sends such rays one at a time
+// (Hybrid::secondary_walk): whole, as a packet until few lanes enter a subtree (clustered), or
+// every lane alone from the root (apart).
+enum class SecondaryWalk { whole, clustered, apart };
+
 template <class Arch, class Real, class Mode>
 struct Lanes {
   using T = Real;
@@ -84,11 +89,13 @@ struct Lanes {
       c.profile->leaf_lanes[c.profile->current] += count(m);
     }
   }
-  // A secondary packet that walked the hierarchy whole though its scene sends such rays one at a
-  // time (its rays stay together), or lane by lane.
-  static void walk_choice(RayCounts& c, bool whole) noexcept {
+  // How a secondary packet walked the hierarchy where its scene sends such rays one at a time
+  // (Hybrid::secondary_walk).
+  static void walk_choice(RayCounts& c, SecondaryWalk how) noexcept {
     if constexpr (kProfile)
-      (whole ? c.profile->walked_whole : c.profile->walked_apart)[c.profile->current] += 1;
+      (how == SecondaryWalk::whole       ? c.profile->walked_whole
+       : how == SecondaryWalk::clustered ? c.profile->walked_clustered
+                                         : c.profile->walked_apart)[c.profile->current] += 1;
   }
   static void tests(RayCounts& c, const M& m, bool sphere) noexcept {
     if constexpr (kProfile) (sphere ? c.profile->sphere_tests : c.profile->plane_tests) += count(m);

@@ -43,7 +43,6 @@ struct Queries : Hybrid<Arch, Real, Mode> {
   using Hy::tests;
   using Hy::to_m;
   using Hy::to_mi;
-  using Hy::together;
   using Hy::W;
   using Hy::walk_choice;
   using typename Hy::B;
