@@ -39,8 +39,8 @@ inline constexpr int kCoherentLeaves = 8;
 // are cast) walks as a packet until at most kClusteredLanes of its lanes enter a subtree, which
 // then go on alone: their walks share the path down to their common leaf. Below
 // kClusteredMaxSpheres only: above it, every lane alone from the root keeps more node loads in
-// flight at once, which wins when the hierarchy lies beyond the caches (docs/accel.md,
-// "Clustered packets").
+// flight at once, which wins when the hierarchy lies beyond the caches (docs/accel.md, "Packets
+// that leave from one leaf walk clustered").
 inline constexpr int kClusteredLanes = 4;
 inline constexpr int kClusteredMaxSpheres = 262144;
 // The shadow rays of secondary hits (exact float and double packets): from
