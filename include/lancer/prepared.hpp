@@ -3,6 +3,7 @@
 // prepared values, so they start from the same bits; each walks them with its own control flow.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -200,6 +201,12 @@ WalkSettings<T> walk_settings(int spheres) noexcept {
       w.one_ray_lanes > 0 && spheres < kClusteredMaxSpheres ? kClusteredLanes : w.one_ray_lanes;
   w.shadow_one_ray_lanes = spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
   return w;
+}
+
+// Whether clustered packets walk otherwise than the rest at this packet width: their lanes go
+// on alone at fewer lanes than the packet has (at 4 lanes of 4, every lane alone: apart).
+inline bool clusters_at(int clustered_lanes, int one_ray_lanes, int width) noexcept {
+  return clustered_lanes > 0 && clustered_lanes < std::min(one_ray_lanes, width);
 }
 
 // Shininess at or below this, and whole, is raised by repeated squaring (power_int).

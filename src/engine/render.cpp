@@ -468,7 +468,7 @@ std::string secondary_walk(const StructureInfo& st, int width) {
   std::string packets;
   if (st.one_ray_lanes > 0) {
     packets = " (a packet whole where its rays stay together";
-    if (st.clustered_lanes > 0 && st.clustered_lanes < std::min(st.one_ray_lanes, width))
+    if (clusters_at(st.clustered_lanes, st.one_ray_lanes, width))
       packets += ", one ray alone at " + std::to_string(st.clustered_lanes) +
                  " lanes or fewer where they leave one leaf box";
     packets += ")";

@@ -88,7 +88,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
     if (origins + s.bvh.diagonal * std::sqrt(dx * dx + dy * dy + dz * dz) <= s.bvh.coherent_spread)
       return SecondaryWalk::whole;
     return origins <= s.bvh.leaf_diagonal &&
-                   s.walk.clustered_lanes < std::min(s.walk.one_ray_lanes, W)
+                   clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W)
                ? SecondaryWalk::clustered
                : SecondaryWalk::apart;
   }
