@@ -151,6 +151,17 @@ TEST(Bvh, BuildIsDeterministicAndHoldsEverySphereOnce) {
         EXPECT_GE(n.hi_z[k], a.spheres.cz[std::size_t(id)] + r);
       }
   for (int c : seen) ASSERT_EQ(c, 1);
+  // The leaf copy holds each sphere's own bits, and leaf_of finds it there (the API's hit fields
+  // read centres through it).
+  ASSERT_EQ(a.bvh.leaf_of.size(), std::size_t(a.num_spheres));
+  for (std::size_t j = 0; j < a.bvh.id.size(); ++j) {
+    const std::size_t id = std::size_t(a.bvh.id[j]);
+    ASSERT_EQ(a.bvh.leaf_of[id], std::int32_t(j));
+    EXPECT_EQ(a.bvh.cx[j], a.spheres.cx[id]);
+    EXPECT_EQ(a.bvh.cy[j], a.spheres.cy[id]);
+    EXPECT_EQ(a.bvh.cz[j], a.spheres.cz[id]);
+    EXPECT_EQ(a.bvh.r2[j], a.spheres.r2[id]);
+  }
 }
 
 // Each wide node's order table (one per direction code) lists every slot once, its children in
@@ -591,6 +602,7 @@ TEST(Bvh, BuildIsTheSameOnAnyThreadCount) {
   EXPECT_EQ(0, std::memcmp(one.bvh.nodes.data(), two.bvh.nodes.data(),
                            one.bvh.nodes.size() * sizeof(one.bvh.nodes[0])));
   EXPECT_EQ(one.bvh.id, two.bvh.id);
+  EXPECT_EQ(one.bvh.leaf_of, two.bvh.leaf_of);
   EXPECT_EQ(one.bvh.depth, two.bvh.depth);
 }
 

@@ -93,6 +93,9 @@ struct Bvh {
   // the course scenes' AVX2 shading loop differently, 2% more instructions.)
   std::vector<T> cx, cy, cz, r2;
   std::vector<std::int32_t> id;
+  // id's inverse: sphere k's position in leaf order. The library API reads a hit sphere's centre
+  // from the leaf copy the walk has just tested, in the cache where the id-order arrays are not.
+  std::vector<std::int32_t> leaf_of;
   // Boxes are padded for the rounding of the sphere test of rays whose origin lies within this
   // max-norm of the camera: a packet with a lane beyond it uses the plain loop (exact either way).
   T origin_limit = T(0);

@@ -276,7 +276,8 @@ template <class T, int N>
 void store_shape_hit(const Engine<T>& e, const Vec3<T>& o, const Vec3<T>& d, T t, T tmin, int id,
                      std::int64_t prim, HitPacket<N>& h, int k) {
   const PreparedScene<T>& s = e.scene;
-  const ShapeFields<T> f = shape_fields(*s.shapes, e.first_triangle.data(), o, d, t, tmin, prim);
+  const ShapeFields<T> f =
+      shape_fields(*s.shapes, e.first_triangle.data(), o, d, t, tmin, prim, id);
   h.id[k] = id;
   h.t[k] = static_cast<float>(t);
   h.prim_id[k] = f.surface.prim_in_object;
@@ -308,16 +309,22 @@ void store_hits(const Engine<T>& e, const packet::KernelTable<T>& k, const Chunk
         h.prim_id[i] = own.prim_id[l], h.id[i] = own.id[l];
       }
   }
-  if (s.shapes)
-    for (int l = 0; l < n; ++l)
-      if (ch.active[l] && ch.id[l] >= s.num_spheres + s.num_planes) {
-        if (ch.valid[l])  // the kernel's: its primitive
-          store_shape_hit(e, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], s.epsilon,
-                          ch.id[l], ch.prim[l], h, c + l);
-        else  // the reference's: its whole hit
-          store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
-                    ch.shape.at[l], h, c + l);
-      }
+  if (!s.shapes) return;
+  const int first_shape = s.num_spheres + s.num_planes;
+  std::int32_t prims[kMaxLanes];  // the kernel's lanes' primitives, fetched together
+  int m = 0;
+  for (int l = 0; l < n; ++l)
+    if (ch.active[l] && ch.valid[l] && ch.id[l] >= first_shape) prims[m++] = ch.prim[l];
+  fetch_shape_fields(*s.shapes, prims, m);
+  for (int l = 0; l < n; ++l)
+    if (ch.active[l] && ch.id[l] >= first_shape) {
+      if (ch.valid[l])  // the kernel's: its primitive
+        store_shape_hit(e, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], s.epsilon,
+                        ch.id[l], ch.prim[l], h, c + l);
+      else  // the reference's: its whole hit
+        store_hit(s, lane_vec(ch, w, l, 0), lane_vec(ch, w, l, 3), ch.t[l], ch.id[l],
+                  ch.shape.at[l], h, c + l);
+    }
 }
 
 // A query of one ray on the one-ray kernels, without a chunk: closest hit (hit non-null) or
@@ -361,6 +368,11 @@ template <class T, int N>
                                               &shapes) != 2)
     return false;
   const int w = e.query_width[query_slot(N)], first_shape = s.num_spheres + s.num_planes;
+  std::int32_t hit_prims[N];  // fetched together
+  int m = 0;
+  for (int l = 0; l < N; ++l)
+    if (h.id[l] >= first_shape) hit_prims[m++] = prim[l];
+  fetch_shape_fields(*s.shapes, hit_prims, m);
   for (int l = 0; l < N; ++l)
     if (h.id[l] >= first_shape) {
       const T* chunk = rays + 6 * (l - l % w);  // lane l's chunk

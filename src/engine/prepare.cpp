@@ -113,12 +113,14 @@ void add_bvh(PreparedScene<T>& p) {
   if (cones) reserve_prepared(le.reach, n), le.reach.resize(n);
   reserve_prepared(h.id, n);
   h.id.assign(order.begin(), order.end());
+  reserve_prepared(h.leaf_of, n), h.leaf_of.resize(n);
   // A gather: each entry written once from its own sphere, so any split over threads gives the
   // same arrays. In parallel, as the build: at 2^20 spheres its random reads were a tenth of it.
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, 16384), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t j = r.begin(); j < r.end(); ++j) {
           const std::size_t k = std::size_t(order[j]);
+          h.leaf_of[k] = std::int32_t(j);
           h.cx[j] = p.spheres.cx[k], h.cy[j] = p.spheres.cy[k];
           h.cz[j] = p.spheres.cz[k], h.r2[j] = p.spheres.r2[k];
           if (eye) {

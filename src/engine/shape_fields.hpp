@@ -22,23 +22,33 @@ struct ShapeFields {
 template <class T>
 std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s);
 
-// Primitive `prim`'s fields for the ray o, d hitting it at t (epsilon: the scene's, for a
-// cylinder's part; first_triangle: first_triangles' table), bit for bit those of shapes_surface
-// and shapes_normals on shape_hit's hit. The hit point is computed for a cylinder alone: a
+// Primitive `prim`'s fields for the ray o, d hitting it at t (object: its object id, as
+// PreparedShapes::prim_object gives it; epsilon: the scene's, for a cylinder's part;
+// first_triangle: first_triangles' table), bit for bit those of shapes_surface and
+// shapes_normals on shape_hit's hit. The hit point is computed for a cylinder alone: a
 // triangle's normal does not depend on it.
 template <class T>
 ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
-                            const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim);
+                            const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim,
+                            std::int32_t object);
+
+// Before shape_fields on the n primitives prims[0 .. n): the lines each will read, fetched a
+// stage at a time for all of them. Each primitive's fields wait on a chain of loads (its entry in
+// prim, then its triangle's vertex indices, then the vertices) that incoherent hits find out of
+// the cache; taken lane by lane the chains wait in turn, while every lane's load of one stage
+// can be under way at once.
+template <class T>
+void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept;
 
 extern template std::vector<std::int32_t> first_triangles<float>(const PreparedShapes<float>&);
 extern template std::vector<std::int32_t> first_triangles<double>(const PreparedShapes<double>&);
 extern template ShapeFields<float> shape_fields<float>(const PreparedShapes<float>&,
                                                        const std::int32_t*, const Vec3<float>&,
                                                        const Vec3<float>&, float, float,
-                                                       std::int64_t);
+                                                       std::int64_t, std::int32_t);
 extern template ShapeFields<double> shape_fields<double>(const PreparedShapes<double>&,
                                                          const std::int32_t*, const Vec3<double>&,
                                                          const Vec3<double>&, double, double,
-                                                         std::int64_t);
+                                                         std::int64_t, std::int32_t);
 
 }  // namespace lancer

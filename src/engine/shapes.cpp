@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "lancer/huge_pages.hpp"
+#include "lancer/prefetch.hpp"
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
 #include "shape_fields.hpp"
@@ -628,7 +629,8 @@ std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s) {
 
 template <class T>
 ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
-                            const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim) {
+                            const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim,
+                            std::int32_t object) {
   const std::int32_t ref = s.prim[std::size_t(prim)];
   ShapeFields<T> f;
   if (ref < 0) {
@@ -639,10 +641,33 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
     return f;
   }
   // shapes_surface's fields, the object's first triangle from the table rather than searched.
-  f.surface = triangle_surface(
-      s, ref, first_triangle[std::size_t(s.tri_object[std::size_t(ref)] - s.first_object)], o, d);
+  f.surface = triangle_surface(s, ref, first_triangle[std::size_t(object - s.first_object)], o, d);
   f.geometric = geometric_normal(s, ref, Vec3<T>{}, T(0));  // a triangle's: the same everywhere
   return f;
+}
+
+template <class T>
+void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept {
+  constexpr int kMax = 64;  // lanes a call fetches for; more go in turns
+  for (int first = 0; first < n; first += kMax) {
+    const int m = std::min(n - first, kMax);
+    std::int32_t ref[kMax];
+    for (int k = 0; k < m; ++k) ref[k] = s.prim[std::size_t(prims[first + k])];
+    for (int k = 0; k < m; ++k) {
+      if (ref[k] < 0) {  // a cylinder's records
+        const std::size_t c = std::size_t(~ref[k]);
+        prefetch_lines(&s.cyl_base[c], sizeof(s.cyl_base[c]));
+        prefetch_lines(&s.cyl_axis[c], sizeof(s.cyl_axis[c]));
+        continue;
+      }
+      const std::uint32_t* v = &s.tri[3 * std::size_t(ref[k])];
+      for (int c = 0; c < 3; ++c) {
+        prefetch_lines(&s.vx[v[c]], sizeof(T));
+        prefetch_lines(&s.vy[v[c]], sizeof(T));
+        prefetch_lines(&s.vz[v[c]], sizeof(T));
+      }
+    }
+  }
 }
 
 #define LANCER_SHAPES(T)                                                                           \
@@ -661,7 +686,9 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
                                              const Vec3<T>&, const Vec3<T>&);                      \
   template std::vector<std::int32_t> first_triangles<T>(const PreparedShapes<T>&);                 \
   template ShapeFields<T> shape_fields<T>(const PreparedShapes<T>&, const std::int32_t*,           \
-                                          const Vec3<T>&, const Vec3<T>&, T, T, std::int64_t);
+                                          const Vec3<T>&, const Vec3<T>&, T, T, std::int64_t,      \
+                                          std::int32_t);                                           \
+  template void fetch_shape_fields<T>(const PreparedShapes<T>&, const std::int32_t*, int) noexcept;
 LANCER_SHAPES(float)
 LANCER_SHAPES(double)
 #undef LANCER_SHAPES

@@ -85,10 +85,24 @@ void hit_fields(const PreparedScene<Real>& s, const Real* rays, const Real* t,
   }
   const M sphere = L::to_m((id >= I(Id(0))) & (id < I(Id(ns))));
   if (ns > 0 && xsimd::any(sphere)) {
-    const I sid = xsimd::max(xsimd::min(id, I(Id(ns - 1))), I(Id(0)));
-    const V c{L::gather(s.spheres.cx, sid, ns), L::gather(s.spheres.cy, sid, ns),
-              L::gather(s.spheres.cz, sid, ns)};
-    const B r2 = L::gather(s.spheres.r2, sid, ns);
+    // The centres from the hierarchy's leaf copy where there is one (the same bits; the walk
+    // has just read the hit sphere's lines), each lane's position looked up by its id. Not at
+    // W spheres or fewer: gather then loads a whole register, from the id-order arrays' padding.
+    const Bvh<Real>& h = s.bvh;
+    const bool leaves = ns > W && !h.leaf_of.empty();
+    I sid = xsimd::max(xsimd::min(id, I(Id(ns - 1))), I(Id(0)));
+    if (leaves) {
+      alignas(64) Id at[W];
+      sid.store_aligned(at);
+      for (int k = 0; k < W; ++k) at[k] = Id(h.leaf_of[std::size_t(at[k])]);
+      sid = I::load_aligned(at);
+    }
+    const auto& cx = leaves ? h.cx : s.spheres.cx;
+    const auto& cy = leaves ? h.cy : s.spheres.cy;
+    const auto& cz = leaves ? h.cz : s.spheres.cz;
+    const auto& sr2 = leaves ? h.r2 : s.spheres.r2;
+    const V c{L::gather(cx, sid, ns), L::gather(cy, sid, ns), L::gather(cz, sid, ns)};
+    const B r2 = L::gather(sr2, sid, ns);
     const B m = hit_magnitude(o, tt);
     V sn = sphere_point_along<Real>(o, d, tt, c, m).normal;
     // world_normal's order: small first, large only where not small.
