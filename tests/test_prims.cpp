@@ -367,6 +367,27 @@ TEST(Prims, PrimitiveObjectsFromTheShapesRanges) {
       ++per_object[std::size_t(object - sh.first_object)];
     }
     EXPECT_EQ(per_object, (std::vector<int>{1, 7, 0, 1, 1, 1, 12})) << to_string(accel);
+    // Each primitive's place in the leaves (the API's hit fields read it there): the leaf item
+    // that holds it, with its reference and, for a triangle, its vertices' bits.
+    using Shapes = PreparedShapes<float>;
+    ASSERT_EQ(sh.prim_leaf.size(), sh.prim.size());
+    for (std::size_t q = 0; q < sh.prim.size(); ++q) {
+      const std::int32_t at = sh.prim_leaf[q];
+      ASSERT_GE(at, 0) << "primitive " << q;
+      ASSERT_LT(std::size_t(at / Shapes::kLeafItems), sh.leaves.size());
+      const Shapes::Leaf& leaf = sh.leaves[std::size_t(at / Shapes::kLeafItems)];
+      const int k = at % Shapes::kLeafItems;
+      EXPECT_LT(std::uint32_t(k), leaf.count);
+      EXPECT_EQ(leaf.prim[k], std::int32_t(q));
+      EXPECT_EQ(leaf.ref[k], sh.prim[q]);
+      if (sh.prim[q] < 0) continue;
+      for (int c = 0; c < 3; ++c) {
+        const std::uint32_t v = sh.tri[3 * std::size_t(sh.prim[q]) + std::size_t(c)];
+        EXPECT_EQ(leaf.v[3 * c][k], sh.vx[v]);
+        EXPECT_EQ(leaf.v[3 * c + 1][k], sh.vy[v]);
+        EXPECT_EQ(leaf.v[3 * c + 2][k], sh.vz[v]);
+      }
+    }
   }
 }
 

@@ -146,6 +146,10 @@ struct PreparedShapes {
     std::uint32_t tri = 0;    // bit k: item k is a triangle
   };
   BigVector<Leaf> leaves;
+  // Primitive p's place in leaves: leaf prim_leaf[p] / kLeafItems, item prim_leaf[p] %
+  // kLeafItems. The library API's hit fields read a hit's reference and vertices there, from the
+  // lines the walk has just tested, rather than through prim, tri and the vertex arrays.
+  std::vector<std::int32_t> prim_leaf;
   double build_seconds = 0;
 
   std::size_t triangles() const { return tri_object.size(); }

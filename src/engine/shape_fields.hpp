@@ -25,18 +25,18 @@ std::vector<std::int32_t> first_triangles(const PreparedShapes<T>& s);
 // Primitive `prim`'s fields for the ray o, d hitting it at t (object: its object id, as
 // PreparedShapes::prim_object gives it; epsilon: the scene's, for a cylinder's part;
 // first_triangle: first_triangles' table), bit for bit those of shapes_surface and
-// shapes_normals on shape_hit's hit. The hit point is computed for a cylinder alone: a
-// triangle's normal does not depend on it.
+// shapes_normals on shape_hit's hit, a triangle's from its leaf (the walk's copy of its
+// vertices). The hit point is computed for a cylinder alone: a triangle's normal does not
+// depend on it.
 template <class T>
 ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
                             const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim,
                             std::int32_t object);
 
-// Before shape_fields on the n primitives prims[0 .. n): the lines each will read, fetched a
-// stage at a time for all of them. Each primitive's fields wait on a chain of loads (its entry in
-// prim, then its triangle's vertex indices, then the vertices) that incoherent hits find out of
-// the cache; taken lane by lane the chains wait in turn, while every lane's load of one stage
-// can be under way at once.
+// Before shape_fields on the n primitives prims[0 .. n): each one's place in the leaves
+// (PreparedShapes::prim_leaf) read, then its leaf's lines fetched, every lane's load of one stage
+// under way at once. Incoherent hits find those entries out of the cache: taken lane by lane, the
+// lanes' chains of loads would wait in turn.
 template <class T>
 void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept;
 

@@ -186,6 +186,7 @@ std::vector<std::uint32_t> build_leaves(PreparedShapes<T>& s, const SphereBlock<
   std::sort(firsts.begin(), firsts.end());
   std::vector<std::uint32_t> leaf_of(s.nodes.size(), 0);
   s.leaves.assign(firsts.size(), typename Shapes::Leaf{});
+  s.prim_leaf.assign(s.prim.size(), -1);
   for (std::size_t i = 0; i < firsts.size(); ++i) {
     const auto& node = s.nodes[firsts[i].second];
     leaf_of[firsts[i].second] = std::uint32_t(i);
@@ -205,6 +206,7 @@ std::vector<std::uint32_t> build_leaves(PreparedShapes<T>& s, const SphereBlock<
       }
       l.prim[k] = std::int32_t(item);
       l.ref[k] = s.prim[item];
+      s.prim_leaf[item] = std::int32_t(i) * Shapes::kLeafItems + std::int32_t(k);
       if (l.ref[k] < 0) continue;
       l.tri |= 1u << k, rows[k] = 9;
       for (int c = 0; c < 3; ++c) {
@@ -366,9 +368,12 @@ struct PrimRay {
 
   prim::TriangleEdges<T> edges(std::uint32_t t) const {
     const std::uint32_t* v = &s.tri[3 * std::size_t(t)];
-    return prim::triangle_edges<T>(
-        prim::permuted(vertex(v[0]), shear), prim::permuted(vertex(v[1]), shear),
-        prim::permuted(vertex(v[2]), shear), shear.sx, shear.sy, shear.sz);
+    return edges_of(vertex(v[0]), vertex(v[1]), vertex(v[2]));
+  }
+  // The edges of a triangle of vertices a, b, c less the origin.
+  prim::TriangleEdges<T> edges_of(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c) const {
+    return prim::triangle_edges<T>(prim::permuted(a, shear), prim::permuted(b, shear),
+                                   prim::permuted(c, shear), shear.sx, shear.sy, shear.sz);
   }
   // The primitive's nearest hit beyond epsilon (infinity for none) and its part.
   prim::CylinderHit<T> hit(std::int32_t ref) const {
@@ -416,7 +421,8 @@ std::size_t PreparedShapes<T>::bytes() const {
           nz.capacity() + cyl_h.capacity() + cyl_r2.capacity()) *
              sizeof(T) +
          (prim.capacity() + tri.capacity() + tri_object.capacity() + tri_normals.capacity() +
-          cyl_object.capacity() + order.capacity() + shape_prims.capacity()) *
+          cyl_object.capacity() + order.capacity() + shape_prims.capacity() +
+          prim_leaf.capacity()) *
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
          nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
@@ -631,7 +637,11 @@ template <class T>
 ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
                             const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim,
                             std::int32_t object) {
-  const std::int32_t ref = s.prim[std::size_t(prim)];
+  using Shapes = PreparedShapes<T>;
+  const std::int32_t at = s.prim_leaf[std::size_t(prim)];
+  const typename Shapes::Leaf& leaf = s.leaves[std::size_t(at / Shapes::kLeafItems)];
+  const int k = at % Shapes::kLeafItems;
+  const std::int32_t ref = leaf.ref[k];
   ShapeFields<T> f;
   if (ref < 0) {
     // A cylinder: one primitive without surface coordinates, whose normal depends on the point
@@ -640,32 +650,30 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
     f.geometric = geometric_normal(s, ref, along(o, d, t), part);
     return f;
   }
-  // shapes_surface's fields, the object's first triangle from the table rather than searched.
-  f.surface = triangle_surface(s, ref, first_triangle[std::size_t(object - s.first_object)], o, d);
-  f.geometric = geometric_normal(s, ref, Vec3<T>{}, T(0));  // a triangle's: the same everywhere
+  // shapes_surface's and geometric_normal's fields, from the leaf's copy of the vertices (vx,
+  // vy, vz's bits) and the object's first triangle from the table rather than searched.
+  Vec3<T> v[3];
+  for (int c = 0; c < 3; ++c) v[c] = {leaf.v[3 * c][k], leaf.v[3 * c + 1][k], leaf.v[3 * c + 2][k]};
+  f.surface.prim_in_object =
+      static_cast<int>(ref - first_triangle[std::size_t(object - s.first_object)]);
+  const PrimRay<T> ray(s, o, d, T(0));
+  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges_of(v[0] - o, v[1] - o, v[2] - o));
+  f.surface.u = bary.y, f.surface.v = bary.z;
+  f.geometric = prim::triangle_normal(v[0], v[1], v[2]);  // a triangle's: the same everywhere
   return f;
 }
 
 template <class T>
 void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept {
+  using Shapes = PreparedShapes<T>;
   constexpr int kMax = 64;  // lanes a call fetches for; more go in turns
   for (int first = 0; first < n; first += kMax) {
     const int m = std::min(n - first, kMax);
-    std::int32_t ref[kMax];
-    for (int k = 0; k < m; ++k) ref[k] = s.prim[std::size_t(prims[first + k])];
+    std::int32_t at[kMax];
+    for (int k = 0; k < m; ++k) at[k] = s.prim_leaf[std::size_t(prims[first + k])];
     for (int k = 0; k < m; ++k) {
-      if (ref[k] < 0) {  // a cylinder's records
-        const std::size_t c = std::size_t(~ref[k]);
-        prefetch_lines(&s.cyl_base[c], sizeof(s.cyl_base[c]));
-        prefetch_lines(&s.cyl_axis[c], sizeof(s.cyl_axis[c]));
-        continue;
-      }
-      const std::uint32_t* v = &s.tri[3 * std::size_t(ref[k])];
-      for (int c = 0; c < 3; ++c) {
-        prefetch_lines(&s.vx[v[c]], sizeof(T));
-        prefetch_lines(&s.vy[v[c]], sizeof(T));
-        prefetch_lines(&s.vz[v[c]], sizeof(T));
-      }
+      const auto& leaf = s.leaves[std::size_t(at[k] / Shapes::kLeafItems)];
+      prefetch_lines(&leaf, sizeof(leaf));
     }
   }
 }
