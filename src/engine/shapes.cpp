@@ -370,7 +370,7 @@ struct PrimRay {
     const std::uint32_t* v = &s.tri[3 * std::size_t(t)];
     return edges_of(vertex(v[0]), vertex(v[1]), vertex(v[2]));
   }
-  // The edges of a triangle of vertices a, b, c less the origin.
+  // The edges of the triangle whose vertices less the ray's origin are a, b and c.
   prim::TriangleEdges<T> edges_of(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c) const {
     return prim::triangle_edges<T>(prim::permuted(a, shear), prim::permuted(b, shear),
                                    prim::permuted(c, shear), shear.sx, shear.sy, shear.sz);
@@ -637,10 +637,10 @@ template <class T>
 ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* first_triangle,
                             const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim,
                             std::int32_t object) {
-  using Shapes = PreparedShapes<T>;
+  constexpr int kItems = PreparedShapes<T>::kLeafItems;
   const std::int32_t at = s.prim_leaf[std::size_t(prim)];
-  const typename Shapes::Leaf& leaf = s.leaves[std::size_t(at / Shapes::kLeafItems)];
-  const int k = at % Shapes::kLeafItems;
+  const auto& leaf = s.leaves[std::size_t(at / kItems)];
+  const int k = at % kItems;
   const std::int32_t ref = leaf.ref[k];
   ShapeFields<T> f;
   if (ref < 0) {
@@ -650,8 +650,7 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
     f.geometric = geometric_normal(s, ref, along(o, d, t), part);
     return f;
   }
-  // shapes_surface's and geometric_normal's fields, from the leaf's copy of the vertices (vx,
-  // vy, vz's bits) and the object's first triangle from the table rather than searched.
+  // From the leaf's copy of the vertices (vx, vy, vz's bits); the first triangle from the table.
   Vec3<T> v[3];
   for (int c = 0; c < 3; ++c) v[c] = {leaf.v[3 * c][k], leaf.v[3 * c + 1][k], leaf.v[3 * c + 2][k]};
   f.surface.prim_in_object =
@@ -665,16 +664,13 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
 
 template <class T>
 void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept {
-  using Shapes = PreparedShapes<T>;
-  constexpr int kMax = 64;  // lanes a call fetches for; more go in turns
+  constexpr int kMax = 64, kItems = PreparedShapes<T>::kLeafItems;  // kMax lanes a turn
+  std::int32_t at[kMax];
   for (int first = 0; first < n; first += kMax) {
     const int m = std::min(n - first, kMax);
-    std::int32_t at[kMax];
     for (int k = 0; k < m; ++k) at[k] = s.prim_leaf[std::size_t(prims[first + k])];
-    for (int k = 0; k < m; ++k) {
-      const auto& leaf = s.leaves[std::size_t(at[k] / Shapes::kLeafItems)];
-      prefetch_lines(&leaf, sizeof(leaf));
-    }
+    for (int k = 0; k < m; ++k)
+      prefetch_lines(&s.leaves[std::size_t(at[k] / kItems)], sizeof(s.leaves[0]));
   }
 }
 
