@@ -33,7 +33,7 @@ template <class T>
 std::size_t Bvh<T>::bytes() const {
   return nodes.size() * sizeof(Node) + first_sphere.size() * sizeof(std::int32_t) +
          (cx.size() + cy.size() + cz.size() + r2.size()) * sizeof(T) +
-         id.size() * sizeof(std::int32_t);
+         (id.size() + leaf_of.size()) * sizeof(std::int32_t);
 }
 
 // The 32-byte vectors of double change the calling convention without AVX (-Wpsabi): these are
