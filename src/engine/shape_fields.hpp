@@ -33,10 +33,10 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
                             const Vec3<T>& o, const Vec3<T>& d, T t, T epsilon, std::int64_t prim,
                             std::int32_t object);
 
-// Before shape_fields on the n primitives prims[0 .. n): each one's place in the leaves
-// (PreparedShapes::prim_leaf) read, then its leaf's lines fetched, every lane's load of one stage
-// under way at once. Incoherent hits find those entries out of the cache: taken lane by lane, the
-// lanes' chains of loads would wait in turn.
+// Before shape_fields on the n primitives prims[0 .. n): each one's leaf (through
+// PreparedShapes::prim_leaf) fetched. Incoherent hits find those lines out of the cache; the
+// lanes' loads do not depend on each other, so here all are under way at once, where lane by
+// lane in shape_fields each would wait in turn.
 template <class T>
 void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept;
 

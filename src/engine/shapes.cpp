@@ -3,6 +3,7 @@
 #include "lancer/shapes.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -353,6 +354,15 @@ struct SlabRay {
   }
 };
 
+// Triangle t's vertices (vx, vy, vz's bits).
+template <class T>
+std::array<Vec3<T>, 3> triangle_vertices(const PreparedShapes<T>& s, std::uint32_t t) {
+  const std::uint32_t* v = &s.tri[3 * std::size_t(t)];
+  std::array<Vec3<T>, 3> out;
+  for (int c = 0; c < 3; ++c) out[std::size_t(c)] = {s.vx[v[c]], s.vy[v[c]], s.vz[v[c]]};
+  return out;
+}
+
 // One ray's view of the primitives: the shear for triangles, and the tests.
 template <class T>
 struct PrimRay {
@@ -364,16 +374,11 @@ struct PrimRay {
   PrimRay(const PreparedShapes<T>& shapes, const Vec3<T>& org, const Vec3<T>& dir, T epsilon)
       : s(shapes), o(org), d(dir), shear(prim::ray_shear(dir)), eps(epsilon) {}
 
-  Vec3<T> vertex(std::uint32_t v) const { return {s.vx[v] - o.x, s.vy[v] - o.y, s.vz[v] - o.z}; }
-
-  prim::TriangleEdges<T> edges(std::uint32_t t) const {
-    const std::uint32_t* v = &s.tri[3 * std::size_t(t)];
-    return edges_of(vertex(v[0]), vertex(v[1]), vertex(v[2]));
-  }
-  // The edges of the triangle whose vertices less the ray's origin are a, b and c.
-  prim::TriangleEdges<T> edges_of(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c) const {
-    return prim::triangle_edges<T>(prim::permuted(a, shear), prim::permuted(b, shear),
-                                   prim::permuted(c, shear), shear.sx, shear.sy, shear.sz);
+  prim::TriangleEdges<T> edges(std::uint32_t t) const { return edges(triangle_vertices(s, t)); }
+  // The edges of the triangle of vertices v, taken relative to the ray's origin.
+  prim::TriangleEdges<T> edges(const std::array<Vec3<T>, 3>& v) const {
+    return prim::triangle_edges<T>(prim::permuted(v[0] - o, shear), prim::permuted(v[1] - o, shear),
+                                   prim::permuted(v[2] - o, shear), shear.sx, shear.sy, shear.sz);
   }
   // The primitive's nearest hit beyond epsilon (infinity for none) and its part.
   prim::CylinderHit<T> hit(std::int32_t ref) const {
@@ -574,9 +579,8 @@ Vec3<T> geometric_normal(const PreparedShapes<T>& s, std::int32_t ref, const Vec
     const std::size_t c = std::size_t(~ref);
     return prim::cylinder_normal(p, s.cyl_base[c], s.cyl_axis[c], part);
   }
-  const std::uint32_t* v = &s.tri[3 * std::size_t(ref)];
-  auto vertex = [&](std::uint32_t k) { return Vec3<T>{s.vx[k], s.vy[k], s.vz[k]}; };
-  return prim::triangle_normal(vertex(v[0]), vertex(v[1]), vertex(v[2]));
+  const std::array<Vec3<T>, 3> v = triangle_vertices(s, std::uint32_t(ref));
+  return prim::triangle_normal(v[0], v[1], v[2]);
 }
 }  // namespace
 
@@ -599,15 +603,16 @@ void shapes_normals(const PreparedShapes<T>& s, const ShapeHit<T>& hit, const Ve
 }
 
 namespace {
-// Triangle ref's surface fields for the ray o, d, the index of its object's first triangle
-// given.
+// Triangle ref's surface fields for the ray o, d, its vertices v and the index of its object's
+// first triangle given.
 template <class T>
 ShapeSurface<T> triangle_surface(const PreparedShapes<T>& s, std::int32_t ref, std::int32_t first,
-                                 const Vec3<T>& o, const Vec3<T>& d) {
+                                 const std::array<Vec3<T>, 3>& v, const Vec3<T>& o,
+                                 const Vec3<T>& d) {
   ShapeSurface<T> out;
   out.prim_in_object = static_cast<int>(ref - first);
   const PrimRay<T> ray(s, o, d, T(0));
-  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(std::uint32_t(ref)));
+  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges(v));
   out.u = bary.y, out.v = bary.z;
   return out;
 }
@@ -621,7 +626,8 @@ ShapeSurface<T> shapes_surface(const PreparedShapes<T>& s, const ShapeHit<T>& hi
   // Triangles are stored in object order, so an object's first is the first with its id.
   const auto& objects = s.tri_object;
   const auto first = std::lower_bound(objects.begin(), objects.end(), objects[std::size_t(ref)]);
-  return triangle_surface(s, ref, std::int32_t(first - objects.begin()), o, d);
+  return triangle_surface(s, ref, std::int32_t(first - objects.begin()),
+                          triangle_vertices(s, std::uint32_t(ref)), o, d);
 }
 
 template <class T>
@@ -651,27 +657,21 @@ ShapeFields<T> shape_fields(const PreparedShapes<T>& s, const std::int32_t* firs
     return f;
   }
   // From the leaf's copy of the vertices (vx, vy, vz's bits); the first triangle from the table.
-  Vec3<T> v[3];
-  for (int c = 0; c < 3; ++c) v[c] = {leaf.v[3 * c][k], leaf.v[3 * c + 1][k], leaf.v[3 * c + 2][k]};
-  f.surface.prim_in_object =
-      static_cast<int>(ref - first_triangle[std::size_t(object - s.first_object)]);
-  const PrimRay<T> ray(s, o, d, T(0));
-  const Vec3<T> bary = prim::triangle_barycentrics(ray.edges_of(v[0] - o, v[1] - o, v[2] - o));
-  f.surface.u = bary.y, f.surface.v = bary.z;
+  std::array<Vec3<T>, 3> v;
+  for (int c = 0; c < 3; ++c)
+    v[std::size_t(c)] = {leaf.v[3 * c][k], leaf.v[3 * c + 1][k], leaf.v[3 * c + 2][k]};
+  const std::int32_t first = first_triangle[std::size_t(object - s.first_object)];
+  f.surface = triangle_surface(s, ref, first, v, o, d);
   f.geometric = prim::triangle_normal(v[0], v[1], v[2]);  // a triangle's: the same everywhere
   return f;
 }
 
 template <class T>
 void fetch_shape_fields(const PreparedShapes<T>& s, const std::int32_t* prims, int n) noexcept {
-  constexpr int kMax = 64, kItems = PreparedShapes<T>::kLeafItems;  // kMax lanes a turn
-  std::int32_t at[kMax];
-  for (int first = 0; first < n; first += kMax) {
-    const int m = std::min(n - first, kMax);
-    for (int k = 0; k < m; ++k) at[k] = s.prim_leaf[std::size_t(prims[first + k])];
-    for (int k = 0; k < m; ++k)
-      prefetch_lines(&s.leaves[std::size_t(at[k] / kItems)], sizeof(s.leaves[0]));
-  }
+  constexpr int kItems = PreparedShapes<T>::kLeafItems;
+  for (int k = 0; k < n; ++k)
+    prefetch_lines(&s.leaves[std::size_t(s.prim_leaf[std::size_t(prims[k])] / kItems)],
+                   sizeof(s.leaves[0]));
 }
 
 #define LANCER_SHAPES(T)                                                                           \
