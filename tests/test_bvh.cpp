@@ -411,11 +411,12 @@ TEST(Bvh, FullRendersShadeTheCameraBlocksHits) {
 
 // The one-ray walks of expect_one_ray_walks_match below at every packet width of precision T.
 template <class T>
-void expect_one_ray_walks_match(const Scene& s, const RenderResult& truth, int nx, int ny) {
+void expect_one_ray_walks_match(const Scene& s, const RenderResult& truth, int nx, int ny,
+                                int default_lanes = 0) {
   constexpr Precision p = std::is_same_v<T, float> ? Precision::exact : Precision::dbl;
   SCOPED_TRACE(to_string(p));
   auto prepared = prepare<T>(s, Accel::bvh);
-  EXPECT_EQ(prepared.walk.one_ray_lanes, 0);  // 1500 spheres: packets by default
+  EXPECT_EQ(prepared.walk.one_ray_lanes, default_lanes);  // 1500 spheres: packets by default
   EXPECT_EQ(prepared.walk.shadow_one_ray_lanes, kOneRayShadowLanes);
   // Every packet apart (spread 0: the one-ray walks everywhere), and the scene's own choice,
   // where packets whose rays stay together walk whole.
@@ -474,6 +475,21 @@ TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
     expect_one_ray_walks_match<float>(s, truth, o.nx, o.ny);
     expect_one_ray_walks_match<double>(s, run(s, 1, truth_accel, Precision::dbl), o.nx, o.ny);
   }
+}
+
+// Leaves of eight spheres (kLargeLeafMinSpheres and more), whose closest hits one ray at a time
+// test a leaf's eight at once where the ISA has AVX2 (one ymm of floats): the plain loop's image,
+// with ties inside leaves (duplicates) and a last leaf of fewer than eight.
+TEST(Bvh, LeavesOfEightOneRayAtATimeMatchThePlainLoop) {
+  CloudOptions o;
+  o.spheres = kLargeLeafMinSpheres + 5;
+  o.duplicates = 0.3;
+  o.nx = 40, o.ny = 27;
+  const Scene s = cloud(731, o);
+  ASSERT_EQ(prepare<float>(s, Accel::bvh).bvh.max_leaf, 8);
+  const RenderResult truth = run(s, 1, Accel::none);
+  EXPECT_GT(truth.rays.reflected, 100u);
+  expect_one_ray_walks_match<float>(s, truth, o.nx, o.ny, kMaxLanes);
 }
 
 // The sphere counts from which secondary rays and their shadow rays go one at a time, and up to

@@ -163,28 +163,41 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   }
 
   // The one-ray leaf tests' registers: four floats, or four doubles in a ymm where the ISA has
-  // AVX2 (else two in an xmm).
+  // AVX2 (else two in an xmm). The closest hit's leaf of more than four float spheres
+  // (Bvh::max_leaf 8) takes eight floats in a ymm there, one pass over the leaf instead of two;
+  // the any hit keeps four: it stops at its first blocker, often before a leaf's second four
+  // (docs/notebook/2026-11-incoherent-rays.md).
 #if LANCER_X86 && defined(__AVX2__)
   using LeafArch = std::conditional_t<std::is_same_v<T, float>, Arch4, xsimd::avx2>;
+  using WideLeafArch = xsimd::avx2;
 #else
   using LeafArch = Arch4;
+  using WideLeafArch = Arch4;
 #endif
   // One ray (o, d) against leaf-order spheres [first, first + n), a register of spheres at a
-  // time (the lanes are spheres: four floats, or doubles as LeafArch holds): each lane computes the
-  // reference's formulas for its sphere, IEEE operation by operation, so its t is the
-  // reference's. hit(q, t) for each sphere met beyond epsilon, in leaf order, -> true to stop;
-  // returns whether one did.
-  template <class Hit>
+  // time (the lanes are spheres: four or eight floats, or doubles as LeafArch holds): each lane
+  // computes the reference's formulas for its sphere, IEEE operation by operation, so its t is
+  // the reference's. hit(q, t) for each sphere met beyond epsilon, in leaf order, -> true to
+  // stop; returns whether one did.
+  template <bool kWideLeaf = false, class Hit>
   static bool spheres_one(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit&& hit) noexcept {
-    using B4 = xsimd::batch<T, LeafArch>;
+    using Wide = xsimd::batch<T, WideLeafArch>;
+    if constexpr (kWideLeaf && std::is_same_v<T, float> && Wide::size > 4)
+      if (n > 4) return spheres_run<WideLeafArch>(s, first, n, o, d, hit);
+    return spheres_run<LeafArch>(s, first, n, o, d, hit);
+  }
+  template <class RegArch, class Hit>
+  static bool spheres_run(const Prepared& s, int first, int n, const T* o, const T* d,
+                          Hit& hit) noexcept {
+    using B4 = xsimd::batch<T, RegArch>;
     constexpr int K = int(B4::size);
     const Bvh<T>& h = s.bvh;
     const int total = int(h.cx.size());
     const Vec3<B4> ov{B4(o[0]), B4(o[1]), B4(o[2])}, dv{B4(d[0]), B4(d[1]), B4(d[2])};
     const B4 eps(s.epsilon);
-    alignas(32) static constexpr T kLane[4] = {0, 1, 2, 3};
-    const B4 lane = B4::load_aligned(kLane);
+    alignas(32) static constexpr T kLane[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    const B4 lane = B4::load_unaligned(kLane);
     for (int j = first; j < first + n; j += K) {
       const int m = std::min(K, first + n - j);
       B4 cx, cy, cz, r2;
@@ -218,7 +231,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // The lexicographic minimum of (t, id) over those spheres and the ray's best.
   static void spheres_closest_one(const Prepared& s, int first, int n, const T* o, const T* d,
                                   T& best_t, Id& best_id) noexcept {
-    spheres_one(s, first, n, o, d, [&](int j, T t) {
+    spheres_one<true>(s, first, n, o, d, [&](int j, T t) {
       const Id id = Id(s.bvh.id[std::size_t(j)]);
       if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
       return false;
