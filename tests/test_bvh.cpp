@@ -416,7 +416,8 @@ void expect_one_ray_walks_match(const Scene& s, const RenderResult& truth, int n
   constexpr Precision p = std::is_same_v<T, float> ? Precision::exact : Precision::dbl;
   SCOPED_TRACE(to_string(p));
   auto prepared = prepare<T>(s, Accel::bvh);
-  EXPECT_EQ(prepared.walk.one_ray_lanes, default_lanes);  // 1500 spheres: packets by default
+  // Below kOneRayMinSpheres (1500 spheres above): packets by default.
+  EXPECT_EQ(prepared.walk.one_ray_lanes, default_lanes);
   EXPECT_EQ(prepared.walk.shadow_one_ray_lanes, kOneRayShadowLanes);
   // Every packet apart (spread 0: the one-ray walks everywhere), and the scene's own choice,
   // where packets whose rays stay together walk whole.
@@ -479,7 +480,7 @@ TEST(Bvh, SecondaryRaysOneAtATimeMatchThePlainLoop) {
 
 // Leaves of eight spheres (kLargeLeafMinSpheres and more), whose closest hits one ray at a time
 // test a leaf's eight at once where the ISA has AVX2 (one ymm of floats): the plain loop's image,
-// with ties inside leaves (duplicates) and a last leaf of fewer than eight.
+// with ties inside leaves (duplicates) and leaves of fewer than eight (8197 spheres).
 TEST(Bvh, LeavesOfEightOneRayAtATimeMatchThePlainLoop) {
   CloudOptions o;
   o.spheres = kLargeLeafMinSpheres + 5;

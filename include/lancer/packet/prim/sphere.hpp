@@ -190,36 +190,36 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   template <class RegArch, class Hit>
   static bool spheres_run(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit& hit) noexcept {
-    using B4 = xsimd::batch<T, RegArch>;
-    constexpr int K = int(B4::size);
+    using R = xsimd::batch<T, RegArch>;
+    constexpr int K = int(R::size);
     const Bvh<T>& h = s.bvh;
     const int total = int(h.cx.size());
-    const Vec3<B4> ov{B4(o[0]), B4(o[1]), B4(o[2])}, dv{B4(d[0]), B4(d[1]), B4(d[2])};
-    const B4 eps(s.epsilon);
+    const Vec3<R> ov{R(o[0]), R(o[1]), R(o[2])}, dv{R(d[0]), R(d[1]), R(d[2])};
+    const R eps(s.epsilon);
     alignas(32) static constexpr T kLane[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-    const B4 lane = B4::load_unaligned(kLane);
+    const R lane = R::load_unaligned(kLane);
     for (int j = first; j < first + n; j += K) {
       const int m = std::min(K, first + n - j);
-      B4 cx, cy, cz, r2;
+      R cx, cy, cz, r2;
       if (j + K <= total) {
-        cx = B4::load_unaligned(&h.cx[j]), cy = B4::load_unaligned(&h.cy[j]);
-        cz = B4::load_unaligned(&h.cz[j]), r2 = B4::load_unaligned(&h.r2[j]);
+        cx = R::load_unaligned(&h.cx[j]), cy = R::load_unaligned(&h.cy[j]);
+        cz = R::load_unaligned(&h.cz[j]), r2 = R::load_unaligned(&h.r2[j]);
       } else {  // the last leaf's last spheres: no reads past the arrays
-        alignas(sizeof(B4)) T v[4][K] = {};
+        alignas(sizeof(R)) T v[4][K] = {};
         for (int q = 0; q < m; ++q)
           v[0][q] = h.cx[j + q], v[1][q] = h.cy[j + q], v[2][q] = h.cz[j + q],
           v[3][q] = h.r2[j + q];
-        cx = B4::load_aligned(v[0]), cy = B4::load_aligned(v[1]);
-        cz = B4::load_aligned(v[2]), r2 = B4::load_aligned(v[3]);
+        cx = R::load_aligned(v[0]), cy = R::load_aligned(v[1]);
+        cz = R::load_aligned(v[2]), r2 = R::load_aligned(v[3]);
       }
-      const Vec3<B4> f = ov - Vec3<B4>{cx, cy, cz};
-      const SphereDisc<B4> sd = sphere_disc(f, dv, r2);
-      const auto live = (sd.disc >= B4(T(0))) & (lane < B4(T(m)));
+      const Vec3<R> f = ov - Vec3<R>{cx, cy, cz};
+      const SphereDisc<R> sd = sphere_disc(f, dv, r2);
+      const auto live = (sd.disc >= R(T(0))) & (lane < R(T(m)));
       if (!xsimd::any(live)) continue;
-      const B4 t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
+      const R t = sphere_first_root(sphere_roots(sd, sphere_c(f, r2)), eps);
       unsigned met = lane_bits(live & (t > eps));
       if (!met) continue;
-      alignas(sizeof(B4)) T tt[K];
+      alignas(sizeof(R)) T tt[K];
       t.store_aligned(tt);
       for (; met; met &= met - 1) {
         const int q = __builtin_ctz(met);
@@ -231,7 +231,7 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   // The lexicographic minimum of (t, id) over those spheres and the ray's best.
   static void spheres_closest_one(const Prepared& s, int first, int n, const T* o, const T* d,
                                   T& best_t, Id& best_id) noexcept {
-    spheres_one<true>(s, first, n, o, d, [&](int j, T t) {
+    spheres_one</*kWideLeaf=*/true>(s, first, n, o, d, [&](int j, T t) {
       const Id id = Id(s.bvh.id[std::size_t(j)]);
       if (t < best_t || (t == best_t && id < best_id)) best_t = t, best_id = id;
       return false;
