@@ -182,9 +182,10 @@ struct SpherePackets : Lanes<Arch, Real, Mode> {
   template <bool kWideLeaf = false, class Hit>
   static bool spheres_one(const Prepared& s, int first, int n, const T* o, const T* d,
                           Hit&& hit) noexcept {
-    using Wide = xsimd::batch<T, WideLeafArch>;
-    if constexpr (kWideLeaf && std::is_same_v<T, float> && Wide::size > 4)
-      if (n > 4) return spheres_run<WideLeafArch>(s, first, n, o, d, hit);
+    // Only where the wide register holds more (float on AVX2: eight against four).
+    constexpr int kNarrow = int(xsimd::batch<T, LeafArch>::size);
+    if constexpr (kWideLeaf && int(xsimd::batch<T, WideLeafArch>::size) > kNarrow)
+      if (n > kNarrow) return spheres_run<WideLeafArch>(s, first, n, o, d, hit);
     return spheres_run<LeafArch>(s, first, n, o, d, hit);
   }
   template <class RegArch, class Hit>
