@@ -19,6 +19,8 @@
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <type_traits>
@@ -93,21 +95,18 @@ struct ShapeLone {
       shear.kx = axes[0], shear.ky = axes[1], shear.kz = axes[2];
       shear.sx = f[0], shear.sy = f[1], shear.sz = f[2];
       o_perm[0] = o[shear.kx], o_perm[1] = o[shear.ky], o_perm[2] = o[shear.kz];
-      T mag = 0;
-      for (int a = 0; a < 3; ++a) {
-        const T m = o[a] < T(0) ? -o[a] : o[a];
-        mag = m > mag ? m : mag;
-      }
-      o_pad = T(Shapes::kWidePad) * mag;
+      o_pad = T(Shapes::kWidePad) * std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
+      // Each axis' entry and exit planes by arithmetic on the direction's sign, not by a
+      // choice the compiler makes a branch of: random directions mispredict it half the time.
       for (int a = 0; a < 3; ++a) {
         zero[a] = d[a] == T(0);
         o_lo[a] = o[a] + o_pad, o_hi[a] = o[a] - o_pad;
-        const bool down = d[a] < T(0);
-        const T ad = down ? -d[a] : d[a];
-        fast = fast && ad >= T(0x1p-60);
-        near[a] = down ? Shapes::lone_hi_plane(a) : Shapes::lone_lo_plane(a);
-        far[a] = down ? Shapes::lone_lo_plane(a) : Shapes::lone_hi_plane(a);
-        o_near[a] = down ? o_hi[a] : o_lo[a], o_far[a] = down ? o_lo[a] : o_hi[a];
+        const int down = d[a] < T(0);
+        fast = fast & (std::fabs(d[a]) >= T(0x1p-60));
+        near[a] = Shapes::lone_lo_plane(a) + kL * down;
+        far[a] = Shapes::lone_lo_plane(a) + kL * (1 - down);
+        const T lo_hi[2] = {o_lo[a], o_hi[a]};
+        o_near[a] = lo_hi[down], o_far[a] = lo_hi[1 - down];
       }
     }
   };
