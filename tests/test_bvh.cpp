@@ -493,14 +493,17 @@ TEST(Bvh, LeavesOfEightOneRayAtATimeMatchThePlainLoop) {
   expect_one_ray_walks_match<float>(s, truth, o.nx, o.ny, kMaxLanes);
 }
 
-// The sphere counts from which secondary rays and their shadow rays go one at a time, and up to
-// which clustered packets walk as packets (float and double alike).
+// The sphere counts from which secondary rays and their shadow rays go one at a time, and the
+// band in which clustered packets walk as packets down to where few lanes part (float and double
+// alike). The table is written for these constants: change it with them.
+static_assert(kOneRayShadowMinSpheres == 1024 && kClusteredMinSpheres == 1024 &&
+              kOneRayMinSpheres == 8192 && kClusteredMaxSpheres == 262144);
 TEST(Bvh, OneRayThresholdsFollowTheSphereCount) {
   for (const auto& [n, lanes, shadow, clustered] : std::vector<std::tuple<int, int, int, int>>{
-           {kOneRayShadowMinSpheres - 1, 0, 0, 0},
-           {kOneRayShadowMinSpheres, 0, kOneRayShadowLanes, 0},
-           {kOneRayMinSpheres - 1, 0, kOneRayShadowLanes, 0},
-           {kOneRayMinSpheres, kMaxLanes, kOneRayShadowLanes, kClusteredLanes}}) {
+           {1023, 0, 0, 0},
+           {1024, 0, kOneRayShadowLanes, kClusteredLanes},
+           {8191, 0, kOneRayShadowLanes, kClusteredLanes},
+           {8192, kMaxLanes, kOneRayShadowLanes, kClusteredLanes}}) {
     CloudOptions o;
     o.spheres = n;
     o.duplicates = 0;
@@ -532,17 +535,25 @@ TEST(Bvh, SummaryReportsTheSecondaryWalkThatRan) {
   o.spheres = kOneRayShadowMinSpheres + 100;
   o.nx = 16, o.ny = 8;
   const Scene s = cloud(41, o);
+  // Below kOneRayMinSpheres, only clustered packets' lanes go alone, where the packet is wider
+  // than the lanes they go alone at.
+  auto expected = [](int width) {
+    return std::string("closest hits packets") +
+           (width > kClusteredLanes
+                ? " (one ray alone at 4 lanes or fewer where they leave one leaf box)"
+                : "") +
+           "; shadow rays packets, one ray alone at 1 lane";
+  };
   for (int w : testing::packet_widths(Precision::exact)) {
     const RenderResult r = run(s, w, Accel::bvh);
     EXPECT_EQ(r.structure.one_ray_lanes, 0);
+    EXPECT_EQ(r.structure.clustered_lanes, kClusteredLanes);
     EXPECT_EQ(r.structure.shadow_one_ray_lanes, kOneRayShadowLanes);
-    EXPECT_EQ(secondary_walk(r.structure, r.width),
-              "closest hits packets; shadow rays packets, one ray alone at 1 lane");
+    EXPECT_EQ(secondary_walk(r.structure, r.width), expected(r.width));
   }
   for (int w : testing::packet_widths(Precision::dbl)) {
     const RenderResult d = run(s, w, Accel::bvh, Precision::dbl);
-    EXPECT_EQ(secondary_walk(d.structure, d.width),
-              "closest hits packets; shadow rays packets, one ray alone at 1 lane");
+    EXPECT_EQ(secondary_walk(d.structure, d.width), expected(d.width));
   }
   const RenderResult ref = run(s, 1, Accel::bvh);
   EXPECT_EQ(secondary_walk(ref.structure, ref.width), "one ray at a time (the reference)");

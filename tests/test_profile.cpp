@@ -165,8 +165,9 @@ TEST(Profile, OrthographicCameraRaysStayPackets) {
 
 // Where secondary rays go one at a time (from kOneRayMinSpheres spheres), a packet whose rays
 // stay together walks whole: the reflections of a flat mirror mostly do, those of a cloud of
-// spheres mostly do not, and a few of those leave from within one leaf box (clustered). Below
-// the threshold no packet is counted any way.
+// spheres mostly do not, and a few of those leave from within one leaf box (clustered). From
+// kClusteredMinSpheres below kOneRayMinSpheres only clustered packets' lanes go alone (on
+// packets wider than kClusteredLanes), the others whole; below that no packet is counted.
 TEST(Profile, SecondaryPacketsWalkWholeWhereTheirRaysStayTogether) {
   generate::Options g;
   // A row of 16 pixels must span a small angle: at 64x40 it spans a quarter of the view, and
@@ -185,6 +186,8 @@ TEST(Profile, SecondaryPacketsWalkWholeWhereTheirRaysStayTogether) {
   const std::string cloud = generate::scene_json(g);
   g.spheres = kOneRayMinSpheres - 1;
   const std::string fewer = generate::scene_json(g);
+  g.spheres = kClusteredMinSpheres - 1;
+  const std::string fewest = generate::scene_json(g);
   for (int width : packet_widths()) {
     SCOPED_TRACE("width " + std::to_string(width));
     const ProfileResult pm = profile_render(parse_scene(mirror, "mirror"), width);
@@ -205,7 +208,17 @@ TEST(Profile, SecondaryPacketsWalkWholeWhereTheirRaysStayTogether) {
     const ProfileResult pf = profile_render(parse_scene(fewer, "fewer"), width);
     const auto& f = pf.stages[kReflection];
     EXPECT_GT(f.rays, 0u);
-    EXPECT_EQ(f.walked_whole + f.walked_clustered + f.walked_apart, 0u);
+    EXPECT_EQ(f.walked_apart, 0u);
+    if (width > kClusteredLanes) {
+      EXPECT_GT(f.walked_clustered, 0u);
+      EXPECT_GT(f.walked_whole, 0u);
+    } else {
+      EXPECT_EQ(f.walked_whole + f.walked_clustered, 0u);
+    }
+    const ProfileResult pl = profile_render(parse_scene(fewest, "fewest"), width);
+    const auto& l = pl.stages[kReflection];
+    EXPECT_GT(l.rays, 0u);
+    EXPECT_EQ(l.walked_whole + l.walked_clustered + l.walked_apart, 0u);
   }
 }
 

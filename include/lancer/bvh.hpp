@@ -37,11 +37,14 @@ inline constexpr int kCoherentLeaves = 8;
 // ... and a packet whose live lanes leave from within one leaf box of each other (the median
 // leaf's diagonal: several rays from each hit point, as ambient occlusion and diffuse bounces
 // are cast) walks as a packet until at most kClusteredLanes of its lanes enter a subtree, which
-// then go on alone: their walks share the path down to their common leaf. Below
-// kClusteredMaxSpheres only: above it, every lane alone from the root keeps more node loads in
-// flight at once, which wins when the hierarchy lies beyond the caches (docs/accel.md, "Packets
-// that leave from one leaf walk clustered").
+// then go on alone: their walks share the path down to their common leaf. From
+// kClusteredMinSpheres (below kOneRayMinSpheres, where the other secondary packets stay packets:
+// such packets' lanes part lower in a small hierarchy, and their lone walks have fewer nodes to
+// wait on) and below kClusteredMaxSpheres: above it, every lane alone from the root keeps more
+// node loads in flight at once, which wins when the hierarchy lies beyond the caches
+// (docs/accel.md, "Packets that leave from one leaf walk clustered").
 inline constexpr int kClusteredLanes = 4;
+inline constexpr int kClusteredMinSpheres = 1024;
 inline constexpr int kClusteredMaxSpheres = 262144;
 // The shadow rays of secondary hits (exact float and double packets): from
 // kOneRayShadowMinSpheres, a lane goes on alone into a subtree no other lane of its packet enters

@@ -94,7 +94,7 @@ struct WalkSettings {
   // (kOneRayMinSpheres: 0 or kMaxLanes).
   int one_ray_lanes = 0;
   // The same for secondary packets whose lanes leave from within one leaf box of each other
-  // (kClusteredLanes below kClusteredMaxSpheres, else one_ray_lanes).
+  // (kClusteredLanes from kClusteredMinSpheres below kClusteredMaxSpheres, else one_ray_lanes).
   int clustered_lanes = 0;
   // The same for the shadow rays from secondary hits (kOneRayShadowMinSpheres).
   int shadow_one_ray_lanes = 0;
@@ -191,22 +191,25 @@ inline constexpr double kNaiveSphereRatio = 1.0 / 256.0;
 // The widest packet, in lanes: tables that packets read whole batches from are padded by this.
 inline constexpr int kMaxLanes = 16;
 
-// How a scene of n spheres walks its hierarchy (kOneRayMinSpheres, kClusteredMaxSpheres,
-// kOneRayShadowMinSpheres).
+// How a scene of n spheres walks its hierarchy (kOneRayMinSpheres, kClusteredMinSpheres,
+// kClusteredMaxSpheres, kOneRayShadowMinSpheres).
 template <class T>
 WalkSettings<T> walk_settings(int spheres) noexcept {
   WalkSettings<T> w;
   w.one_ray_lanes = spheres >= kOneRayMinSpheres ? kMaxLanes : 0;
-  w.clustered_lanes =
-      w.one_ray_lanes > 0 && spheres < kClusteredMaxSpheres ? kClusteredLanes : w.one_ray_lanes;
+  w.clustered_lanes = spheres >= kClusteredMinSpheres && spheres < kClusteredMaxSpheres
+                          ? kClusteredLanes
+                          : w.one_ray_lanes;
   w.shadow_one_ray_lanes = spheres >= kOneRayShadowMinSpheres ? kOneRayShadowLanes : 0;
   return w;
 }
 
 // Whether clustered packets walk otherwise than the rest at this packet width: their lanes go
-// on alone at fewer lanes than the packet has (at 4 lanes of 4, every lane alone: apart).
+// on alone at fewer lanes than the packet has (at 4 lanes of 4, every lane alone: apart), and
+// fewer than the other secondary packets' lanes do (one_ray_lanes; 0: those stay packets).
 inline bool clusters_at(int clustered_lanes, int one_ray_lanes, int width) noexcept {
-  return clustered_lanes > 0 && clustered_lanes < std::min(one_ray_lanes, width);
+  return clustered_lanes > 0 && clustered_lanes < width &&
+         (one_ray_lanes <= 0 || clustered_lanes < one_ray_lanes);
 }
 
 // Shininess at or below this, and whole, is raised by repeated squaring (power_int).

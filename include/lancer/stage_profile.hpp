@@ -32,8 +32,9 @@ struct StageProfile {
   std::uint64_t last_tsc = 0;                       // the chain of laps; see Kernel::lap
   // Hierarchy leaves visited per stage and the lanes active in them (traversal occupancy).
   std::array<std::uint64_t, kStageCount> leaf_packets{}, leaf_lanes{};
-  // Secondary packets in a scene whose secondary rays go one at a time (Bvh::one_ray_lanes):
-  // those that walked whole (their rays stay together), as a packet down to their common leaf
+  // Secondary packets in a scene whose secondary rays go one at a time (WalkSettings::
+  // one_ray_lanes or clustered_lanes): those that walked whole (their rays stay together, or
+  // apart where only clustered packets' lanes go alone), as a packet down to their common leaf
   // (clustered: their origins within one leaf box) and those that went lane by lane.
   std::array<std::uint64_t, kStageCount> walked_whole{}, walked_clustered{}, walked_apart{};
   int current = 0;  // the stage whose rays are being traced (set by Kernel::occupancy)

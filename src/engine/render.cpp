@@ -465,14 +465,16 @@ std::string secondary_walk(const StructureInfo& st, int width) {
   if (width <= 1) return "one ray at a time (the reference)";
   // Where closest hits go one ray at a time, a packet whose rays stay together walks whole
   // (Bvh::coherent_spread), one whose rays leave one leaf box clustered (Bvh::leaf_diagonal).
+  // Where only those go alone, the others stay packets.
   std::string packets;
-  if (st.one_ray_lanes > 0) {
-    packets = " (a packet whole where its rays stay together";
-    if (clusters_at(st.clustered_lanes, st.one_ray_lanes, width))
-      packets += ", one ray alone at " + std::to_string(st.clustered_lanes) +
-                 " lanes or fewer where they leave one leaf box";
-    packets += ")";
-  }
+  const bool clusters = clusters_at(st.clustered_lanes, st.one_ray_lanes, width);
+  const std::string clustered = "one ray alone at " + std::to_string(st.clustered_lanes) +
+                                " lanes or fewer where they leave one leaf box";
+  if (st.one_ray_lanes > 0)
+    packets = " (a packet whole where its rays stay together" +
+              (clusters ? ", " + clustered : std::string()) + ")";
+  else if (clusters)
+    packets = " (" + clustered + ")";
   return "closest hits " + walk_of(st.one_ray_lanes, width) + packets + "; shadow rays " +
          walk_of(st.shadow_one_ray_lanes, width);
 }

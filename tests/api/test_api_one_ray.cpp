@@ -230,67 +230,71 @@ TEST(ApiOneRay, GeneratedShapesGiveTheReferencesBits) {
 }
 
 // Packets of four rays from each of four hit points, as ambient occlusion and diffuse bounces
-// cast them (bench --mode ao, diffuse): from kOneRayMinSpheres spheres a packet whose lanes leave
-// from within one leaf box walks clustered (Hybrid::secondary_walk: as a packet until few lanes
-// enter a subtree); every lane's closest hit and occlusion the reference's bits, at every packet
-// width (a narrower kernel takes the packet in chunks: one or two points each), exact and double.
+// cast them (bench --mode ao, diffuse): from kClusteredMinSpheres spheres a packet whose lanes
+// leave from within one leaf box walks clustered (Hybrid::secondary_walk: as a packet until few
+// lanes enter a subtree), the other packets' lanes whole below kOneRayMinSpheres and alone from
+// it; every lane's closest hit and occlusion the reference's bits, at every packet width (a
+// narrower kernel takes the packet in chunks: one or two points each), exact and double.
 TEST(ApiOneRay, RaysFromCommonPointsGiveTheReferencesBits) {
-  const Scene desc = cloud(kOneRayMinSpheres + 1000, 11);
-  for (Precision p : {Precision::exact, Precision::dbl}) {
-    const api::Scene ref = api::Scene::from_description(desc, with(p, 1));
-    std::vector<api::Ray16> packets;
-    std::mt19937_64 g(5);
-    api::Ray16 r;
-    int lane = 0;
-    const int nx = ref.info().nx, ny = ref.info().ny;
-    // Neighbouring pixels' hits (four in a row, then 12 skipped), mostly within one leaf box.
-    for (int j = 0; j < ny && packets.size() < 400; j += 3)
-      for (int i = 0; i < nx && packets.size() < 400; i += i % 16 == 3 ? 13 : 1) {
-        Ray cam;
-        ref.camera_ray(i, j, 0, 0, cam.o, cam.d);
-        const Answer a = one(ref, cam);
-        if (a.hit.id[0] < 0) continue;
-        const float n[3] = {a.hit.ng_x[0], a.hit.ng_y[0], a.hit.ng_z[0]};
-        const float side = n[0] * cam.d[0] + n[1] * cam.d[1] + n[2] * cam.d[2] > 0 ? -1.f : 1.f;
-        for (int q = 0; q < 4; ++q) {
-          Ray x;
-          for (int k = 0; k < 3; ++k)
-            x.o[k] = cam.o[k] + a.hit.t[0] * cam.d[k] + side * 1e-3f * n[k];
-          unit(x.d, g);
-          if ((x.d[0] * n[0] + x.d[1] * n[1] + x.d[2] * n[2]) * side < 0)
-            for (float& c : x.d) c = -c;
-          x.tfar = q == 3 ? 0.75f : kInf;  // one ray of four bounded, as an occlusion ray
-          set_lane(r, lane++, x);
+  for (int spheres : {kClusteredMinSpheres + 500, kOneRayMinSpheres + 1000})
+    for (Precision p : {Precision::exact, Precision::dbl}) {
+      const Scene desc = cloud(spheres, 11);
+      SCOPED_TRACE(std::to_string(spheres) + " spheres");
+      const api::Scene ref = api::Scene::from_description(desc, with(p, 1));
+      std::vector<api::Ray16> packets;
+      std::mt19937_64 g(5);
+      api::Ray16 r;
+      int lane = 0;
+      const int nx = ref.info().nx, ny = ref.info().ny;
+      // Neighbouring pixels' hits (four in a row, then 12 skipped), mostly within one leaf box.
+      for (int j = 0; j < ny && packets.size() < 400; j += 3)
+        for (int i = 0; i < nx && packets.size() < 400; i += i % 16 == 3 ? 13 : 1) {
+          Ray cam;
+          ref.camera_ray(i, j, 0, 0, cam.o, cam.d);
+          const Answer a = one(ref, cam);
+          if (a.hit.id[0] < 0) continue;
+          const float n[3] = {a.hit.ng_x[0], a.hit.ng_y[0], a.hit.ng_z[0]};
+          const float side = n[0] * cam.d[0] + n[1] * cam.d[1] + n[2] * cam.d[2] > 0 ? -1.f : 1.f;
+          for (int q = 0; q < 4; ++q) {
+            Ray x;
+            for (int k = 0; k < 3; ++k)
+              x.o[k] = cam.o[k] + a.hit.t[0] * cam.d[k] + side * 1e-3f * n[k];
+            unit(x.d, g);
+            if ((x.d[0] * n[0] + x.d[1] * n[1] + x.d[2] * n[2]) * side < 0)
+              for (float& c : x.d) c = -c;
+            x.tfar = q == 3 ? 0.75f : kInf;  // one ray of four bounded, as an occlusion ray
+            set_lane(r, lane++, x);
+          }
+          if (lane == 16) packets.push_back(r), lane = 0;
         }
-        if (lane == 16) packets.push_back(r), lane = 0;
-      }
-    ASSERT_GE(packets.size(), 100u);
-    for (int width : packet::supported_widths(p)) {
-      const api::Scene fast = api::Scene::from_description(desc, with(p, width));
-      SCOPED_TRACE(std::string(to_string(p)) + " width " + std::to_string(width));
-      int differ = 0;
-      std::size_t hits = 0;
-      for (std::size_t i = 0; i < packets.size() && differ < 5; ++i) {
-        api::Hit16 a, b;
-        int oa[16], ob[16];
-        fast.intersect(nullptr, packets[i], a), ref.intersect(nullptr, packets[i], b);
-        fast.occluded(nullptr, packets[i], oa), ref.occluded(nullptr, packets[i], ob);
-        for (int k = 0; k < 16; ++k) {
-          const bool same_hit = a.id[k] == b.id[k] && same_bits(a.t[k], b.t[k]) &&
-                                same_bits(a.ng_x[k], b.ng_x[k]) &&
-                                same_bits(a.ng_y[k], b.ng_y[k]) && same_bits(a.ng_z[k], b.ng_z[k]);
-          EXPECT_TRUE(same_hit) << "packet " << i << " lane " << k << ": id " << a.id[k] << " vs "
-                                << b.id[k] << ", t " << a.t[k] << " vs " << b.t[k];
-          EXPECT_EQ(oa[k], ob[k]) << "packet " << i << " lane " << k;
-          differ += !same_hit || oa[k] != ob[k];
-          hits += b.id[k] >= 0;
+      ASSERT_GE(packets.size(), 100u);
+      for (int width : packet::supported_widths(p)) {
+        const api::Scene fast = api::Scene::from_description(desc, with(p, width));
+        SCOPED_TRACE(std::string(to_string(p)) + " width " + std::to_string(width));
+        int differ = 0;
+        std::size_t hits = 0;
+        for (std::size_t i = 0; i < packets.size() && differ < 5; ++i) {
+          api::Hit16 a, b;
+          int oa[16], ob[16];
+          fast.intersect(nullptr, packets[i], a), ref.intersect(nullptr, packets[i], b);
+          fast.occluded(nullptr, packets[i], oa), ref.occluded(nullptr, packets[i], ob);
+          for (int k = 0; k < 16; ++k) {
+            const bool same_hit = a.id[k] == b.id[k] && same_bits(a.t[k], b.t[k]) &&
+                                  same_bits(a.ng_x[k], b.ng_x[k]) &&
+                                  same_bits(a.ng_y[k], b.ng_y[k]) &&
+                                  same_bits(a.ng_z[k], b.ng_z[k]);
+            EXPECT_TRUE(same_hit) << "packet " << i << " lane " << k << ": id " << a.id[k] << " vs "
+                                  << b.id[k] << ", t " << a.t[k] << " vs " << b.t[k];
+            EXPECT_EQ(oa[k], ob[k]) << "packet " << i << " lane " << k;
+            differ += !same_hit || oa[k] != ob[k];
+            hits += b.id[k] >= 0;
+          }
         }
+        // Rays that find a sphere and rays that leave the cloud.
+        EXPECT_GT(hits, packets.size() * 16 / 10);
+        EXPECT_LT(hits, packets.size() * 16);
       }
-      // Rays that find a sphere and rays that leave the cloud.
-      EXPECT_GT(hits, packets.size() * 16 / 10);
-      EXPECT_LT(hits, packets.size() * 16);
     }
-  }
 }
 
 // Every sphere twice (the copy's id higher): each hit ties on t, and the lower id must win

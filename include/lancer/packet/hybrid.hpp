@@ -48,11 +48,16 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
       Sph::template spheres_closest<kFromEye, false>(s, sp, first, first + n, m, o, d, best_t,
                                                      best_id, counts, leaving);
     };
-    // Exact float and double: where the scene says (WalkSettings::one_ray_lanes), secondary rays'
-    // lanes go on one ray at a time, unless they stay together (secondary_walk).
+    // Exact float and double: where the scene says (WalkSettings::one_ray_lanes,
+    // clustered_lanes), secondary rays' lanes go on one ray at a time, unless they stay together
+    // (secondary_walk).
     if constexpr (!kFromEye && !kFast) {
-      if (s.walk.one_ray_lanes > 0 && !camera) {
-        const SecondaryWalk how = secondary_walk(s, valid, o, d);
+      if ((s.walk.one_ray_lanes > 0 ||
+           clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W)) &&
+          !camera) {
+        SecondaryWalk how = secondary_walk(s, valid, o, d);
+        // Where only clustered packets' lanes go alone, the others walk whole.
+        if (how == SecondaryWalk::apart && s.walk.one_ray_lanes <= 0) how = SecondaryWalk::whole;
         walk_choice(counts, how);
         if (how != SecondaryWalk::whole) {
           const int lanes =
