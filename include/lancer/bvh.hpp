@@ -38,11 +38,11 @@ inline constexpr int kCoherentLeaves = 8;
 // leaf's diagonal: several rays from each hit point, as ambient occlusion and diffuse bounces
 // are cast) walks as a packet until at most kClusteredLanes of its lanes enter a subtree, which
 // then go on alone: their walks share the path down to their common leaf. From
-// kClusteredMinSpheres (below kOneRayMinSpheres, where the other secondary packets stay packets:
-// such packets' lanes part lower in a small hierarchy, and their lone walks have fewer nodes to
-// wait on) and below kClusteredMaxSpheres: above it, every lane alone from the root keeps more
-// node loads in flight at once, which wins when the hierarchy lies beyond the caches
-// (docs/accel.md, "Packets that leave from one leaf walk clustered").
+// kClusteredMinSpheres (below kOneRayMinSpheres too, where the other secondary packets stay
+// packets; in smaller hierarchies packets measured faster) and below kClusteredMaxSpheres: above
+// it, every lane alone from the root keeps more node loads in flight at once, which wins when the
+// hierarchy lies beyond the caches (docs/accel.md, "Packets that leave from one leaf walk
+// clustered").
 inline constexpr int kClusteredLanes = 4;
 inline constexpr int kClusteredMinSpheres = 1024;
 inline constexpr int kClusteredMaxSpheres = 262144;

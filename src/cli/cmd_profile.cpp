@@ -184,7 +184,8 @@ void print_profile_table(const ProfileArgs& a, const ProfileResult& r) {
   for (const auto& st : r.stages)
     if (st.walked_whole + st.walked_clustered + st.walked_apart) {
       if (!apart)
-        std::printf("  secondary packets, one ray at a time unless their rays stay together\n");
+        std::printf(
+            "  secondary packets by how they walked (lancer render's secondary line says when)\n");
       apart = true;
       std::printf("  %-22s %12llu whole %12llu clustered %12llu lane by lane\n", st.name.c_str(),
                   (unsigned long long)st.walked_whole, (unsigned long long)st.walked_clustered,
