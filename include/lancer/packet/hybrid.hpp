@@ -55,9 +55,7 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
       if ((s.walk.one_ray_lanes > 0 ||
            clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W)) &&
           !camera) {
-        SecondaryWalk how = secondary_walk(s, valid, o, d);
-        // Where only clustered packets' lanes go alone, the others walk whole.
-        if (how == SecondaryWalk::apart && s.walk.one_ray_lanes <= 0) how = SecondaryWalk::whole;
+        const SecondaryWalk how = secondary_walk(s, valid, o, d);
         walk_choice(counts, how);
         if (how != SecondaryWalk::whole) {
           const int lanes =
@@ -81,7 +79,8 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   // live lanes stay together through the hierarchy (Bvh::coherent_spread: the spread of their
   // origins plus that of their directions over the structure's diagonal); clustered where they
   // leave from within one leaf box (Bvh::leaf_diagonal) and the scene walks such packets apart
-  // (WalkSettings::clustered_lanes); else apart. Coherent packets (a flat mirror's, camera rays
+  // (WalkSettings::clustered_lanes); else apart, or whole where only clustered packets' lanes go
+  // alone (WalkSettings::one_ray_lanes 0). Coherent packets (a flat mirror's, camera rays
   // through the library API) walk 2x faster whole than lane by lane at 65536 spheres, diverging
   // ones 1.3x-1.5x slower; diffuse rays, four from each hit point, 1.15x faster clustered.
   [[gnu::noinline]] static SecondaryWalk secondary_walk(const Prepared& s, const M& valid,
@@ -92,10 +91,10 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
     const T origins = std::sqrt(ox * ox + oy * oy + oz * oz);
     if (origins + s.bvh.diagonal * std::sqrt(dx * dx + dy * dy + dz * dz) <= s.bvh.coherent_spread)
       return SecondaryWalk::whole;
-    return origins <= s.bvh.leaf_diagonal &&
-                   clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W)
-               ? SecondaryWalk::clustered
-               : SecondaryWalk::apart;
+    if (origins <= s.bvh.leaf_diagonal &&
+        clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W))
+      return SecondaryWalk::clustered;
+    return s.walk.one_ray_lanes > 0 ? SecondaryWalk::apart : SecondaryWalk::whole;
   }
   // A packet's rays lane by lane, stored when a first lane goes on alone.
   struct LaneRays {

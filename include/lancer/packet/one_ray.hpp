@@ -345,31 +345,13 @@ struct OneRayKernel {
 
   // The triangles, meshes and cylinders: ShapeLone's walk over their hierarchy (the walk a
   // packet's lone lanes take), the ray set up as a packet's lane is (ShapeWalk::Ray): the
-  // reference's shear (prim::ray_shear's comparisons and quotients), and 1 / d (1 where d is 0)
-  // for the boxes. The shear's axes come by arithmetic on the comparisons, not by branches, which
-  // random directions mispredict (the set-up runs once a ray, the walk's few nodes after it), and
-  // its six divisions in one register (two of four where a register holds four).
+  // reference's shear, and 1 / d (1 where d is 0) for the boxes.
   using Lone = ShapeLone<Arch, T>;
   static typename Lone::Ray lone_ray(const T* o, const T* d) noexcept {
-    using N = typename Lone::N;
-    constexpr int kN = int(N::size);
-    const T ax = std::fabs(d[0]), ay = std::fabs(d[1]), az = std::fabs(d[2]);
-    // kz: ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2); kx, ky the next two in turn, swapped
-    // where d[kz] < 0.
-    const int g01 = ax > ay, g02 = ax > az, g12 = ay > az;
-    const int kz = g01 * 2 * (1 - g02) + (1 - g01) * (2 - g12);
-    static constexpr int kNext[3] = {1, 2, 0};
-    int kx = kNext[kz], ky = kNext[kx];
-    const int swap = (kx ^ ky) & -int(d[kz] < T(0));
-    kx ^= swap, ky ^= swap;
-    const T dz = d[kz];
-    auto nonzero = [](T v) { return v == T(0) ? T(1) : v; };
-    alignas(64) T num[8] = {d[kx], d[ky], T(1), T(1), T(1), T(1), T(1), T(1)};
-    alignas(64) T den[8] = {dz, dz, dz, nonzero(d[0]), nonzero(d[1]), nonzero(d[2]), T(1), T(1)};
-    alignas(64) T f[8];
-    for (int h = 0; h < 6; h += kN)
-      (N::load_aligned(num + h) / N::load_aligned(den + h)).store_aligned(f + h);
-    const int axes[3] = {kx, ky, kz};
+    const prim::RayShear<T> sh = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
+    const int axes[3] = {sh.kx, sh.ky, sh.kz};
+    T f[6] = {sh.sx, sh.sy, sh.sz, T(0), T(0), T(0)};
+    for (int a = 0; a < 3; ++a) f[3 + a] = T(1) / (d[a] == T(0) ? T(1) : d[a]);
     return typename Lone::Ray(o, d, axes, f);
   }
 

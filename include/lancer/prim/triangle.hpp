@@ -36,22 +36,25 @@ inline S component(const Vec3<S>& v, int k) {
   return k == 0 ? v.x : k == 1 ? v.y : v.z;
 }
 
+// kz: the largest |d| component, ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2); kx, ky the next
+// two in turn, swapped where d[kz] < 0 to keep the winding.
+// The choices are made by arithmetic on the comparisons, not by branches: a ray's set-up runs
+// before a walk of a few nodes, and random directions would mispredict them.
 template <class S>
 inline RayShear<S> ray_shear(const Vec3<S>& dir) {
+  const S c[3] = {dir.x, dir.y, dir.z};
+  const S ax = c[0] < S(0) ? -c[0] : c[0], ay = c[1] < S(0) ? -c[1] : c[1],
+          az = c[2] < S(0) ? -c[2] : c[2];
+  const int g01 = ax > ay, g02 = ax > az, g12 = ay > az;
+  static constexpr int kNext[3] = {1, 2, 0};
   RayShear<S> r;
-  const S ax = dir.x < S(0) ? -dir.x : dir.x, ay = dir.y < S(0) ? -dir.y : dir.y,
-          az = dir.z < S(0) ? -dir.z : dir.z;
-  r.kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-  r.kx = r.kz == 2 ? 0 : r.kz + 1;
-  r.ky = r.kx == 2 ? 0 : r.kx + 1;
-  const S dz = component(dir, r.kz);
-  if (dz < S(0)) {
-    const int t = r.kx;
-    r.kx = r.ky;
-    r.ky = t;
-  }
-  r.sx = component(dir, r.kx) / dz;
-  r.sy = component(dir, r.ky) / dz;
+  r.kz = g01 * 2 * (1 - g02) + (1 - g01) * (2 - g12);
+  r.kx = kNext[r.kz], r.ky = kNext[r.kx];
+  const int swap = (r.kx ^ r.ky) & -int(c[r.kz] < S(0));
+  r.kx ^= swap, r.ky ^= swap;
+  const S dz = c[r.kz];
+  r.sx = c[r.kx] / dz;
+  r.sy = c[r.ky] / dz;
   r.sz = S(1) / dz;
   return r;
 }
