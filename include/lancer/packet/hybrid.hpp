@@ -52,10 +52,9 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
     // clustered_lanes), secondary rays' lanes go on one ray at a time, unless they stay together
     // (secondary_walk).
     if constexpr (!kFromEye && !kFast) {
-      if ((s.walk.one_ray_lanes > 0 ||
-           clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W)) &&
-          !camera) {
-        const SecondaryWalk how = secondary_walk(s, valid, o, d);
+      const bool clusters = clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W);
+      if ((s.walk.one_ray_lanes > 0 || clusters) && !camera) {
+        const SecondaryWalk how = secondary_walk(s, valid, o, d, clusters);
         walk_choice(counts, how);
         if (how != SecondaryWalk::whole) {
           const int lanes =
@@ -79,21 +78,21 @@ struct Hybrid : SpherePackets<Arch, Real, Mode> {
   // live lanes stay together through the hierarchy (Bvh::coherent_spread: the spread of their
   // origins plus that of their directions over the structure's diagonal); clustered where they
   // leave from within one leaf box (Bvh::leaf_diagonal) and the scene walks such packets apart
-  // (WalkSettings::clustered_lanes); else apart, or whole where only clustered packets' lanes go
-  // alone (WalkSettings::one_ray_lanes 0). Coherent packets (a flat mirror's, camera rays
-  // through the library API) walk 2x faster whole than lane by lane at 65536 spheres, diverging
-  // ones 1.3x-1.5x slower; diffuse rays, four from each hit point, 1.15x faster clustered.
+  // (`clusters`: clusters_at, WalkSettings::clustered_lanes); else apart, or whole where only
+  // clustered packets' lanes go alone (WalkSettings::one_ray_lanes 0). Coherent packets (a flat
+  // mirror's, camera rays through the library API) walk 2x faster whole than lane by lane at 65536
+  // spheres, diverging ones 1.3x-1.5x slower; diffuse rays, four from each hit point, 1.15x faster
+  // clustered.
   [[gnu::noinline]] static SecondaryWalk secondary_walk(const Prepared& s, const M& valid,
-                                                        const V& o, const V& d) noexcept {
+                                                        const V& o, const V& d,
+                                                        bool clusters) noexcept {
     auto span = [&](const B& x) { return Tr::live_span(valid, x); };
     const T ox = span(o.x), oy = span(o.y), oz = span(o.z);
     const T dx = span(d.x), dy = span(d.y), dz = span(d.z);
     const T origins = std::sqrt(ox * ox + oy * oy + oz * oz);
     if (origins + s.bvh.diagonal * std::sqrt(dx * dx + dy * dy + dz * dz) <= s.bvh.coherent_spread)
       return SecondaryWalk::whole;
-    if (origins <= s.bvh.leaf_diagonal &&
-        clusters_at(s.walk.clustered_lanes, s.walk.one_ray_lanes, W))
-      return SecondaryWalk::clustered;
+    if (clusters && origins <= s.bvh.leaf_diagonal) return SecondaryWalk::clustered;
     return s.walk.one_ray_lanes > 0 ? SecondaryWalk::apart : SecondaryWalk::whole;
   }
   // A packet's rays lane by lane, stored when a first lane goes on alone.

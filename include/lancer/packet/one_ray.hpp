@@ -350,8 +350,8 @@ struct OneRayKernel {
   static typename Lone::Ray lone_ray(const T* o, const T* d) noexcept {
     const prim::RayShear<T> sh = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
     const int axes[3] = {sh.kx, sh.ky, sh.kz};
-    T f[6] = {sh.sx, sh.sy, sh.sz, T(0), T(0), T(0)};
-    for (int a = 0; a < 3; ++a) f[3 + a] = T(1) / (d[a] == T(0) ? T(1) : d[a]);
+    auto inv = [&](int a) { return T(1) / (d[a] == T(0) ? T(1) : d[a]); };
+    const T f[6] = {sh.sx, sh.sy, sh.sz, inv(0), inv(1), inv(2)};
     return typename Lone::Ray(o, d, axes, f);
   }
 
