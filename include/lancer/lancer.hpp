@@ -157,9 +157,10 @@ class LANCER_API Scene {
   const SceneDescription& description() const;
 
   // Closest hit of each active lane (valid[k] != 0; null: every lane). Inactive lanes of `hits`
-  // are left as they were. World-space rays are moved into the prepared frame (the camera's:
-  // its position, its basis) in double, rounded once to the scene's precision; normals come back
-  // in world space;
+  // are left as they were. World-space rays are moved into the queries' frame (the world's axes
+  // at the camera's position: the render's own where the camera looks along -z, else a second
+  // preparation of the scene, made on the first query) in double, rounded once to the scene's
+  // precision; normals come back in world space;
   // see docs/api.md for what float origins imply far from the world's origin. The kernel is the
   // widest this machine runs up to min(N, Info::width) lanes (N = 1: the reference), applied to
   // as many chunks as it takes: in exact and double precision every N gives the same bits.
@@ -178,7 +179,7 @@ class LANCER_API Scene {
   // The camera ray of pixel (i, j) at sub-sample (a, b) (0 <= a, b < supersample) in world
   // space: the ray `lancer render` traces there, moved out of the prepared frame and rounded to
   // float. Traced through intersect, it hits what the render hits wherever the round trip is
-  // exact: pinhole cameras at float-representable positions looking along an axis, in exact
+  // exact: pinhole cameras at float-representable positions looking along -z with y up, in exact
   // precision (docs/api.md).
   void camera_ray(int i, int j, int a, int b, float org[3], float dir[3]) const;
 

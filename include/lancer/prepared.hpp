@@ -122,11 +122,17 @@ struct EyeSphere {
 // spacing between neighbours is that of their spread, not of their distance. The eye's own
 // rounding (none: depth is a float) would move every camera ray alike.
 // `turned` false: the world's axes (a scene with a sphere larger than half its distance from the
-// eye: see camera_frame), moved to the eye only.
+// eye: see camera_frame; the library API's queries where the camera looks off the axes), moved
+// to the eye only.
+// `axes`: u, v, w are the world's x, y, z (a frame that is not turned, or a camera looking
+// along -z with y up): a direction is then the world's own and a point is only moved, with no
+// product by the axes (which would give the same numbers but for the sign of a zero). The
+// library API's rays and normals cross such a frame in a copy and three subtractions.
 struct Frame {
   Vec3<double> origin{0, 0, 0};  // the eye
   Vec3<double> u{1, 0, 0}, v{0, 1, 0}, w{0, 0, 1};
   bool turned = false;
+  bool axes = true;
   double depth = 0;
   double spread = 0;  // with depth: the spheres' largest coordinate + radius in this frame
 
@@ -135,13 +141,23 @@ struct Frame {
     return {d.x, d.y, d.z + depth};
   }
   Vec3<double> direction(const Vec3<double>& world) const {
+    if (axes) return world;
     return {dot(world, u), dot(world, v), dot(world, w)};
   }
   Vec3<double> world_point(const Vec3<double>& p) const {
     return origin + world_direction({p.x, p.y, p.z - depth});
   }
-  Vec3<double> world_direction(const Vec3<double>& d) const { return u * d.x + v * d.y + w * d.z; }
+  Vec3<double> world_direction(const Vec3<double>& d) const {
+    if (axes) return d;
+    return u * d.x + v * d.y + w * d.z;
+  }
 };
+
+// Which frame prepare<T>() puts a scene in. `render`: the camera's (camera_frame), in which
+// `lancer render` traces. `query`: the one the library API traces its world-space rays in: the
+// camera's where that keeps the world's axes, else the world's axes moved to the eye (no
+// rotation of each ray and normal, the same resolution near the eye; docs/api.md).
+enum class FrameKind { render, query };
 
 template <class T>
 struct PreparedScene {
@@ -221,14 +237,15 @@ Accel resolve_accel(const Scene& scene, Accel accel);
 
 // The frame prepare<T>() puts a scene in (depth rounded to T).
 template <class T>
-Frame camera_frame(const Scene& scene);
-extern template Frame camera_frame<float>(const Scene&);
-extern template Frame camera_frame<double>(const Scene&);
+Frame camera_frame(const Scene& scene, FrameKind kind = FrameKind::render);
+extern template Frame camera_frame<float>(const Scene&, FrameKind);
+extern template Frame camera_frame<double>(const Scene&, FrameKind);
 
 template <class T>
-PreparedScene<T> prepare(const Scene& scene, Accel accel = Accel::automatic);
+PreparedScene<T> prepare(const Scene& scene, Accel accel = Accel::automatic,
+                         FrameKind kind = FrameKind::render);
 
-extern template PreparedScene<float> prepare<float>(const Scene&, Accel);
-extern template PreparedScene<double> prepare<double>(const Scene&, Accel);
+extern template PreparedScene<float> prepare<float>(const Scene&, Accel, FrameKind);
+extern template PreparedScene<double> prepare<double>(const Scene&, Accel, FrameKind);
 
 }  // namespace lancer

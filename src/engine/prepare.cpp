@@ -54,7 +54,7 @@ void set_view_depth(const Scene& scene, Frame& frame) {
 }  // namespace
 
 template <class T>
-Frame camera_frame(const Scene& scene) {
+Frame camera_frame(const Scene& scene, FrameKind kind) {
   Frame frame;
   frame.origin = scene.camera.position;
   // A sphere larger than half its distance from the eye (a ground sphere of radius 1e6 a metre
@@ -64,13 +64,20 @@ Frame camera_frame(const Scene& scene) {
   // pixels off); along a world axis its one large coordinate sits on r's grid.
   for (const Sphere& s : scene.spheres)
     if (s.radius > 0.5 * length(s.center - frame.origin)) return frame;
+  Vec3<double> u, v, w;
+  camera_basis(scene.camera, u, v, w);
+  const bool axes = u.x == 1 && u.y == 0 && u.z == 0 && v.x == 0 && v.y == 1 && v.z == 0 &&
+                    w.x == 0 && w.y == 0 && w.z == 1;
+  // The API's queries off the axes: the world's axes at the eye (Frame::axes).
+  if (kind == FrameKind::query && !axes) return frame;
   frame.turned = true;
-  camera_basis(scene.camera, frame.u, frame.v, frame.w);
+  frame.axes = axes;
+  frame.u = u, frame.v = v, frame.w = w;
   set_view_depth<T>(scene, frame);
   return frame;
 }
-template Frame camera_frame<float>(const Scene&);
-template Frame camera_frame<double>(const Scene&);
+template Frame camera_frame<float>(const Scene&, FrameKind);
+template Frame camera_frame<double>(const Scene&, FrameKind);
 
 Accel resolve_accel(const Scene& scene, Accel accel) {
   if (accel != Accel::automatic && accel != Accel::one) return accel;
@@ -287,9 +294,9 @@ void prepare_lights(const Scene& scene, PreparedScene<T>& p) {
 }  // namespace
 
 template <class T>
-PreparedScene<T> prepare(const Scene& scene, Accel accel) {
+PreparedScene<T> prepare(const Scene& scene, Accel accel, FrameKind kind) {
   PreparedScene<T> p;
-  p.frame = camera_frame<T>(scene);
+  p.frame = camera_frame<T>(scene, kind);
   prepare_camera(scene, p);
   const Rgb& bg = scene.background;
   const Rgb& env = scene.environment;
@@ -336,7 +343,7 @@ PreparedScene<T> prepare(const Scene& scene, Accel accel) {
   return p;
 }
 
-template PreparedScene<float> prepare<float>(const Scene&, Accel);
-template PreparedScene<double> prepare<double>(const Scene&, Accel);
+template PreparedScene<float> prepare<float>(const Scene&, Accel, FrameKind);
+template PreparedScene<double> prepare<double>(const Scene&, Accel, FrameKind);
 
 }  // namespace lancer

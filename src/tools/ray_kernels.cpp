@@ -21,7 +21,8 @@ std::shared_ptr<const KernelPackets::Prepared> KernelPackets::prepare(const Scen
   if (precision != Precision::exact && precision != Precision::fast)
     throw InputError("ray set kernels: float packets only (exact or fast)");
   auto p = std::make_shared<Prepared>();
-  p->scene = lancer::prepare<float>(scene);
+  // The frame the library API traces its queries in: the same numbers as its calls.
+  p->scene = lancer::prepare<float>(scene, Accel::automatic, FrameKind::query);
   p->precision = precision;
   return p;
 }

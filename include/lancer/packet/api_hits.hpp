@@ -26,14 +26,16 @@ inline float masked(float x, std::uint32_t keep, std::uint32_t other) noexcept {
 // n lanes' hit fields (HitLanes): id as given; for a miss (id < 0) t infinity, primitive -1
 // and a zero normal; else t rounded to float, primitive 0 (a sphere or a plane is one primitive)
 // and the object-space normal moved to world space, Frame::world_direction written out in double
-// (u n.x + v n.y, then + w n.z) and rounded once to float; u = v = 0. A plain loop over restrict
+// (u n.x + v n.y, then + w n.z; the normal itself where the frame keeps the world's axes) and
+// rounded once to float; u = v = 0. A plain loop over restrict
 // arrays without a branch, vectorised as frame_rays is.
-template <class Arch, class T>
-void world_hits(const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,
-                const T* __restrict nz, const T* __restrict t, const std::int32_t* __restrict id,
-                float* __restrict t_out, float* __restrict gx, float* __restrict gy,
-                float* __restrict gz, float* __restrict u, float* __restrict v,
-                int* __restrict prim_out, int* __restrict id_out) noexcept {
+template <bool Axes, class T>
+[[gnu::always_inline]] inline void world_hits_loop(
+    const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,
+    const T* __restrict nz, const T* __restrict t, const std::int32_t* __restrict id,
+    float* __restrict t_out, float* __restrict gx, float* __restrict gy, float* __restrict gz,
+    float* __restrict u, float* __restrict v, int* __restrict prim_out,
+    int* __restrict id_out) noexcept {
   const double ux = frame.u.x, uy = frame.u.y, uz = frame.u.z;
   const double vx = frame.v.x, vy = frame.v.y, vz = frame.v.z;
   const double wx = frame.w.x, wy = frame.w.y, wz = frame.w.z;
@@ -43,15 +45,33 @@ void world_hits(const Frame& frame, int n, const T* __restrict nx, const T* __re
     // them only for hits, behind a branch it cannot turn back into vectors (its float
     // operations may trap), and not vectorise the loop.
     const std::uint32_t keep = id[l] < 0 ? 0u : ~0u;
-    const double a = nx[l], b = ny[l], c = nz[l];
-    gx[l] = masked(float((ux * a + vx * b) + wx * c), keep, 0u);
-    gy[l] = masked(float((uy * a + vy * b) + wy * c), keep, 0u);
-    gz[l] = masked(float((uz * a + vz * b) + wz * c), keep, 0u);
+    if constexpr (Axes) {
+      gx[l] = masked(float(nx[l]), keep, 0u);
+      gy[l] = masked(float(ny[l]), keep, 0u);
+      gz[l] = masked(float(nz[l]), keep, 0u);
+    } else {
+      const double a = nx[l], b = ny[l], c = nz[l];
+      gx[l] = masked(float((ux * a + vx * b) + wx * c), keep, 0u);
+      gy[l] = masked(float((uy * a + vy * b) + wy * c), keep, 0u);
+      gz[l] = masked(float((uz * a + vz * b) + wz * c), keep, 0u);
+    }
     t_out[l] = masked(float(t[l]), keep, inf);
     u[l] = 0.0f, v[l] = 0.0f;
     prim_out[l] = ~int(keep);  // -1 for a miss, 0 (a sphere or a plane is one primitive)
     id_out[l] = id[l];
   }
+}
+
+template <class Arch, class T>
+void world_hits(const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,
+                const T* __restrict nz, const T* __restrict t, const std::int32_t* __restrict id,
+                float* __restrict t_out, float* __restrict gx, float* __restrict gy,
+                float* __restrict gz, float* __restrict u, float* __restrict v,
+                int* __restrict prim_out, int* __restrict id_out) noexcept {
+  if (frame.axes)
+    world_hits_loop<true>(frame, n, nx, ny, nz, t, id, t_out, gx, gy, gz, u, v, prim_out, id_out);
+  else
+    world_hits_loop<false>(frame, n, nx, ny, nz, t, id, t_out, gx, gy, gz, u, v, prim_out, id_out);
 }
 
 // One chunk of the API's width-W lanes (rays as closest_hit_packet's, t and id as it left

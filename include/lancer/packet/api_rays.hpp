@@ -1,11 +1,14 @@
 // The library API's rays checked and moved into the prepared frame (src/engine/api.cpp):
 // world-space float origins and directions, Frame::point and Frame::direction written out in double
-// (dot's order: x, y, then z) and rounded once to T. Plain loops over lanes without a branch, over
-// restrict arrays, which the compiler vectorises for the ISA it is built for: each ISA's
-// translation unit instantiates them for its kernel table (Arch names the instantiation), and the
-// library's baseline code for the reference's width. One lane's check and move are written once
-// (ray_fails, FrameMove) and shared by every loop.
+// (dot's order: x, y, then z; no products where the frame keeps the world's axes, and then, at a
+// float origin, the same numbers by float subtractions) and rounded once to T. Plain loops over
+// lanes without a branch, over restrict arrays, which the compiler vectorises for the ISA it is
+// built for: each ISA's translation unit instantiates them for its kernel table (Arch names the
+// instantiation), and the library's baseline code for the reference's width. One lane's check and
+// move are written once (ray_fails, FrameMove) and shared by every loop.
 #pragma once
+
+#include <type_traits>
 
 #include "lancer/prepared.hpp"
 
@@ -32,7 +35,8 @@ template <class T>
   return int((mask & all_objects) != 0) & int(T(tnear) <= eps);
 }
 
-// Frame::point and Frame::direction of one lane, the frame's numbers held in locals.
+// Frame::point and Frame::direction of one lane, the frame's numbers held in locals. Axes: the
+// frame keeps the world's axes (Frame::axes), the same functions without the products.
 struct FrameMove {
   double ex, ey, ez, ux, uy, uz, vx, vy, vz, wx, wy, wz, depth;
   explicit FrameMove(const Frame& f) noexcept
@@ -49,28 +53,62 @@ struct FrameMove {
         wy(f.w.y),
         wz(f.w.z),
         depth(f.depth) {}
+  // Whether a float frame keeping the world's axes moves a point by a float subtraction: its
+  // origin floats, no depth. double(a) - double(b) rounded to float is then a - b in float
+  // (double's 53 bits are more than 2 x 24 + 2: the double rounding is innocuous), so the move
+  // runs in float, twice the lanes of double.
   template <class T>
+  bool in_float() const noexcept {
+    return std::is_same_v<T, float> && depth == 0 && double(float(ex)) == ex &&
+           double(float(ey)) == ey && double(float(ez)) == ez;
+  }
+  template <bool Axes, bool InFloat = false, class T>
   [[gnu::always_inline]] void operator()(float ox, float oy, float oz, float dx, float dy, float dz,
                                          T& o0, T& o1, T& o2, T& o3, T& o4, T& o5) const noexcept {
+    if constexpr (InFloat) {
+      o0 = ox - float(ex), o1 = oy - float(ey), o2 = oz - float(ez);
+      o3 = dx, o4 = dy, o5 = dz;
+      return;
+    }
     const double px = double(ox) - ex, py = double(oy) - ey, pz = double(oz) - ez;
-    const double qx = dx, qy = dy, qz = dz;
-    o0 = T(px * ux + py * uy + pz * uz);
-    o1 = T(px * vx + py * vy + pz * vz);
-    o2 = T((px * wx + py * wy + pz * wz) + depth);
-    o3 = T(qx * ux + qy * uy + qz * uz);
-    o4 = T(qx * vx + qy * vy + qz * vz);
-    o5 = T(qx * wx + qy * wy + qz * wz);
+    if constexpr (Axes) {
+      o0 = T(px), o1 = T(py), o2 = T(pz + depth);
+      o3 = T(dx), o4 = T(dy), o5 = T(dz);
+    } else {
+      const double qx = dx, qy = dy, qz = dz;
+      o0 = T(px * ux + py * uy + pz * uz);
+      o1 = T(px * vx + py * vy + pz * vz);
+      o2 = T((px * wx + py * wy + pz * wz) + depth);
+      o3 = T(qx * ux + qy * uy + qz * uz);
+      o4 = T(qx * vx + qy * vy + qz * vz);
+      o5 = T(qx * wx + qy * wy + qz * wz);
+    }
   }
 };
+
+template <bool Axes, bool InFloat, class T>
+[[gnu::always_inline]] inline void frame_rays_loop(
+    const Frame& frame, int n, const float* __restrict ox, const float* __restrict oy,
+    const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
+    const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
+    T* __restrict o3, T* __restrict o4, T* __restrict o5) noexcept {
+  const FrameMove move(frame);
+  for (int l = 0; l < n; ++l)
+    move.operator()<Axes, InFloat>(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], o0[l], o1[l], o2[l],
+                                   o3[l], o4[l], o5[l]);
+}
 
 template <class Arch, class T>
 void frame_rays(const Frame& frame, int n, const float* __restrict ox, const float* __restrict oy,
                 const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
                 const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
                 T* __restrict o3, T* __restrict o4, T* __restrict o5) noexcept {
-  const FrameMove move(frame);
-  for (int l = 0; l < n; ++l)
-    move(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], o0[l], o1[l], o2[l], o3[l], o4[l], o5[l]);
+  if (frame.axes && FrameMove(frame).in_float<T>())
+    frame_rays_loop<true, true>(frame, n, ox, oy, oz, dx, dy, dz, o0, o1, o2, o3, o4, o5);
+  else if (frame.axes)
+    frame_rays_loop<true, false>(frame, n, ox, oy, oz, dx, dy, dz, o0, o1, o2, o3, o4, o5);
+  else
+    frame_rays_loop<false, false>(frame, n, ox, oy, oz, dx, dy, dz, o0, o1, o2, o3, o4, o5);
 }
 
 // Whether some lane l < n with on[l] != 0 fails the API's checks (bit 0) and whether every
@@ -107,9 +145,9 @@ struct RayLanes {
 
 // W lanes checked and moved in one pass, into rays' six rows of W (origin x, y, z, direction
 // x, y, z): scan_rays' bits, and frame_rays' values. W is the kernel's: no remainder loop.
-template <int W, class T>
-[[gnu::always_inline]] inline int take_rays(const Frame& frame, const RayLanes& r, T eps,
-                                            T* __restrict rays) noexcept {
+template <int W, bool Axes, bool InFloat, class T>
+[[gnu::always_inline]] inline int take_rays_in(const Frame& frame, const RayLanes& r, T eps,
+                                               T* __restrict rays) noexcept {
   const FrameMove move(frame);
   const float* __restrict ox = r.ox, * __restrict oy = r.oy, * __restrict oz = r.oz;
   const float* __restrict dx = r.dx, * __restrict dy = r.dy, * __restrict dz = r.dz;
@@ -118,10 +156,19 @@ template <int W, class T>
     const int live = int(r.on[l] != 0);
     bad |= ray_fails(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], r.tnear[l], r.tfar[l]) & live;
     plain &= live & ray_plain(r.tnear[l], r.mask[l], r.all_objects, eps);
-    move(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], rays[l], rays[W + l], rays[2 * W + l],
-         rays[3 * W + l], rays[4 * W + l], rays[5 * W + l]);
+    move.operator()<Axes, InFloat>(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], rays[l], rays[W + l],
+                                   rays[2 * W + l], rays[3 * W + l], rays[4 * W + l],
+                                   rays[5 * W + l]);
   }
   return bad | plain << 1;
+}
+
+template <int W, class T>
+[[gnu::always_inline]] inline int take_rays(const Frame& frame, const RayLanes& r, T eps,
+                                            T* __restrict rays) noexcept {
+  if (!frame.axes) return take_rays_in<W, false, false>(frame, r, eps, rays);
+  if (FrameMove(frame).in_float<T>()) return take_rays_in<W, true, true>(frame, r, eps, rays);
+  return take_rays_in<W, true, false>(frame, r, eps, rays);
 }
 
 }  // namespace lancer::packet
