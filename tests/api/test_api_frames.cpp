@@ -9,8 +9,11 @@
 #include <cstring>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "api/api_util.hpp"
+#include "lancer/lancer.hpp"
 #include "lancer/packet/api_rays.hpp"
 #include "lancer/prepared.hpp"
 #include "lancer/reference.hpp"
@@ -176,6 +179,55 @@ TEST(ApiFrames, QueriesFrameIsAsAccurateAsTheCamerasFrame) {
     EXPECT_LE(other[1], other[0] + 2);
     EXPECT_LE(p99[1], 1.5 * p99[0] + 1e-7);
   }
+}
+
+// The queries' scene of a camera off the axes is prepared by the first query: threads that all
+// make their first query at once get one scene and the answers a lone thread gets.
+TEST(ApiFrames, FirstQueriesFromManyThreadsShareOneQueriesScene) {
+  Scene d = load_scene(testing::source_path("scenes/many-spheres.json"));
+  d.camera.direction = {0.2, -0.3, -1};
+  constexpr int kThreads = 4, kPackets = 64;
+  std::vector<api::RayPacket<8>> rays(kPackets);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (auto& r : rays)
+    for (int k = 0; k < 8; ++k) {
+      // Towards a sphere, near its centre: most rays hit.
+      const Sphere& target = d.spheres[std::size_t(rng() % d.spheres.size())];
+      const Vec3<double> dir =
+          normalize(target.center + Vec3<double>{u(rng), u(rng), u(rng)} * (0.5 * target.radius) -
+                    d.camera.position);
+      r.org_x[k] = float(d.camera.position.x), r.org_y[k] = float(d.camera.position.y);
+      r.org_z[k] = float(d.camera.position.z);
+      r.dir_x[k] = float(dir.x), r.dir_y[k] = float(dir.y), r.dir_z[k] = float(dir.z);
+      r.tnear[k] = 0, r.tfar[k] = 1e30f, r.mask[k] = api::kAllObjects;
+    }
+  const auto answer = [&](const api::Scene& scene, std::vector<float>& t, std::vector<int>& id) {
+    t.resize(8 * kPackets), id.resize(8 * kPackets);
+    for (int p = 0; p < kPackets; ++p) {
+      api::HitPacket<8> h;
+      scene.intersect(nullptr, rays[std::size_t(p)], h);
+      for (int k = 0; k < 8; ++k)
+        t[std::size_t(8 * p + k)] = h.t[k], id[std::size_t(8 * p + k)] = h.id[k];
+    }
+  };
+  std::vector<float> want_t;
+  std::vector<int> want_id;
+  answer(api::Scene::from_description(d, testing::with(Precision::exact)), want_t, want_id);
+  const api::Scene shared = api::Scene::from_description(d, testing::with(Precision::exact));
+  std::vector<float> t[kThreads];
+  std::vector<int> id[kThreads];
+  std::vector<std::thread> threads;
+  for (int k = 0; k < kThreads; ++k) threads.emplace_back([&, k] { answer(shared, t[k], id[k]); });
+  for (std::thread& th : threads) th.join();
+  std::size_t hits = 0;
+  for (int k = 0; k < kThreads; ++k)
+    for (std::size_t i = 0; i < want_t.size(); ++i) {
+      ASSERT_EQ(id[k][i], want_id[i]) << "thread " << k << " ray " << i;
+      ASSERT_TRUE(same_bits(t[k][i], want_t[i])) << "thread " << k << " ray " << i;
+      hits += want_id[i] >= 0;
+    }
+  EXPECT_GT(hits, want_t.size() * kThreads / 2);  // most rays hit something
 }
 
 }  // namespace
