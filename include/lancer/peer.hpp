@@ -5,7 +5,10 @@
 // found). Without it this header still compiles and links: embree_available() is false and
 // making an EmbreeScene throws InputError.
 //
-// The Embree scene, built from lancer::prepare<float>, so from the very floats lancer uses:
+// The Embree scene, built from lancer::prepare<float>, so from the very floats lancer renders
+// with (its library API's queries, where the camera looks off the world's axes, run on a
+// second preparation in the queries' frame, FrameKind::query; ray sets reach both engines as
+// the same world-space rays, and their answers agree to a tolerance):
 //  - all spheres in one RTC_GEOMETRY_TYPE_SPHERE_POINT geometry (RTC_FORMAT_FLOAT4 x, y, z, r);
 //    Embree's own sphere test, not lancer's;
 //  - planes, by default, as one user geometry (rtcSetGeometryIntersectFunction) whose callbacks
