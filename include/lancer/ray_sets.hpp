@@ -105,8 +105,8 @@ class ApiPackets {
 
 // The set straight into the packet kernels, without the library API: the rays moved into the
 // queries' frame once (FrameKind::query, as the API moves each ray on every call: in double,
-// rounded once to float) and laid out as the kernels take them, so that only the kernels are timed, as the
-// Embree peer's calls are. Float packets (exact or fast, width 4, 8 or 16); InputError
+// rounded once to float) and laid out as the kernels take them, so that only the kernels are timed,
+// as the Embree peer's calls are. Float packets (exact or fast, width 4, 8 or 16); InputError
 // otherwise.
 class KernelPackets {
  public:

@@ -421,15 +421,6 @@ TEST(Api, CameraRaysHitWhatPrimaryModeHits) {
       if (r.id[p] >= 0 && r.id[p] == ph.id[p])
         worst_t = std::max(worst_t, double(std::fabs(r.t[p] - ph.t[p]) / ph.t[p]));
     }
-    {
-      std::vector<double> q;
-      for (std::size_t p = 0; p < rays.size(); ++p)
-        if (r.id[p] >= 0 && r.id[p] == ph.id[p]) q.push_back(std::fabs(r.t[p] - ph.t[p]) / ph.t[p]);
-      std::sort(q.begin(), q.end());
-      if (!q.empty())
-        std::printf("DBG n %zu median %g p99 %g p999 %g max %g\n", q.size(), q[q.size() / 2],
-                    q[q.size() * 99 / 100], q[q.size() * 999 / 1000], q.back());
-    }
     if (prepare<float>(desc).frame.axes) {
       // The render's frame keeps the world's axes (a camera looking along -z) and is the
       // queries' too: the round trip through world space is exact.

@@ -27,8 +27,8 @@ inline float masked(float x, std::uint32_t keep, std::uint32_t other) noexcept {
 // and a zero normal; else t rounded to float, primitive 0 (a sphere or a plane is one primitive)
 // and the object-space normal moved to world space, Frame::world_direction written out in double
 // (u n.x + v n.y, then + w n.z; the normal itself where the frame keeps the world's axes) and
-// rounded once to float; u = v = 0. A plain loop over restrict
-// arrays without a branch, vectorised as frame_rays is.
+// rounded once to float; u = v = 0. A plain loop over restrict arrays without a branch,
+// vectorised as frame_rays is.
 template <bool Axes, class T>
 [[gnu::always_inline]] inline void world_hits_loop(
     const Frame& frame, int n, const T* __restrict nx, const T* __restrict ny,

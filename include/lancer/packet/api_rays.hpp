@@ -86,13 +86,23 @@ struct FrameMove {
   }
 };
 
+// fn(move, axes, in_float) with the frame's FrameMove and, as std::bool_constant, the move it
+// takes for T: turned; the axes in double; the axes in float (FrameMove::in_float). The one
+// place a loop's move is chosen, once a call.
+template <class T, class Fn>
+[[gnu::always_inline]] inline decltype(auto) with_move(const Frame& frame, Fn&& fn) noexcept {
+  const FrameMove move(frame);
+  if (!frame.axes) return fn(move, std::false_type{}, std::false_type{});
+  if (move.in_float<T>()) return fn(move, std::true_type{}, std::true_type{});
+  return fn(move, std::true_type{}, std::false_type{});
+}
+
 template <bool Axes, bool InFloat, class T>
 [[gnu::always_inline]] inline void frame_rays_loop(
-    const Frame& frame, int n, const float* __restrict ox, const float* __restrict oy,
+    const FrameMove& move, int n, const float* __restrict ox, const float* __restrict oy,
     const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
     const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
     T* __restrict o3, T* __restrict o4, T* __restrict o5) noexcept {
-  const FrameMove move(frame);
   for (int l = 0; l < n; ++l)
     move.operator()<Axes, InFloat>(ox[l], oy[l], oz[l], dx[l], dy[l], dz[l], o0[l], o1[l], o2[l],
                                    o3[l], o4[l], o5[l]);
@@ -103,12 +113,10 @@ void frame_rays(const Frame& frame, int n, const float* __restrict ox, const flo
                 const float* __restrict oz, const float* __restrict dx, const float* __restrict dy,
                 const float* __restrict dz, T* __restrict o0, T* __restrict o1, T* __restrict o2,
                 T* __restrict o3, T* __restrict o4, T* __restrict o5) noexcept {
-  if (frame.axes && FrameMove(frame).in_float<T>())
-    frame_rays_loop<true, true>(frame, n, ox, oy, oz, dx, dy, dz, o0, o1, o2, o3, o4, o5);
-  else if (frame.axes)
-    frame_rays_loop<true, false>(frame, n, ox, oy, oz, dx, dy, dz, o0, o1, o2, o3, o4, o5);
-  else
-    frame_rays_loop<false, false>(frame, n, ox, oy, oz, dx, dy, dz, o0, o1, o2, o3, o4, o5);
+  with_move<T>(frame, [&](const FrameMove& move, auto axes, auto in_float) {
+    frame_rays_loop<decltype(axes)::value, decltype(in_float)::value>(move, n, ox, oy, oz, dx, dy,
+                                                                      dz, o0, o1, o2, o3, o4, o5);
+  });
 }
 
 // Whether some lane l < n with on[l] != 0 fails the API's checks (bit 0) and whether every
@@ -146,9 +154,8 @@ struct RayLanes {
 // W lanes checked and moved in one pass, into rays' six rows of W (origin x, y, z, direction
 // x, y, z): scan_rays' bits, and frame_rays' values. W is the kernel's: no remainder loop.
 template <int W, bool Axes, bool InFloat, class T>
-[[gnu::always_inline]] inline int take_rays_in(const Frame& frame, const RayLanes& r, T eps,
+[[gnu::always_inline]] inline int take_rays_in(const FrameMove& move, const RayLanes& r, T eps,
                                                T* __restrict rays) noexcept {
-  const FrameMove move(frame);
   const float* __restrict ox = r.ox, * __restrict oy = r.oy, * __restrict oz = r.oz;
   const float* __restrict dx = r.dx, * __restrict dy = r.dy, * __restrict dz = r.dz;
   int bad = 0, plain = 1;
@@ -166,9 +173,9 @@ template <int W, bool Axes, bool InFloat, class T>
 template <int W, class T>
 [[gnu::always_inline]] inline int take_rays(const Frame& frame, const RayLanes& r, T eps,
                                             T* __restrict rays) noexcept {
-  if (!frame.axes) return take_rays_in<W, false, false>(frame, r, eps, rays);
-  if (FrameMove(frame).in_float<T>()) return take_rays_in<W, true, true>(frame, r, eps, rays);
-  return take_rays_in<W, true, false>(frame, r, eps, rays);
+  return with_move<T>(frame, [&](const FrameMove& move, auto axes, auto in_float) {
+    return take_rays_in<W, decltype(axes)::value, decltype(in_float)::value>(move, r, eps, rays);
+  });
 }
 
 }  // namespace lancer::packet
