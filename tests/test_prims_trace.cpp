@@ -188,12 +188,14 @@ TEST(Prims, WatertightGeneratedSphere) {
   expect_no_packet_leaks(c, "generated sphere");
 }
 
-// The leaves (index, count) under wide node i, through the wide nodes (kLone false) or the
-// lone nodes, sorted; and each slot's box met on the way, keyed by the slot's (child, count).
+// The leaves (index, count) under node i, through the wide nodes (kLone false) or the lone
+// nodes, sorted; and each slot's box met on the way, keyed by the slot's (child, count). `slots`:
+// the slots of node i taken (every later node's all).
 template <class T, bool kLone>
 void subtree(const PreparedShapes<T>& s, std::int32_t i,
              std::vector<std::pair<std::int32_t, int>>& leaves,
-             std::map<std::pair<std::int32_t, int>, std::vector<T>>* boxes) {
+             std::map<std::pair<std::int32_t, int>, std::vector<T>>* boxes,
+             std::uint32_t slots = ~0u) {
   const auto& n = [&]() -> const auto& {
     if constexpr (kLone)
       return s.lone[std::size_t(i)];
@@ -202,6 +204,7 @@ void subtree(const PreparedShapes<T>& s, std::int32_t i,
   }
   ();
   for (int k = 0; k < n.arity; ++k) {
+    if (!(slots >> k & 1u)) continue;
     if (boxes)
       (*boxes)[{n.child[k], n.count[k]}] = {n.lo_x[k], n.lo_y[k], n.lo_z[k],
                                             n.hi_x[k], n.hi_y[k], n.hi_z[k]};
@@ -212,39 +215,70 @@ void subtree(const PreparedShapes<T>& s, std::int32_t i,
   }
 }
 
-// Lone node i holds wide node i's subtree (the same leaves, each once, the same box bits for
-// the same child), eight children at most, more than four where the collapse could open one,
-// and empty boxes in its unused slots: what lets a packet hand a lane over at any node.
+// Whether the box lo/hi (6 values) holds every leaf box of lone node i's subtree.
+template <class T>
+bool holds(const PreparedShapes<T>& s, const std::vector<T>& box, std::int32_t i,
+           const std::map<std::pair<std::int32_t, int>, std::vector<T>>& leaf_boxes) {
+  std::vector<std::pair<std::int32_t, int>> under;
+  subtree<T, true>(s, i, under, nullptr);
+  for (const auto& l : under) {
+    const std::vector<T>& b = leaf_boxes.at(l);
+    for (int a = 0; a < 3; ++a)
+      if (!(box[a] <= b[a] && b[3 + a] <= box[3 + a])) return false;
+  }
+  return true;
+}
+
+// The lone nodes hold the tree from the root, each leaf once; a lane handed over at any wide
+// node starts at its entry (lone node and slots) and meets the same leaves as the wide node's
+// subtree. Leaves' boxes are the wide nodes' bits, an inner slot's box holds its subtree's,
+// nodes are full (kLone slots) unless every slot is a leaf, and unused slots have empty boxes.
 template <class T>
 void expect_lone_nodes(const Scene& scene) {
   const PreparedScene<T> p = prepare<T>(scene);
   ASSERT_TRUE(p.shapes);
   const PreparedShapes<T>& s = *p.shapes;
-  ASSERT_EQ(s.lone.size(), s.wide.size());
-  std::map<std::pair<std::int32_t, int>, std::vector<T>> wide_boxes;
-  std::vector<std::pair<std::int32_t, int>> all;
+  ASSERT_EQ(s.lone_entry.size(), s.wide.size());
+  ASSERT_LT(s.lone.size(), s.wide.size());  // fuller nodes: fewer
+  std::map<std::pair<std::int32_t, int>, std::vector<T>> wide_boxes, lone_boxes;
+  std::vector<std::pair<std::int32_t, int>> all, from_root;
   subtree<T, false>(s, 0, all, &wide_boxes);
+  subtree<T, true>(s, 0, from_root, &lone_boxes);
   std::size_t items = 0;
   for (const auto& l : all) items += std::size_t(l.second);
   EXPECT_EQ(items, s.items());
-  int wider = 0;
+  std::sort(all.begin(), all.end()), std::sort(from_root.begin(), from_root.end());
+  ASSERT_EQ(all, from_root);
   for (std::size_t i = 0; i < s.wide.size(); ++i) {
     std::vector<std::pair<std::int32_t, int>> a, b;
-    std::map<std::pair<std::int32_t, int>, std::vector<T>> lone_boxes;
     subtree<T, false>(s, std::int32_t(i), a, nullptr);
-    subtree<T, true>(s, std::int32_t(i), b, &lone_boxes);
+    const auto e = s.lone_entry[i];
+    ASSERT_GE(e.node, 0);
+    ASSERT_LT(std::size_t(e.node), s.lone.size());
+    subtree<T, true>(s, e.node, b, nullptr, e.slots);
     std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
-    ASSERT_EQ(a, b) << "lone node " << i;
+    ASSERT_EQ(a, b) << "wide node " << i;
+  }
+  for (std::size_t i = 0; i < s.lone.size(); ++i) {
     const auto& n = s.lone[i];
     ASSERT_LE(n.arity, PreparedShapes<T>::kLone);
-    wider += n.arity > PreparedShapes<T>::kWide;
-    for (const auto& [slot, box] : lone_boxes)
-      ASSERT_EQ(std::memcmp(box.data(), wide_boxes.at(slot).data(), sizeof(T) * 6), 0)
-          << "lone node " << i;
+    bool inner = false;
+    for (int k = 0; k < n.arity; ++k) {
+      const std::vector<T> box = {n.lo_x[k], n.lo_y[k], n.lo_z[k], n.hi_x[k], n.hi_y[k], n.hi_z[k]};
+      if (n.count[k] > 0) {
+        ASSERT_EQ(
+            std::memcmp(box.data(), wide_boxes.at({n.child[k], n.count[k]}).data(), sizeof(T) * 6),
+            0)
+            << "lone node " << i;
+      } else {
+        inner = true;
+        ASSERT_TRUE(holds(s, box, n.child[k], wide_boxes)) << "lone node " << i;
+      }
+    }
+    if (inner) EXPECT_EQ(n.arity, PreparedShapes<T>::kLone) << "lone node " << i;
     for (int k = n.arity; k < PreparedShapes<T>::kLone; ++k)
       EXPECT_TRUE(n.lo_x[k] > n.hi_x[k] && n.lo_y[k] > n.hi_y[k] && n.lo_z[k] > n.hi_z[k]);
   }
-  EXPECT_GT(wider, int(s.wide.size()) / 4);
   // The leaves: the binary tree's, in leaf order, each named once; each item's reference and
   // number as prim's, a triangle's vertices the bits of vx, vy, vz, and the rows an item leaves
   // free the leaf's first triangle's (zeros where it has none).
@@ -282,7 +316,7 @@ void expect_lone_nodes(const Scene& scene) {
   }
 }
 
-TEST(Prims, LoneNodesHoldTheirWideNodesSubtree) {
+TEST(Prims, LoneNodesHoldTheTreeAndEveryWideNodesSubtree) {
   MeshFile f = parse_ply(generate::sphere_ply(3000), "g.ply");
   Shape sh;
   place_mesh(std::move(f), MeshTransform{}, false, "g.ply", sh.mesh);

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -105,12 +106,14 @@ struct PreparedShapes {
   // A wide walk's stack bound: every child of a wide node lies a binary level down or more, so
   // at most kWide - 1 entries per binary level, and one.
   static constexpr int kWideStack = (kWide - 1) * kMaxTreeDepth + 2;
-  // One ray's hierarchy (packet/prim/shapes_lone.hpp): lone[i] is wide node i's subtree in
-  // kLone-wide form, wide[i]'s children with the inner one of largest area opened into its own
-  // while they fit. One ray tests a node's eight boxes in one or two registers, so wider nodes
-  // take it down in fewer steps. An inner slot names wide node j, its subtree lone[j]: every
-  // wide node has its own, so a packet's lanes that go on alone at any node walk on from there.
-  // The same padded boxes as the wide nodes', the same leaves; unused slots have empty boxes
+  // One ray's hierarchy (packet/prim/shapes_lone.hpp): the binary tree collapsed into kLone-wide
+  // nodes from the root (the inner child of largest area opened until a node has kLone
+  // children), lone[0] the root's, each node's inner children side by side after it in a
+  // depth-first order. One ray tests a node's eight boxes in one or two registers, so wider nodes
+  // take it down in fewer steps. Only the nodes a walk from the root meets are stored, so the
+  // lines a walk reads lie together; a lane handed over at a wide node starts at its LoneEntry.
+  // Slot k: count[k] > 0 the leaf child[k] of count[k] items, else lone node child[k]. The same
+  // padded boxes as the wide nodes' (padded_box), the same leaves; unused slots have empty boxes
   // (lo +inf, hi -inf), which no ray meets.
   static constexpr int kLone = 8;
   struct alignas(64) LoneNode {  // four cache lines (float)
@@ -119,10 +122,18 @@ struct PreparedShapes {
     std::uint8_t count[kLone];
     std::int32_t arity;
   };
+  // Where a packet's lanes that go on alone at wide node j start: lone node `node`, its slots
+  // `slots` (bits), those under j. Wide node j's subtree is lone node `node` whole where j's
+  // binary node starts one, else the slots below it in the lone node it was opened into.
+  struct LoneEntry {
+    std::int32_t node = 0;
+    std::uint32_t slots = 0;
+  };
+  std::vector<LoneEntry> lone_entry;  // per wide node
   static constexpr int lone_lo_plane(int a) { return 2 * kLone * a; }
   static constexpr int lone_hi_plane(int a) { return 2 * kLone * a + kLone; }
   BigVector<LoneNode> lone;
-  // Every lone step goes a wide level down or more, pushing kLone - 1 entries at most.
+  // Every lone step goes a binary level down or more, pushing kLone - 1 entries at most.
   static constexpr int kLoneStack = (kLone - 1) * kMaxTreeDepth + 2;
   // The tree's leaves, as both walks read them: every leaf of the binary tree once (kLeafItems
   // items at most), in leaf order; the wide and the lone nodes name a leaf child by its index
@@ -156,9 +167,26 @@ struct PreparedShapes {
   std::size_t bytes() const;  // everything above, as allocated
 };
 
-// s.lone from s.wide (shapes_lone.cpp).
+// Node b's box (the binary tree's) as the wide and lone nodes store it: grown by kWidePad times
+// its largest |coordinate|, rounded outwards.
 template <class T>
-void build_lone(PreparedShapes<T>& s);
+void padded_box(const typename PreparedShapes<T>::Node& b, T lo[3], T hi[3]) {
+  const T inf = std::numeric_limits<T>::infinity();
+  double mag = 0;
+  for (int a = 0; a < 3; ++a)
+    mag = std::max({mag, std::fabs(double(b.lo[a])), std::fabs(double(b.hi[a]))});
+  const double pad = PreparedShapes<T>::kWidePad * mag;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::nextafter(T(double(b.lo[a]) - pad), -inf);
+    hi[a] = std::nextafter(T(double(b.hi[a]) + pad), inf);
+  }
+}
+
+// s.lone and s.lone_entry from the binary tree (shapes_lone.cpp). leaf_of: each binary leaf's
+// index in s.leaves; wide_binary: each wide node's binary node.
+template <class T>
+void build_lone(PreparedShapes<T>& s, const std::vector<std::uint32_t>& leaf_of,
+                const std::vector<std::uint32_t>& wide_binary);
 
 // The scene's shapes in `frame`, rounded to T once per vertex, and their hierarchy. Object ids
 // start at `first_object`. With `spheres` (the scene's, prepared: `num_spheres` of them), the

@@ -161,11 +161,9 @@ void build_hierarchy(PreparedShapes<T>& s, const std::vector<Box<T>>& boxes) {
     if (!(extent > 0 && task.depth < kMedianDepth) || mid == task.first ||
         mid == task.first + task.count) {
       mid = task.first + task.count / 2;
-      {
-        std::nth_element(begin, begin + task.count / 2, end, [&](std::uint32_t a, std::uint32_t b) {
-          return boxes[a].centre(axis) < boxes[b].centre(axis);
-        });
-      }
+      std::nth_element(begin, begin + task.count / 2, end, [&](std::uint32_t a, std::uint32_t b) {
+        return boxes[a].centre(axis) < boxes[b].centre(axis);
+      });
     }
     const std::uint32_t left = static_cast<std::uint32_t>(s.nodes.size());
     s.nodes.emplace_back(), s.nodes.emplace_back();
@@ -223,16 +221,17 @@ std::vector<std::uint32_t> build_leaves(PreparedShapes<T>& s, const SphereBlock<
 }
 
 // The binary tree collapsed into wide nodes (PreparedShapes::wide), over the leaves
-// (build_leaves; the spheres' from `spheres`).
+// (build_leaves; the spheres' from `spheres`). leaf_of: each binary leaf's index in s.leaves;
+// wide_binary: each wide node's binary node.
 template <class T>
-void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
+void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres,
+                std::vector<std::uint32_t>& leaf_of, std::vector<std::uint32_t>& wide_binary) {
   using Shapes = PreparedShapes<T>;
   using Wide = typename Shapes::WideNode;
   constexpr int kW = Shapes::kWide;
-  s.wide.clear();
-  s.leaves.clear();
+  s.wide.clear(), s.leaves.clear(), wide_binary.clear();
   if (s.order.empty()) return;
-  const std::vector<std::uint32_t> leaf_of = build_leaves(s, spheres);
+  leaf_of = build_leaves(s, spheres);
   auto area = [&](std::uint32_t b) {
     const auto& n = s.nodes[b];
     Box<T> box;
@@ -244,6 +243,7 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
   };
   std::vector<Job> jobs{{0, 0}};
   s.wide.emplace_back();
+  wide_binary.push_back(0);
   while (!jobs.empty()) {
     const Job job = jobs.back();
     jobs.pop_back();
@@ -275,14 +275,10 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
       w.child[k] = -1;
       if (k >= n) continue;
       const auto& b = s.nodes[kids[k]];
-      double mag = 0;
-      for (int a = 0; a < 3; ++a)
-        mag = std::max({mag, std::fabs(double(b.lo[a])), std::fabs(double(b.hi[a]))});
-      const double pad = Shapes::kWidePad * mag;
-      auto down = [&](T x) { return std::nextafter(T(double(x) - pad), -inf); };
-      auto up = [&](T x) { return std::nextafter(T(double(x) + pad), inf); };
-      w.lo_x[k] = down(b.lo[0]), w.lo_y[k] = down(b.lo[1]), w.lo_z[k] = down(b.lo[2]);
-      w.hi_x[k] = up(b.hi[0]), w.hi_y[k] = up(b.hi[1]), w.hi_z[k] = up(b.hi[2]);
+      T lo[3], hi[3];
+      padded_box<T>(b, lo, hi);
+      w.lo_x[k] = lo[0], w.lo_y[k] = lo[1], w.lo_z[k] = lo[2];
+      w.hi_x[k] = hi[0], w.hi_y[k] = hi[1], w.hi_z[k] = hi[2];
       for (int a = 0; a < 3; ++a) centre[k][a] = 0.5 * (double(b.lo[a]) + double(b.hi[a]));
       if (b.count > 0) {
         w.child[k] = std::int32_t(leaf_of[kids[k]]), w.count[k] = std::uint8_t(b.count);
@@ -290,6 +286,7 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres) {
         w.child[k] = std::int32_t(s.wide.size()), w.count[k] = 0;
         jobs.push_back({kids[k], std::uint32_t(s.wide.size())});
         s.wide.emplace_back();
+        wide_binary.push_back(kids[k]);
       }
     }
     for (unsigned code = 0; code < 8; ++code) {
@@ -431,7 +428,8 @@ std::size_t PreparedShapes<T>::bytes() const {
              4 +
          (cyl_base.capacity() + cyl_axis.capacity()) * sizeof(Vec3<T>) + cyl_caps.capacity() +
          nodes.capacity() * sizeof(Node) + wide.capacity() * sizeof(WideNode) +
-         lone.capacity() * sizeof(LoneNode) + leaves.capacity() * sizeof(Leaf);
+         lone.capacity() * sizeof(LoneNode) + lone_entry.capacity() * sizeof(LoneEntry) +
+         leaves.capacity() * sizeof(Leaf);
 }
 
 template <class T>
@@ -508,8 +506,9 @@ PreparedShapes<T> prepare_shapes(const Scene& scene, const Frame& frame, int fir
   s.shape_prims.push_back(std::int32_t(s.prim.size()));
   for (int k = 0; k < s.spheres; ++k) boxes.push_back(sphere_box(*spheres, std::size_t(k)));
   build_hierarchy(s, boxes);
-  build_wide(s, spheres);
-  build_lone(s);
+  std::vector<std::uint32_t> leaf_of, wide_binary;
+  build_wide(s, spheres, leaf_of, wide_binary);
+  build_lone(s, leaf_of, wide_binary);
   s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
 }

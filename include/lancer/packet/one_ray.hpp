@@ -348,11 +348,7 @@ struct OneRayKernel {
   // reference's shear, and 1 / d (1 where d is 0) for the boxes.
   using Lone = ShapeLone<Arch, T>;
   static typename Lone::Ray lone_ray(const T* o, const T* d) noexcept {
-    const prim::RayShear<T> sh = prim::ray_shear(Vec3<T>{d[0], d[1], d[2]});
-    const int axes[3] = {sh.kx, sh.ky, sh.kz};
-    auto inv = [&](int a) { return T(1) / (d[a] == T(0) ? T(1) : d[a]); };
-    const T f[6] = {sh.sx, sh.sy, sh.sz, inv(0), inv(1), inv(2)};
-    return typename Lone::Ray(o, d, axes, f);
+    return typename Lone::Ray(o, d);
   }
 
   static bool closest(const PreparedScene<T>& s, const OneRayScene<T>& one, const T* o, const T* d,

@@ -3,8 +3,9 @@
 // walk (shapes_walk.hpp) tests one primitive at a time across every lane, and where the lanes
 // diverge most of that work is for lanes that left the subtree long ago.
 //
-// The walk runs over the lone nodes (PreparedShapes::lone: each wide node's subtree with eight
-// children), so a lane handed over at any wide node goes on from there. A node's eight children
+// The walk runs over the lone nodes (PreparedShapes::lone: the tree collapsed from the root into
+// nodes of eight children); a lane handed over at a wide node starts at that node's entry
+// (PreparedShapes::lone_entry), the slots under it of a lone node. A node's eight children
 // are tested at once, in one register of eight floats (AVX; else two of four, and doubles two or
 // four at a time), by the packet walk's own conservative slab form with the ray's values in
 // every lane, so a box it turns away the packet walk turns away too (shapes_walk.hpp's header
@@ -79,10 +80,9 @@ struct ShapeLone {
   struct Ray {
     T o[3], d[3];
     prim::RayShear<T> shear;
-    T o_perm[3];  // o in the shear's axis order
-    T inv[3];     // 1 / d, 1 where d is 0
-    bool zero[3];
-    T o_pad, o_lo[3], o_hi[3], o_near[3], o_far[3];
+    T o_perm[3];                   // o in the shear's axis order
+    T inv[3];                      // 1 / d, 1 where d is 0
+    T o_pad, o_near[3], o_far[3];  // o_near: o + o_pad where d goes up, o - o_pad where down
     int near[3], far[3];  // offsets (in T) in a LoneNode of each axis' entry and exit planes
     bool fast = true;     // every |d| at least 2^-60: entry and exit planes known per axis
 
@@ -90,25 +90,30 @@ struct ShapeLone {
     // A packet's lane, its shear and quotients as the packet's Ray (shapes_walk.hpp) computed
     // them, by ray_shear's comparisons and the same divisions: axes kx, ky, kz; f = sx, sy, sz,
     // then 1 / d per axis (1 where 0).
-    Ray(const T* org, const T* dir, const int* axes, const T* f) noexcept {
-      for (int a = 0; a < 3; ++a) o[a] = org[a], d[a] = dir[a], inv[a] = f[3 + a];
-      shear.kx = axes[0], shear.ky = axes[1], shear.kz = axes[2];
-      shear.sx = f[0], shear.sy = f[1], shear.sz = f[2];
-      o_perm[0] = o[shear.kx], o_perm[1] = o[shear.ky], o_perm[2] = o[shear.kz];
+    Ray(const T* org, const T* dir, const int* axes, const T* f) noexcept
+        : Ray(org, dir, {axes[0], axes[1], axes[2], f[0], f[1], f[2]}, f[3], f[4], f[5]) {}
+    // One ray on its own (the one-ray kernels): ray_shear's shear and 1 / d (1 where 0).
+    Ray(const T* org, const T* dir) noexcept
+        : Ray(org, dir, prim::ray_shear(Vec3<T>{dir[0], dir[1], dir[2]}), quotient(dir[0]),
+              quotient(dir[1]), quotient(dir[2])) {}
+    // Every field from scalars, written once each: a copy of arrays written a float at a time
+    // by wider moves would wait on store-to-load forwarding, which fails there.
+    Ray(const T* org, const T* dir, const prim::RayShear<T>& sh, T i0, T i1, T i2) noexcept
+        : o{org[0], org[1], org[2]}, d{dir[0], dir[1], dir[2]}, shear(sh), inv{i0, i1, i2} {
+      o_perm[0] = o[sh.kx], o_perm[1] = o[sh.ky], o_perm[2] = o[sh.kz];
       o_pad = T(Shapes::kWidePad) * std::max({std::fabs(o[0]), std::fabs(o[1]), std::fabs(o[2])});
       // Each axis' entry and exit planes by arithmetic on the direction's sign, not by a
       // choice the compiler makes a branch of: random directions mispredict it half the time.
       for (int a = 0; a < 3; ++a) {
-        zero[a] = d[a] == T(0);
-        o_lo[a] = o[a] + o_pad, o_hi[a] = o[a] - o_pad;
         const int down = d[a] < T(0);
         fast = fast & (std::fabs(d[a]) >= T(0x1p-60));
         near[a] = Shapes::lone_lo_plane(a) + kL * down;
         far[a] = Shapes::lone_lo_plane(a) + kL * (1 - down);
-        const T lo_hi[2] = {o_lo[a], o_hi[a]};
-        o_near[a] = lo_hi[down], o_far[a] = lo_hi[1 - down];
+        const T pad = down ? -o_pad : o_pad;
+        o_near[a] = o[a] + pad, o_far[a] = o[a] - pad;
       }
     }
+    static T quotient(T x) noexcept { return T(1) / (x == T(0) ? T(1) : x); }
   };
 
   // The children of n (slot bits) whose boxes [0, lim_w] may meet, and their entry t (widened):
@@ -145,13 +150,13 @@ struct ShapeLone {
         RM out(false);
         for (int a = 0; a < 3; ++a) {
           const R lo_t = plane(Shapes::lone_lo_plane(a)), hi_t = plane(Shapes::lone_hi_plane(a));
-          if (r.zero[a]) {
+          if (r.d[a] == T(0)) {
             const R lo = lo_t - R(r.o_pad), hi = hi_t + R(r.o_pad);
             out = out | (R(r.o[a]) < lo) | (R(r.o[a]) > hi);
             continue;
           }
-          const R ea = (lo_t - R(r.o_lo[a])) * R(r.inv[a]);
-          const R eb = (hi_t - R(r.o_hi[a])) * R(r.inv[a]);
+          const R ea = (lo_t - R(r.o[a] + r.o_pad)) * R(r.inv[a]);
+          const R eb = (hi_t - R(r.o[a] - r.o_pad)) * R(r.inv[a]);
           near = xsimd::max(near, xsimd::min(ea, eb));
           far = xsimd::min(far, xsimd::max(ea, eb) * R(T(1) + kWiden));
         }
@@ -165,7 +170,7 @@ struct ShapeLone {
   }
 
   // Lone nodes beyond which a walk handed over below the root stays on the wide nodes (some
-  // 8 MiB of float lone nodes, a mesh of about 200k triangles).
+  // 8 MiB of float lone nodes, a mesh of about 400k triangles).
   static constexpr std::size_t kLoneHandOffNodes = std::size_t(1) << 15;
 
   // A node's lines (a wide or a lone one), or a leaf's, on their way before the walk reaches
@@ -206,10 +211,17 @@ struct ShapeLone {
     const T widen = T(1) + kWiden;
     // Handed over below the root in a large hierarchy (more lone nodes than kLoneHandOffNodes),
     // the walk stays on the wide nodes: the packet walk has fetched the node it hands over, and
-    // the lone nodes' twice as many lines cost more than their fewer steps save once they come
+    // the lone nodes' four lines a node cost more than their fewer steps save once they come
     // from memory (docs/notebook/2026-11-incoherent-rays.md). Either kind walks the same
-    // subtree: lone node j stands for wide node j.
+    // subtree.
     const bool wide = count == 0 && child != 0 && sh.lone.size() > kLoneHandOffNodes;
+    // On the lone nodes, wide node `child`'s subtree: the slots under it of the lone node its
+    // binary node starts or was opened into (PreparedShapes::lone_entry); every later node whole.
+    unsigned slots = ~0u;
+    if (count == 0 && !wide) {
+      const typename Shapes::LoneEntry e = sh.lone_entry[std::size_t(child)];
+      child = e.node, slots = e.slots;
+    }
     // A node's entry distances; a wide node sets four, and the others, never met, stay 0.
     alignas(64) T t0[kL] = {};
     for (;;) {
@@ -222,7 +234,8 @@ struct ShapeLone {
           met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
         } else {
           const Node& n = sh.lone[std::size_t(child)];
-          met = met_children(n, r, limit() * widen, t0), kids = n.child, counts = n.count;
+          met = met_children(n, r, limit() * widen, t0) & slots, kids = n.child, counts = n.count;
+          slots = ~0u;
         }
         if (met != 0) {
           // Pushed farthest first (kNear: each met child placed by its rank, no branch on the
