@@ -110,8 +110,9 @@ struct PreparedShapes {
   // nodes from the root (the inner child of largest area opened until a node has kLone
   // children), lone[0] the root's, each node's inner children side by side after it in a
   // depth-first order. One ray tests a node's eight boxes in one or two registers, so wider nodes
-  // take it down in fewer steps. Only the nodes a walk from the root meets are stored, so the
-  // lines a walk reads lie together; a lane handed over at a wide node starts at its LoneEntry.
+  // take it down in fewer steps. Only the nodes a walk from the root meets are stored (half the
+  // memory of a lone node per wide node); a lane handed over at a wide node starts at its
+  // LoneEntry.
   // Slot k: count[k] > 0 the leaf child[k] of count[k] items, else lone node child[k]. The same
   // padded boxes as the wide nodes' (padded_box), the same leaves; unused slots have empty boxes
   // (lo +inf, hi -inf), which no ray meets.
