@@ -275,7 +275,9 @@ void expect_lone_nodes(const Scene& scene) {
         ASSERT_TRUE(holds(s, box, n.child[k], wide_boxes)) << "lone node " << i;
       }
     }
-    if (inner) EXPECT_EQ(n.arity, PreparedShapes<T>::kLone) << "lone node " << i;
+    if (inner) {
+      EXPECT_EQ(n.arity, PreparedShapes<T>::kLone) << "lone node " << i;
+    }
     for (int k = n.arity; k < PreparedShapes<T>::kLone; ++k)
       EXPECT_TRUE(n.lo_x[k] > n.hi_x[k] && n.lo_y[k] > n.hi_y[k] && n.lo_z[k] > n.hi_z[k]);
   }

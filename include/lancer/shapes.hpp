@@ -21,6 +21,14 @@
 
 namespace lancer {
 
+// The surface area in double of the box lo..hi (0 for an empty box): the builds' SAH cost, and
+// the collapses into wide and lone nodes, which open the inner child of largest area first.
+template <class T>
+double surface_area(const T lo[3], const T hi[3]) {
+  const double x = double(hi[0]) - lo[0], y = double(hi[1]) - lo[1], z = double(hi[2]) - lo[2];
+  return x < 0 ? 0 : 2 * (x * y + y * z + z * x);
+}
+
 template <class T>
 struct PreparedShapes {
   int first_object = 0;  // the object id of shape 0 (spheres and planes come first)
@@ -65,6 +73,7 @@ struct PreparedShapes {
   struct Node {
     T lo[3], hi[3];
     std::uint32_t first = 0, count = 0;
+    double area() const { return surface_area(lo, hi); }
   };
   std::vector<Node> nodes;
   // The tree's items: primitives 0 .. prim.size() - 1, then the spheres (item prim.size() + k
@@ -181,6 +190,37 @@ void padded_box(const typename PreparedShapes<T>::Node& b, T lo[3], T hi[3]) {
     lo[a] = std::nextafter(T(double(b.lo[a]) - pad), -inf);
     hi[a] = std::nextafter(T(double(b.hi[a]) + pad), inf);
   }
+}
+
+// Binary node `root`'s subtree as at most `most` kids (binary nodes, in depth-first order): its
+// two children, then the inner kid of largest area opened into its two (they take its place)
+// while there is room; a leaf root is its own only kid. opened(k, n) runs before kid k of n is
+// opened (a caller's own per-kid data shifts alike). Returns the kids' count. The one collapse
+// of the wide nodes and the lone nodes.
+template <class T, class Opened>
+int collapse(const std::vector<typename PreparedShapes<T>::Node>& nodes, std::uint32_t root,
+             std::uint32_t* kids, int most, Opened&& opened) {
+  int n = 0;
+  if (nodes[root].count > 0) {
+    kids[n++] = root;
+  } else {
+    kids[n++] = nodes[root].first, kids[n++] = nodes[root].first + 1;
+  }
+  while (n < most) {
+    int open = -1;
+    double best = -1;
+    for (int k = 0; k < n; ++k) {
+      if (nodes[kids[k]].count > 0) continue;
+      const double a = nodes[kids[k]].area();
+      if (a > best) best = a, open = k;
+    }
+    if (open < 0) break;
+    opened(open, n);
+    const std::uint32_t first = nodes[kids[open]].first;
+    for (int k = n; k > open + 1; --k) kids[k] = kids[k - 1];
+    kids[open] = first, kids[open + 1] = first + 1, ++n;
+  }
+  return n;
 }
 
 // s.lone and s.lone_entry from the binary tree (shapes_lone.cpp). leaf_of: each binary leaf's

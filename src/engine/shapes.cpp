@@ -39,10 +39,7 @@ struct Box {
   }
   static void b_min(T& a, T b) { a = b < a ? b : a; }
   static void b_max(T& a, T b) { a = b > a ? b : a; }
-  double area() const {
-    const double x = double(hi[0]) - lo[0], y = double(hi[1]) - lo[1], z = double(hi[2]) - lo[2];
-    return x < 0 ? 0 : 2 * (x * y + y * z + z * x);
-  }
+  double area() const { return surface_area(lo, hi); }
   double centre(int k) const { return 0.5 * (double(lo[k]) + double(hi[k])); }
 };
 
@@ -232,12 +229,6 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres,
   s.wide.clear(), s.leaves.clear(), wide_binary.clear();
   if (s.order.empty()) return;
   leaf_of = build_leaves(s, spheres);
-  auto area = [&](std::uint32_t b) {
-    const auto& n = s.nodes[b];
-    Box<T> box;
-    for (int k = 0; k < 3; ++k) box.lo[k] = n.lo[k], box.hi[k] = n.hi[k];
-    return box.area();
-  };
   struct Job {
     std::uint32_t binary, wide;
   };
@@ -250,22 +241,7 @@ void build_wide(PreparedShapes<T>& s, const SphereBlock<T>* spheres,
     // The children, in the binary tree's depth-first order: the inner one of largest area
     // opened into its two until there are kW (a leaf root: itself, alone).
     std::uint32_t kids[kW];
-    int n = 0;
-    if (s.nodes[job.binary].count > 0) {
-      kids[n++] = job.binary;
-    } else {
-      kids[n++] = s.nodes[job.binary].first, kids[n++] = s.nodes[job.binary].first + 1;
-    }
-    while (n < kW) {
-      int open = -1;
-      double best = -1;
-      for (int k = 0; k < n; ++k)
-        if (s.nodes[kids[k]].count == 0 && area(kids[k]) > best) best = area(kids[k]), open = k;
-      if (open < 0) break;
-      const std::uint32_t first = s.nodes[kids[open]].first;
-      for (int k = n; k > open + 1; --k) kids[k] = kids[k - 1];
-      kids[open] = first, kids[open + 1] = first + 1, ++n;
-    }
+    const int n = collapse<T>(s.nodes, job.binary, kids, kW, [](int, int) {});
     Wide w{};
     w.arity = n;
     double centre[kW][3];

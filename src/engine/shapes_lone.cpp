@@ -10,17 +10,6 @@
 
 namespace lancer {
 
-namespace {
-
-template <class T>
-double area(const typename PreparedShapes<T>::Node& n) {
-  const double x = double(n.hi[0]) - n.lo[0], y = double(n.hi[1]) - n.lo[1],
-               z = double(n.hi[2]) - n.lo[2];
-  return x * y + y * z + z * x;
-}
-
-}  // namespace
-
 template <class T>
 void build_lone(PreparedShapes<T>& s, const std::vector<std::uint32_t>& leaf_of,
                 const std::vector<std::uint32_t>& wide_binary) {
@@ -42,42 +31,20 @@ void build_lone(PreparedShapes<T>& s, const std::vector<std::uint32_t>& leaf_of,
   while (!jobs.empty()) {
     const Job job = jobs.back();
     jobs.pop_back();
-    // The slots, in the binary tree's depth-first order; bit q of `under` set: the slot lies
-    // below the node opened q-th.
-    struct Slot {
-      std::uint32_t binary;
-      unsigned under;
-    };
-    Slot slots[kL];
-    std::uint32_t opened[kL];
-    int n = 0, q = 0;
-    const auto& root = s.nodes[job.binary];
-    if (root.count > 0) {
-      slots[n++] = {job.binary, 0};  // a leaf root: itself, alone
-    } else {
-      slots[n++] = {root.first, 0}, slots[n++] = {root.first + 1, 0};
-    }
-    while (n < kL) {
-      int open = -1;
-      double best = -1;
-      for (int k = 0; k < n; ++k) {
-        const auto& b = s.nodes[slots[k].binary];
-        if (b.count == 0 && area<T>(b) > best) best = area<T>(b), open = k;
-      }
-      if (open < 0) break;
-      const Slot was = slots[open];
-      opened[q] = was.binary;
-      const unsigned under = was.under | 1u << q;
-      ++q;
-      for (int k = n; k > open + 1; --k) slots[k] = slots[k - 1];
-      const std::uint32_t first = s.nodes[was.binary].first;
-      slots[open] = {first, under}, slots[open + 1] = {first + 1, under};
-      ++n;
-    }
+    // The slots (binary nodes); bit q of under[k] set: slot k lies below the node opened q-th.
+    std::uint32_t slots[kL], opened[kL];
+    unsigned under[kL] = {};
+    int q = 0;
+    const int n = collapse<T>(s.nodes, job.binary, slots, kL, [&](int k, int count) {
+      opened[q] = slots[k];
+      const unsigned u = under[k] | 1u << q++;
+      for (int j = count; j > k + 1; --j) under[j] = under[j - 1];
+      under[k] = under[k + 1] = u;
+    });
     entry_of[job.binary] = {job.lone, (1u << n) - 1u};
     for (int p = 0; p < q; ++p) {
       unsigned bits = 0;
-      for (int k = 0; k < n; ++k) bits |= (slots[k].under >> p & 1u) << k;
+      for (int k = 0; k < n; ++k) bits |= (under[k] >> p & 1u) << k;
       entry_of[opened[p]] = {job.lone, bits};
     }
     typename Shapes::LoneNode node{};
@@ -87,14 +54,14 @@ void build_lone(PreparedShapes<T>& s, const std::vector<std::uint32_t>& leaf_of,
       T lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
       node.child[k] = -1;
       if (k < n) {
-        const auto& b = s.nodes[slots[k].binary];
+        const auto& b = s.nodes[slots[k]];
         padded_box<T>(b, lo, hi);
         if (b.count > 0) {
-          node.child[k] = std::int32_t(leaf_of[slots[k].binary]);
+          node.child[k] = std::int32_t(leaf_of[slots[k]]);
           node.count[k] = std::uint8_t(b.count);
         } else {
           node.child[k] = std::int32_t(lone.size());
-          jobs.push_back({slots[k].binary, std::int32_t(lone.size())});
+          jobs.push_back({slots[k], std::int32_t(lone.size())});
           lone.emplace_back();
         }
       }
