@@ -26,6 +26,8 @@ using __mmask16 = simde__mmask16;
 simde__m512 _mm512_shuffle_f32x4(simde__m512, simde__m512, int);
 simde__m512 _mm512_permute_ps(simde__m512, int);
 float _mm512_cvtss_f32(simde__m512);
+float _mm512_reduce_add_ps(simde__m512);
+double _mm512_reduce_add_pd(simde__m512d);
 simde__mmask16 _mm512_cmplt_epi32_mask(simde__m512i, simde__m512i);
 simde__mmask16 _mm512_mask_cmp_ps_mask(simde__mmask16, simde__m512, simde__m512, int);
 #endif

@@ -30,6 +30,48 @@ unsigned lane_bits(const xsimd::batch_bool<T, Arch>& m) noexcept {
                                         : _mm256_movemask_pd(__m256d(r)));
 }
 
+// The sum of a 128-bit register's lanes, pairwise (SSE; NEON through intrin.hpp).
+inline float lanes_sum(__m128 x) noexcept {
+  x = _mm_add_ps(x, _mm_movehl_ps(x, x));
+  return _mm_cvtss_f32(_mm_add_ss(x, _mm_shuffle_ps(x, x, 1)));
+}
+inline double lanes_sum(__m128d x) noexcept {
+  return _mm_cvtsd_f64(_mm_add_sd(x, _mm_unpackhi_pd(x, x)));
+}
+
+// Whether the lanes of `valid` sum c to zero or more (the walks' direction codes: which way
+// the packet's summed direction goes along an axis). Pairwise sums in registers, log2(W)
+// dependent adds (a serial sum waits on W; sums through memory, on store forwarding).
+template <class T, class Arch>
+bool lanes_sum_up(const xsimd::batch_bool<T, Arch>& valid,
+                  const xsimd::batch<T, Arch>& c) noexcept {
+  using B = xsimd::batch<T, Arch>;
+  using R = typename B::register_type;
+  const R r = static_cast<R>(xsimd::select(valid, c, B(T(0))));
+  constexpr bool kFloat = std::is_same_v<T, float>;
+  constexpr std::size_t kBytes = sizeof(B);
+  T sum;
+  if constexpr (kBytes == 64) {  // AVX-512F's own reductions (halves, then quarters)
+    if constexpr (kFloat)
+      sum = _mm512_reduce_add_ps(__m512(r));
+    else
+      sum = _mm512_reduce_add_pd(__m512d(r));
+  } else if constexpr (kBytes == 32) {
+    if constexpr (kFloat)
+      sum = lanes_sum(
+          _mm_add_ps(_mm256_castps256_ps128(__m256(r)), _mm256_extractf128_ps(__m256(r), 1)));
+    else
+      sum = lanes_sum(
+          _mm_add_pd(_mm256_castpd256_pd128(__m256d(r)), _mm256_extractf128_pd(__m256d(r), 1)));
+  } else {
+    if constexpr (kFloat)
+      sum = lanes_sum(__m128(r));
+    else
+      sum = lanes_sum(__m128d(r));
+  }
+  return sum >= T(0);
+}
+
 // Of four zmm: the least (kMax: greatest) lane of x[p] in lanes 4p to 4p + 3 (a transposed
 // reduction: two vectors' halves folded in one operation, then their quarters, then within
 // quarters). AVX-512 code: used only there.

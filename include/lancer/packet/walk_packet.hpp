@@ -171,17 +171,8 @@ struct PacketWalk {
   // The direction code of a packet (docs/accel.md): bit a set where the lanes' summed
   // direction goes up axis a. It orders a closest-hit traversal's children only.
   static unsigned direction_code(const M& valid, const V& d) noexcept {
-    // Pairwise sums through memory (xsimd 8.1's AVX-512 hadd needs AVX512DQ): log2(W) steps.
-    alignas(64) T lanes[3][B::size];
-    const B* axes[3] = {&d.x, &d.y, &d.z};
-    unsigned code = 0;
-    for (int a = 0; a < 3; ++a) {
-      xsimd::select(valid, *axes[a], B(T(0))).store_aligned(lanes[a]);
-      for (std::size_t w = B::size / 2; w > 0; w /= 2)
-        for (std::size_t k = 0; k < w; ++k) lanes[a][k] += lanes[a][k + w];
-      code |= unsigned(lanes[a][0] >= T(0)) << a;
-    }
-    return code;
+    return unsigned(lanes_sum_up(valid, d.x)) | unsigned(lanes_sum_up(valid, d.y)) << 1 |
+           unsigned(lanes_sum_up(valid, d.z)) << 2;
   }
 
   // The subtrees still to visit, with the lanes that met each one's box and where they entered

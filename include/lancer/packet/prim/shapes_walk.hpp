@@ -137,12 +137,7 @@ struct ShapeWalk {
           code |= unsigned(up) << a;
           continue;
         }
-        // (xsimd's hadd needs AVX-512 DQ at width 16)
-        alignas(64) T v[W];
-        xsimd::select(valid, c, B(T(0))).store_aligned(v);
-        T sum = 0;
-        for (int l = 0; l < W; ++l) sum += v[l];
-        code |= unsigned(sum >= T(0)) << a;
+        code |= unsigned(lanes_sum_up(valid, c)) << a;
       }
     }
     V permuted(const V& v) const noexcept {
