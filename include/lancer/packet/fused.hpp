@@ -6,6 +6,7 @@
 // Include only from code built for the batch's ISA (packet/kernel.hpp, src/isa/).
 #pragma once
 
+#include <cstddef>
 #include <type_traits>
 #include <xsimd/xsimd.hpp>
 
@@ -73,6 +74,47 @@ xsimd::batch<T, Arch> fnmadd(const xsimd::batch<T, Arch>& a, const xsimd::batch<
     return _mm512_fnmadd_pd(a, b, c);
   else
     return xsimd::fnma(a, b, c);
+}
+
+// a * b - c for a box test's slab on a register of 128 or 256 bits of this unit's family, by
+// how its ISA can: one rounding with FMA3 (-mfma, the AVX2 units), in the low lanes of a zmm
+// with AVX-512F alone (which has no narrower FMA), or NEON's own; two roundings on SSE4.2.
+// Callers bound either (the shapes' walks' margins: prim/shapes_walk.hpp).
+template <class T, class A>
+xsimd::batch<T, A> slab_fmsub(const xsimd::batch<T, A>& a, const xsimd::batch<T, A>& b,
+                              const xsimd::batch<T, A>& c) noexcept {
+  [[maybe_unused]] constexpr bool kFloat = std::is_same_v<T, float>;
+  [[maybe_unused]] constexpr std::size_t kBytes = sizeof(xsimd::batch<T, A>);
+#if defined(__FMA__)
+  if constexpr (kBytes == 32 && kFloat)
+    return _mm256_fmsub_ps(a, b, c);
+  else if constexpr (kBytes == 32)
+    return _mm256_fmsub_pd(a, b, c);
+  else if constexpr (kFloat)
+    return _mm_fmsub_ps(a, b, c);
+  else
+    return _mm_fmsub_pd(a, b, c);
+#elif defined(__AVX512F__)
+  if constexpr (kBytes == 32 && kFloat)
+    return _mm512_castps512_ps256(_mm512_fmsub_ps(
+        _mm512_zextps256_ps512(a), _mm512_zextps256_ps512(b), _mm512_zextps256_ps512(c)));
+  else if constexpr (kBytes == 32)
+    return _mm512_castpd512_pd256(_mm512_fmsub_pd(
+        _mm512_zextpd256_pd512(a), _mm512_zextpd256_pd512(b), _mm512_zextpd256_pd512(c)));
+  else if constexpr (kFloat)
+    return _mm512_castps512_ps128(_mm512_fmsub_ps(
+        _mm512_zextps128_ps512(a), _mm512_zextps128_ps512(b), _mm512_zextps128_ps512(c)));
+  else
+    return _mm512_castpd512_pd128(_mm512_fmsub_pd(
+        _mm512_zextpd128_pd512(a), _mm512_zextpd128_pd512(b), _mm512_zextpd128_pd512(c)));
+#elif defined(__aarch64__)
+  if constexpr (kFloat)
+    return vfmaq_f32(vnegq_f32(c), a, b);
+  else
+    return vfmaq_f64(vnegq_f64(c), a, b);
+#else
+  return a * b - c;
+#endif
 }
 
 }  // namespace lancer::packet

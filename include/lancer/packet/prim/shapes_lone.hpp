@@ -28,6 +28,7 @@
 #include <xsimd/xsimd.hpp>
 
 #include "lancer/formulas.hpp"
+#include "lancer/packet/fused.hpp"
 #include "lancer/packet/lanes.hpp"
 #include "lancer/prim/cylinder.hpp"
 #include "lancer/prim/triangle.hpp"
@@ -83,6 +84,7 @@ struct ShapeLone {
     T o_perm[3];                   // o in the shear's axis order
     T inv[3];                      // 1 / d, 1 where d is 0
     T o_pad, o_near[3], o_far[3];  // o_near: o + o_pad where d goes up, o - o_pad where down
+    T oi_near[3], oi_far[3];       // o_near / d, o_far / d (as o_near inv): the slabs' offsets
     int near[3], far[3];  // offsets (in T) in a LoneNode of each axis' entry and exit planes
     bool fast = true;     // every |d| at least 2^-60: entry and exit planes known per axis
 
@@ -111,6 +113,7 @@ struct ShapeLone {
         far[a] = Shapes::lone_lo_plane(a) + kL * (1 - down);
         const T pad = down ? -o_pad : o_pad;
         o_near[a] = o[a] + pad, o_far[a] = o[a] - pad;
+        oi_near[a] = o_near[a] * inv[a], oi_far[a] = o_far[a] * inv[a];
       }
     }
     static T quotient(T x) noexcept { return T(1) / (x == T(0) ? T(1) : x); }
@@ -136,12 +139,14 @@ struct ShapeLone {
       R t0;
       RM in;
       if (r.fast) {
-        const R nx = (plane(r.near[0]) - R(r.o_near[0])) * R(r.inv[0]);
-        const R fx = (plane(r.far[0]) - R(r.o_far[0])) * R(r.inv[0]);
-        const R ny = (plane(r.near[1]) - R(r.o_near[1])) * R(r.inv[1]);
-        const R fy = (plane(r.far[1]) - R(r.o_far[1])) * R(r.inv[1]);
-        const R nz = (plane(r.near[2]) - R(r.o_near[2])) * R(r.inv[2]);
-        const R fz = (plane(r.far[2]) - R(r.o_far[2])) * R(r.inv[2]);
+        // plane inv - o inv, fused where the ISA can (one operation on the walk's path).
+        auto slab = [&](int off, T oi, T inv) { return slab_fmsub(plane(off), R(inv), R(oi)); };
+        const R nx = slab(r.near[0], r.oi_near[0], r.inv[0]);
+        const R fx = slab(r.far[0], r.oi_far[0], r.inv[0]);
+        const R ny = slab(r.near[1], r.oi_near[1], r.inv[1]);
+        const R fy = slab(r.far[1], r.oi_far[1], r.inv[1]);
+        const R nz = slab(r.near[2], r.oi_near[2], r.inv[2]);
+        const R fz = slab(r.far[2], r.oi_far[2], r.inv[2]);
         t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, R(T(0)))) * R(T(1) - kWiden);
         const R t1 = xsimd::min(xsimd::min(fx, fy), fz) * R(T(1) + kWiden);
         in = t0 <= xsimd::min(t1, R(lim_w));

@@ -8,6 +8,11 @@
 // grown by kWidePad |box|inf (rounded outwards), the lanes' origins move by kWidePad |o|inf
 // towards each plane, and each slab's entry and exit widen by more than the float (or double)
 // roundings of their computation. The extra half of the margin covers this form's roundings.
+// A slab's distance is plane * inv - oi, oi the moved origin times inv rounded once, in one
+// fused operation where the ISA has one (fused.hpp's fmsub and slab_fmsub; SSE4.2 rounds the
+// product too): oi's rounding moves the origin by at most 2^-24 (2^-53) of |o|inf, well within
+// that extra half, and the rest is a relative rounding of the distance, which the widening
+// covers.
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
@@ -16,6 +21,7 @@
 #include <limits>
 #include <type_traits>
 
+#include "lancer/packet/fused.hpp"
 #include "lancer/packet/lane_traits.hpp"
 #include "lancer/prim/triangle.hpp"
 #include "lancer/shapes.hpp"
@@ -61,7 +67,8 @@ struct ShapeWalk {
     B o_pad;                   // kWidePad |o|inf: the origin's share of the boxes' margin
     V o_lo, o_hi;              // o + o_pad, o - o_pad: the origins the lower and upper planes see
     V o_near, o_far;           // o_lo or o_hi per axis: those of the near and far planes (fast)
-    unsigned code = 0;         // direction code: bit a set where the lanes' summed d goes up a
+    V oi_lo, oi_hi, oi_near, oi_far;  // o_lo inv, ...: the slabs' offsets (plane inv - o inv)
+    unsigned code = 0;  // direction code: bit a set where the lanes' summed d goes up a
     // Every live lane has the same axes (kx, ky, kz): the vertices are permuted once, scalar.
     bool uniform = false;
     int row_x = 0, row_y = 0, row_z = 0;  // where uniform: kx, ky, kz's offsets in a leaf's column
@@ -97,6 +104,8 @@ struct ShapeWalk {
       o_pad = B(T(Shapes::kWidePad)) * o_mag;
       o_lo = {o.x + o_pad, o.y + o_pad, o.z + o_pad};
       o_hi = {o.x - o_pad, o.y - o_pad, o.z - o_pad};
+      oi_lo = {o_lo.x * inv.x, o_lo.y * inv.y, o_lo.z * inv.z};
+      oi_hi = {o_hi.x * inv.x, o_hi.y * inv.y, o_hi.z * inv.z};
       const M dead = ~valid;
       auto all = [&](const M& m) { return xsimd::all(m | dead); };
       const int kzs = all(kz0) ? 0 : all(kz1) ? 1 : all(kz2) ? 2 : -1;
@@ -132,6 +141,11 @@ struct ShapeWalk {
         B& on = a == 0 ? o_near.x : a == 1 ? o_near.y : o_near.z;
         B& of = a == 0 ? o_far.x : a == 1 ? o_far.y : o_far.z;
         on = down ? hi : lo, of = down ? lo : hi;
+        const B& oil = a == 0 ? oi_lo.x : a == 1 ? oi_lo.y : oi_lo.z;
+        const B& oih = a == 0 ? oi_hi.x : a == 1 ? oi_hi.y : oi_hi.z;
+        B& oin = a == 0 ? oi_near.x : a == 1 ? oi_near.y : oi_near.z;
+        B& oif = a == 0 ? oi_far.x : a == 1 ? oi_far.y : oi_far.z;
+        oin = down ? oih : oil, oif = down ? oil : oih;
         // Lanes of one sign: their sum has it (no sum to wait for).
         if (up || down) {
           code |= unsigned(up) << a;
@@ -167,12 +181,12 @@ struct ShapeWalk {
       // the values of the generic form's min and max (rounding is monotonic).
       const T* base = &n.lo_x[0] + k;
       auto plane = [&](int off) { return B(base[off]); };
-      const B nx = (plane(r.near[0]) - r.o_near.x) * r.inv.x;
-      const B fx = (plane(r.far[0]) - r.o_far.x) * r.inv.x;
-      const B ny = (plane(r.near[1]) - r.o_near.y) * r.inv.y;
-      const B fy = (plane(r.far[1]) - r.o_far.y) * r.inv.y;
-      const B nz = (plane(r.near[2]) - r.o_near.z) * r.inv.z;
-      const B fz = (plane(r.far[2]) - r.o_far.z) * r.inv.z;
+      const B nx = fmsub(plane(r.near[0]), r.inv.x, r.oi_near.x);
+      const B fx = fmsub(plane(r.far[0]), r.inv.x, r.oi_far.x);
+      const B ny = fmsub(plane(r.near[1]), r.inv.y, r.oi_near.y);
+      const B fy = fmsub(plane(r.far[1]), r.inv.y, r.oi_far.y);
+      const B nz = fmsub(plane(r.near[2]), r.inv.z, r.oi_near.z);
+      const B fz = fmsub(plane(r.far[2]), r.inv.z, r.oi_far.z);
       t0 = xsimd::max(xsimd::max(nx, ny), xsimd::max(nz, B(T(0)))) * B(T(1) - kWiden);
       const B t1 = xsimd::min(xsimd::min(fx, fy), fz) * B(T(1) + kWiden);
       return lanes & (t0 <= xsimd::min(t1, lim_w));
@@ -185,9 +199,9 @@ struct ShapeWalk {
       const B inf(std::numeric_limits<T>::infinity());
       B near(T(0)), far = lim_w;
       M out = ~lanes;
-      auto slab = [&](T lo_t, T hi_t, const B& o, const B& olo, const B& ohi, const B& inv,
+      auto slab = [&](T lo_t, T hi_t, const B& o, const B& oilo, const B& oihi, const B& inv,
                       const M& zero) {
-        const B a = (B(lo_t) - olo) * inv, b = (B(hi_t) - ohi) * inv;
+        const B a = fmsub(B(lo_t), inv, oilo), b = fmsub(B(hi_t), inv, oihi);
         if constexpr (kZero) {
           const B lo = B(lo_t) - r.o_pad, hi = B(hi_t) + r.o_pad;
           near = xsimd::max(near, xsimd::select(zero, -inf, xsimd::min(a, b)));
@@ -198,9 +212,9 @@ struct ShapeWalk {
           far = xsimd::min(far, xsimd::max(a, b) * B(T(1) + kWiden));
         }
       };
-      slab(n.lo_x[k], n.hi_x[k], r.o.x, r.o_lo.x, r.o_hi.x, r.inv.x, r.zero_x);
-      slab(n.lo_y[k], n.hi_y[k], r.o.y, r.o_lo.y, r.o_hi.y, r.inv.y, r.zero_y);
-      slab(n.lo_z[k], n.hi_z[k], r.o.z, r.o_lo.z, r.o_hi.z, r.inv.z, r.zero_z);
+      slab(n.lo_x[k], n.hi_x[k], r.o.x, r.oi_lo.x, r.oi_hi.x, r.inv.x, r.zero_x);
+      slab(n.lo_y[k], n.hi_y[k], r.o.y, r.oi_lo.y, r.oi_hi.y, r.inv.y, r.zero_y);
+      slab(n.lo_z[k], n.hi_z[k], r.o.z, r.oi_lo.z, r.oi_hi.z, r.inv.z, r.zero_z);
       t0 = near * B(T(1) - kWiden);
       return ~out & (t0 <= far);
     }
