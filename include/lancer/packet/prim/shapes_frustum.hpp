@@ -7,12 +7,14 @@
 // The per-lane test stays: the frustum alone accepts the room between the rays, and each lane
 // would then test triangles it cannot reach (on sub-pixel triangles, twice the leaf work).
 //
-// The bounds are interval arithmetic on the per-lane test's own form (child_lanes' fast
-// branch): an axis's entry (plane - o_near) / d is bounded below by the plane minus the greatest
-// (d up) or least (d down) o_near, times the least or greatest 1 / d, whichever product is
-// lower; the exit above, alike. Rounding to nearest is monotonic, so each bound computed in T
-// bounds every lane's computed value: a box some lane's test accepts, the frustum accepts, and
-// the closest hit, the least (t, primitive), is unchanged.
+// The bounds are interval arithmetic on the slab form (plane - o_near) * inv: an axis's entry is
+// bounded below by the plane minus the greatest (d up) or least (d down) o_near, times the
+// least or greatest 1 / d, whichever product is lower; the exit above, alike. Rounding to
+// nearest is monotonic, so each bound computed in T bounds every lane's value of that form,
+// which the walk's margins make a conservative test (shapes_walk.hpp's header) as they do the
+// fused form the per-lane test computes (plane * inv - o_near inv): a box the frustum turns away
+// holds no hit of the reference for any lane, and the closest hit, the least (t, primitive), is
+// unchanged.
 // Include only from code built for the batch's ISA (packet/kernel.hpp).
 #pragma once
 
