@@ -54,6 +54,7 @@ struct ShapeWalk {
     return xsimd::select(is0, v.x, xsimd::select(is1, v.y, v.z));
   }
   static const B& axis(const V& v, int k) noexcept { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+  static B& axis(V& v, int k) noexcept { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 
   // The packet as the tests see it: each lane's shear (prim::ray_shear, lane by lane: its axes
   // as masks; one scalar permutation where every live lane has the same axes), and the box
@@ -65,9 +66,12 @@ struct ShapeWalk {
     V inv;                     // 1 / d, 1 where d is 0
     M zero_x, zero_y, zero_z;  // d's zero components: the box test asks o to lie in the slab
     B o_pad;                   // kWidePad |o|inf: the origin's share of the boxes' margin
-    V o_lo, o_hi;              // o + o_pad, o - o_pad: the origins the lower and upper planes see
-    V o_near, o_far;           // o_lo or o_hi per axis: those of the near and far planes (fast)
-    V oi_lo, oi_hi, oi_near, oi_far;  // o_lo inv, ...: the slabs' offsets (plane inv - o inv)
+    // o + o_pad or o - o_pad per axis (the origins the lower and upper planes see): those of
+    // the near and far planes (the frustum's bounds, shapes_frustum.hpp).
+    V o_near, o_far;
+    // The slabs' offsets, the origin times inv (plane inv - o inv): the lower and upper planes',
+    // the near and far ones' (the fast form).
+    V oi_lo, oi_hi, oi_near, oi_far;
     unsigned code = 0;  // direction code: bit a set where the lanes' summed d goes up a
     // Every live lane has the same axes (kx, ky, kz): the vertices are permuted once, scalar.
     bool uniform = false;
@@ -102,8 +106,8 @@ struct ShapeWalk {
              B(T(1)) / xsimd::select(zero_z, B(T(1)), d.z)};
       const B o_mag = xsimd::max(xsimd::max(xsimd::abs(o.x), xsimd::abs(o.y)), xsimd::abs(o.z));
       o_pad = B(T(Shapes::kWidePad)) * o_mag;
-      o_lo = {o.x + o_pad, o.y + o_pad, o.z + o_pad};
-      o_hi = {o.x - o_pad, o.y - o_pad, o.z - o_pad};
+      const V o_lo{o.x + o_pad, o.y + o_pad, o.z + o_pad};
+      const V o_hi{o.x - o_pad, o.y - o_pad, o.z - o_pad};
       oi_lo = {o_lo.x * inv.x, o_lo.y * inv.y, o_lo.z * inv.z};
       oi_hi = {o_hi.x * inv.x, o_hi.y * inv.y, o_hi.z * inv.z};
       const M dead = ~valid;
@@ -120,10 +124,11 @@ struct ShapeWalk {
         const int items = Shapes::kLeafItems;
         row_x = items * kx, row_y = items * ky, row_z = items * kz;
       }
-      set_code(valid);
+      set_code(valid, o_lo, o_hi);
     }
-    // The direction code, and whether the fast box test holds.
-    void set_code(const M& valid) noexcept {
+    // The direction code, whether the fast box test holds, and the near and far planes' origins
+    // and offsets (o_lo: o + o_pad, o_hi: o - o_pad).
+    void set_code(const M& valid, const V& o_lo, const V& o_hi) noexcept {
       const B tiny(T(0x1p-60));
       const M dead = ~valid;
       fast = true;
@@ -136,16 +141,10 @@ struct ShapeWalk {
         fast = fast && (up || down) && xsimd::all((xsimd::abs(c) >= tiny) | dead);
         near[a] = down ? Shapes::hi_plane(a) : Shapes::lo_plane(a);
         far[a] = down ? Shapes::lo_plane(a) : Shapes::hi_plane(a);
-        const B& lo = a == 0 ? o_lo.x : a == 1 ? o_lo.y : o_lo.z;
-        const B& hi = a == 0 ? o_hi.x : a == 1 ? o_hi.y : o_hi.z;
-        B& on = a == 0 ? o_near.x : a == 1 ? o_near.y : o_near.z;
-        B& of = a == 0 ? o_far.x : a == 1 ? o_far.y : o_far.z;
-        on = down ? hi : lo, of = down ? lo : hi;
-        const B& oil = a == 0 ? oi_lo.x : a == 1 ? oi_lo.y : oi_lo.z;
-        const B& oih = a == 0 ? oi_hi.x : a == 1 ? oi_hi.y : oi_hi.z;
-        B& oin = a == 0 ? oi_near.x : a == 1 ? oi_near.y : oi_near.z;
-        B& oif = a == 0 ? oi_far.x : a == 1 ? oi_far.y : oi_far.z;
-        oin = down ? oih : oil, oif = down ? oil : oih;
+        axis(o_near, a) = axis(down ? o_hi : o_lo, a);
+        axis(o_far, a) = axis(down ? o_lo : o_hi, a);
+        axis(oi_near, a) = axis(down ? oi_hi : oi_lo, a);
+        axis(oi_far, a) = axis(down ? oi_lo : oi_hi, a);
         // Lanes of one sign: their sum has it (no sum to wait for).
         if (up || down) {
           code |= unsigned(up) << a;
